@@ -1,0 +1,282 @@
+"""The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, sensing, info, rendering.
+
+A task subclasses :class:`BuckybotEnv` and fills in five hooks (``_task_reset``, ``_task_step``,
+``_task_observation``, ``_task_terminated``, ``_episode_metrics``); the physics lives in
+:mod:`polyenvs.buckybot.simulator`, the sensors in :mod:`polyenvs.buckybot.sensors`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from polyenvs.buckybot import geometry as geo
+from polyenvs.buckybot.floor_plans import make_floor_plan, random_room
+from polyenvs.buckybot.sensors import RANGE_MAX_CM
+from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.core.floor_plan import FloorPlan
+from polyenvs.core.validation import check_action, check_in_range, check_positive
+
+__all__ = ["BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE"]
+
+#: Layout of the sensor part of every Buckybot observation: name -> (start, stop) indices.
+SENSOR_OBSERVATION_STRUCTURE = {
+    "range": (0, 6),  # reading / 182.88 cm for valid readings; 0 when too close, 1 when no return
+    "too_close": (6, 12),  # 1 where the sensor did not settle (< 30.48 cm)
+    "no_return": (12, 18),  # 1 where nothing was seen within 182.88 cm
+    "tip_failed": (18, 19),  # 1 if the last tip was blocked (the accelerometer reports the same face)
+}
+_N_SENSOR_OBS = 19
+# The tips undo one another only geometrically; this clearance guarantees all three tips are free at a start.
+_START_CLEARANCE_CM = geo.BODY_RADIUS_CM + geo.STEP_LENGTH_CM + 1.0
+
+
+class BuckybotEnv(gym.Env):
+    """Base class of the Buckybot lattice environments (see the task classes for the full documentation)."""
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+    #: Extra observation entries appended by a task: name -> size.
+    task_observation_sizes: dict[str, int] = {}
+    #: Bounds of the task's extra observation entries, in order.
+    task_observation_low: tuple[float, ...] = ()
+    task_observation_high: tuple[float, ...] = ()
+
+    def __init__(
+        self,
+        *,
+        floor_plan="rectangle",
+        noise_scale: float = 1.0,
+        range_noise_scale: float = 1.0,
+        step_forward_cm: float = 9.266,
+        step_forward_sd_cm: float = 0.105,
+        step_lateral_cm: float = -0.745,
+        step_lateral_sd_cm: float = 0.149,
+        heading_change_deg: float = 0.31,
+        heading_sd_deg: float = 0.44,
+        body_radius_cm: float = geo.BODY_RADIUS_CM,
+        render_mode: str | None = None,
+    ):
+        self.noise_scale = check_in_range("noise_scale", noise_scale, 0.0, 1.0)
+        self.range_noise_scale = check_positive("range_noise_scale", range_noise_scale, allow_zero=True)
+        self.body_radius_cm = check_positive("body_radius_cm", body_radius_cm)
+        if self.body_radius_cm >= 2 * geo.STEP_LENGTH_CM + 40:
+            raise ValueError(f"body_radius_cm={body_radius_cm} is too large for the lattice robot")
+        model = TipModel(
+            forward_mean_cm=check_positive("step_forward_cm", step_forward_cm),
+            forward_sd_cm=check_positive("step_forward_sd_cm", step_forward_sd_cm, allow_zero=True),
+            lateral_mean_cm=check_in_range("step_lateral_cm", step_lateral_cm, -5.0, 5.0),
+            lateral_sd_cm=check_positive("step_lateral_sd_cm", step_lateral_sd_cm, allow_zero=True),
+            heading_mean_deg=check_in_range("heading_change_deg", heading_change_deg, -30.0, 30.0),
+            heading_sd_deg=check_positive("heading_sd_deg", heading_sd_deg, allow_zero=True),
+        )
+        self.tip_model = model.scaled(self.noise_scale)
+        self.floor_plan = make_floor_plan(floor_plan)  # None: a random room at every reset
+        if self.floor_plan is not None:
+            self._check_plan(self.floor_plan, "floor_plan")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+
+        self.sim = BuckybotSimulator(1, self.tip_model, self.range_noise_scale, self.body_radius_cm)
+        self.action_space = spaces.Discrete(3)
+        low = np.concatenate([np.zeros(_N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
+        high = np.concatenate([np.ones(_N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.observation_structure = dict(SENSOR_OBSERVATION_STRUCTURE)
+        start = _N_SENSOR_OBS
+        for name, size in self.task_observation_sizes.items():
+            self.observation_structure[name] = (start, start + size)
+            start += size
+
+        self.plan: FloorPlan | None = None
+        self._observation = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._action_buffer = np.zeros(1, dtype=np.int64)
+        self._renderer = None
+        self._reset_episode_record()
+
+    # --- helpers for tasks ------------------------------------------------------------------------------------
+    def _check_plan(self, plan: FloorPlan, name: str) -> None:
+        g = plan.grid()
+        if g.main_region < 0 or not ((g.region == g.main_region) & (g.clearance >= _START_CLEARANCE_CM)).any():
+            raise ValueError(f"{name} leaves no room for the robot ({_START_CLEARANCE_CM:.1f} cm from every wall)")
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.sim.position[0]
+
+    @property
+    def dead_reckoned_position(self) -> np.ndarray:
+        return self.sim.dr_position[0]
+
+    def _reset_episode_record(self) -> None:
+        self.true_path: list[tuple[float, float]] = []
+        self.dead_reckoned_path: list[tuple[float, float]] = []
+        self.steps = 0
+        self.blocked_tips = 0
+        self.oscillation_events = 0
+        self._last_tip_moved = False
+        self.last_reading = np.full(6, np.nan)
+        self.last_blocked = False
+
+    # --- Gymnasium API ----------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"pose", "face", *self._task_option_names()}
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; expected 'pose' and/or 'face'")
+        if self.floor_plan is None or self.plan is None or self.plan is not self.floor_plan:
+            self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
+            self.sim.set_walls(self.plan.table)
+
+        rng = self.np_random
+        if "pose" in options:
+            try:
+                x, y, heading_deg = (float(v) for v in options["pose"])
+            except (TypeError, ValueError):
+                raise ValueError("reset option 'pose' must be (x_cm, y_cm, heading_deg)") from None
+            position = np.array([x, y])
+            if not np.isfinite(position).all() or not np.isfinite(heading_deg):
+                raise ValueError(f"reset option 'pose' must be finite, got {options['pose']!r}")
+            clearance = float(self.plan.clearance(position))
+            if clearance < self.body_radius_cm:
+                raise ValueError(
+                    f"reset option 'pose' puts the robot {clearance:.1f} cm from a wall "
+                    f"(inside or touching it; the body radius is {self.body_radius_cm} cm)"
+                )
+            heading = np.radians(heading_deg)
+        else:
+            position = self.plan.sample_start(rng, _START_CLEARANCE_CM)
+            heading = rng.uniform(0.0, 2 * np.pi)
+        if "face" in options:
+            face = options["face"]
+            if isinstance(face, bool) or not isinstance(face, (int, np.integer)) or not 1 <= face <= geo.N_FACES:
+                raise ValueError(f"reset option 'face' must be an integer 1..20, got {face!r}")
+            face = int(face) - 1
+        else:
+            face = int(rng.integers(geo.N_FACES))
+        self.sim.place(0, position, face, heading)
+        self._reset_episode_record()
+        self._sense()
+        self._task_reset(options)
+        self._record_path()
+        reward_terms = dict.fromkeys(self._reward_names(), 0.0)
+        return self._get_observation(), self._get_info(reward_terms)
+
+    def step(self, action):
+        if self.plan is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        check_action(self.action_space, action)
+        a = int(action)
+        normals = self.np_random.standard_normal((1, 9))
+        self._action_buffer[0] = a
+        blocked = bool(self.sim.tip(self._action_buffer, normals[:, :3])[0])
+        self.steps += 1
+        if blocked:
+            self.blocked_tips += 1
+        elif a == 0 and self._last_tip_moved:
+            self.oscillation_events += 1  # undid the previous tip: alternating between two faces
+        self._last_tip_moved = not blocked
+        self.last_blocked = blocked
+        self._sense(normals[:, 3:])
+        reward_terms = self._task_step(a, blocked)
+        self._record_path()
+        reward = float(sum(reward_terms.values()))
+        terminated = bool(self._task_terminated())
+        if self.render_mode == "human":
+            self.render()
+        return self._get_observation(), reward, terminated, False, self._get_info(reward_terms)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from polyenvs.buckybot.rendering import BuckybotRenderer
+
+        if self._renderer is None:
+            self._renderer = BuckybotRenderer(self.render_mode, self.metadata["render_fps"])
+        return self._renderer.render(self)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def action_masks(self) -> np.ndarray:
+        """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""
+        return self.sim.tip_allowed[0].copy()
+
+    # --- internals --------------------------------------------------------------------------------------------
+    def _random_plan(self) -> FloorPlan:
+        for _ in range(100):
+            plan = random_room(self.np_random)
+            g = plan.grid()
+            if g.main_region >= 0 and ((g.region == g.main_region) & (g.clearance >= _START_CLEARANCE_CM + 10)).any():
+                return plan
+        raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
+
+    def _sense(self, normals: np.ndarray | None = None) -> None:
+        if normals is None:
+            normals = self.np_random.standard_normal((1, 6))
+        reading, too_close, no_return = self.sim.sense(normals)
+        self.last_reading, self.last_too_close, self.last_no_return = reading[0], too_close[0], no_return[0]
+
+    def _record_path(self) -> None:
+        self.true_path.append(tuple(self.sim.position[0]))
+        self.dead_reckoned_path.append(tuple(self.sim.dr_position[0]))
+
+    def _get_observation(self) -> np.ndarray:
+        obs = self._observation
+        obs[0:6] = np.where(self.last_no_return, 1.0, np.where(self.last_too_close, 0.0, self.last_reading / RANGE_MAX_CM))
+        obs[6:12] = self.last_too_close
+        obs[12:18] = self.last_no_return
+        obs[18] = self.last_blocked
+        if obs.size > _N_SENSOR_OBS:
+            obs[_N_SENSOR_OBS:] = self._task_observation()
+        return obs.copy()
+
+    def _get_info(self, reward_terms: dict[str, float]) -> dict[str, Any]:
+        sim = self.sim
+        heading_deg = float(np.degrees(sim.heading[0]))
+        info = {
+            "action_mask": sim.tip_allowed[0].astype(np.int8),
+            "face": int(sim.face[0]) + 1,
+            "heading_deg": heading_deg,
+            "tip_directions_deg": (heading_deg + np.array([0.0, 120.0, 240.0])) % 360.0,
+            "actuators": "".join(geo.ACTUATOR_LETTERS[i] for i in sim.actuators()[0]),
+            "pose": np.array([*sim.position[0], heading_deg]),
+            "dead_reckoned_pose": np.array([*sim.dr_position[0], np.degrees(sim.dr_heading[0])]),
+            "true_range_cm": sim.true_range[0].copy(),
+            "wall_distance_cm": float(sim.wall_distance[0]),
+            "blocked": self.last_blocked,
+        }
+        info.update({f"reward_{name}": float(value) for name, value in reward_terms.items()})
+        info["episode_metrics"] = self._episode_metrics()
+        return info
+
+    def _reward_names(self) -> tuple[str, ...]:
+        raise NotImplementedError
+
+    def _task_option_names(self) -> tuple[str, ...]:
+        return ()
+
+    # --- task hooks -------------------------------------------------------------------------------------------
+    def _task_reset(self, options: dict) -> None:
+        """Set up the task after the robot is placed and has sensed once."""
+
+    def _task_step(self, action: int, blocked: bool) -> dict[str, float]:
+        """Reward terms (named, summing to the reward) for the step just taken."""
+        raise NotImplementedError
+
+    def _task_observation(self) -> np.ndarray:
+        return np.zeros(0)
+
+    def _task_terminated(self) -> bool:
+        return False
+
+    def _episode_metrics(self) -> dict[str, float]:
+        """The episode's task metrics so far (at the last step: the episode's)."""
+        return {"blocked_tips": self.blocked_tips, "oscillation_events": self.oscillation_events}

@@ -1,0 +1,133 @@
+"""BuckybotGoal: reach a goal given by dead-reckoned bearing and distance, without hitting walls."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.core.validation import check_positive
+
+__all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
+
+#: The goal distance is observed as tanh(distance / 200 cm): bounded, and most sensitive where steps matter.
+GOAL_DISTANCE_SCALE_CM = 200.0
+
+
+class BuckybotGoalEnv(BuckybotEnv):
+    """Reach a goal cell known only through dead reckoning, without bumping into walls.
+
+    ## Description
+    The Buckybot of BuckybotWallFollow-v0 (Buckybot paper) is told where a goal lies relative to its start. It
+    knows its pose only by dead reckoning (replaying the mean tip model on its actuator sequence, as the paper's
+    mapping does), so the goal it observes drifts from the true one as it walks. Success is judged on the true
+    position. Baseline: ``baselines.buckybot.GoalSeeker``.
+
+    ## Action Space
+    ``Discrete(3)``, tip directions in the resting face's frame (see BuckybotWallFollow-v0).
+
+    ## Observation Space
+    ``Box((22,), float32)``: the 19 sensor entries of BuckybotWallFollow-v0, then ``goal`` (indices 19-21): the
+    cosine and sine of the goal's bearing in the resting face's frame and tanh(distance / 200 cm), all from the
+    dead-reckoned pose.
+
+    ## Rewards
+    ``reward_progress``: decrease of the true distance to the goal, in units of the 9.129 cm lattice step;
+    ``reward_goal = +10`` on reaching the goal; ``reward_blocked = -1`` for a blocked tip.
+
+    ## Starting State
+    As BuckybotWallFollow-v0; the goal is a seeded point of the same room, between ``goal_distance_cm`` apart
+    and at least ``goal_radius_cm`` + 13 cm from every wall. ``reset(options={"goal": (x_cm, y_cm)})`` sets it.
+
+    ## Episode End
+    Terminates when the true centre is within ``goal_radius_cm`` of the goal; truncated after
+    ``max_episode_steps`` (300 at registration). ``info["episode_metrics"]``: ``success`` (0/1),
+    ``final_distance_cm`` (true), ``blocked_tips``, ``oscillation_events``.
+
+    ## Arguments
+    | argument | default | meaning |
+    |----------|---------|---------|
+    | floor_plan | "l_room" | as BuckybotWallFollow-v0 |
+    | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm) |
+    | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_observation_sizes = {"goal": 3}
+    task_observation_low = (-1.0, -1.0, 0.0)
+    task_observation_high = (1.0, 1.0, 1.0)
+
+    def __init__(self, *, floor_plan="l_room", goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs):
+        self.goal_radius_cm = check_positive("goal_radius_cm", goal_radius_cm)
+        try:
+            low, high = (float(v) for v in goal_distance_cm)
+        except (TypeError, ValueError):
+            raise ValueError(f"goal_distance_cm must be a (min, max) pair in cm, got {goal_distance_cm!r}") from None
+        if not 0 <= low <= high or not np.isfinite(high):
+            raise ValueError(f"goal_distance_cm must satisfy 0 <= min <= max, got {goal_distance_cm!r}")
+        self.goal_distance_cm = (low, high)
+        super().__init__(floor_plan=floor_plan, **kwargs)
+        self.goal = np.zeros(2)
+
+    def _reward_names(self):
+        return ("progress", "goal", "blocked")
+
+    def _task_option_names(self):
+        return ("goal",)
+
+    def _task_reset(self, options):
+        clearance = self.goal_radius_cm + self.body_radius_cm
+        if "goal" in options:
+            try:
+                goal = np.array([float(v) for v in options["goal"]])
+            except (TypeError, ValueError):
+                raise ValueError("reset option 'goal' must be (x_cm, y_cm)") from None
+            if goal.shape != (2,) or float(self.plan.clearance(goal)) < self.body_radius_cm:
+                raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
+        else:
+            goal = self._sample_goal(clearance)
+        self.goal = goal
+        self._distance = self._true_distance()
+        self._success = False
+
+    def _sample_goal(self, clearance: float) -> np.ndarray:
+        g = self.plan.grid()
+        centres = g.centres()[(g.region == g.main_region) & (g.clearance >= clearance + g.cell_cm)]
+        distance = np.hypot(*(centres - self.position).T)
+        low, high = self.goal_distance_cm
+        pool = centres[(distance >= low) & (distance <= high)]
+        if pool.size == 0:  # a small room: take the farthest reachable cells instead
+            pool = centres[distance >= np.quantile(distance, 0.75)]
+        return pool[self.np_random.integers(len(pool))] + self.np_random.uniform(-0.5, 0.5, 2) * g.cell_cm
+
+    def _true_distance(self) -> float:
+        return float(np.hypot(*(self.goal - self.position)))
+
+    def _task_observation(self):
+        rel = self.goal - self.sim.dr_position[0]
+        bearing = np.arctan2(rel[1], rel[0]) - self.sim.dr_heading[0]
+        distance = np.hypot(rel[0], rel[1])
+        return np.array([np.cos(bearing), np.sin(bearing), np.tanh(distance / GOAL_DISTANCE_SCALE_CM)])
+
+    def _task_step(self, action, blocked):
+        distance = self._true_distance()
+        progress = (self._distance - distance) / STEP_LENGTH_CM
+        self._distance = distance
+        self._success = distance <= self.goal_radius_cm
+        return {"progress": progress, "goal": 10.0 if self._success else 0.0, "blocked": -1.0 if blocked else 0.0}
+
+    def _task_terminated(self):
+        return self._success
+
+    def _episode_metrics(self):
+        metrics = super()._episode_metrics()
+        metrics.update(success=float(self._success), final_distance_cm=self._distance)
+        return metrics
+
+    def _get_info(self, reward_terms):
+        info = super()._get_info(reward_terms)
+        info["goal"] = self.goal.copy()
+        return info

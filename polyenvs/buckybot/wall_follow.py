@@ -1,0 +1,159 @@
+"""BuckybotWallFollow: follow the nearest wall counter-clockwise at a fixed distance."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.core.validation import check_positive
+
+__all__ = ["BuckybotWallFollowEnv"]
+
+_PERIMETER_BIN_CM = 10.0
+
+
+class BuckybotWallFollowEnv(BuckybotEnv):
+    """Follow the closest wall counter-clockwise at distance d*, with only six ultrasonic range finders.
+
+    ## Description
+    Buckybot (Buckybot paper: "Buckybot: preliminary control and mapping algorithms") is a truncated icosahedron
+    that moves by tipping from one hexagonal face to the next, so its centre walks on a honeycomb lattice with
+    9.27 cm steps whose three directions shift by 60° at every step. It senses walls with six LV-MaxSonar-EZ range
+    finders tilted 19.47° up. The task is the paper's: follow the closest wall counter-clockwise at distance d*,
+    trading distance error against progress along the wall (the paper's cost, eq. 5). The paper's hand algorithm,
+    ``baselines.buckybot.WallFollower``, is the baseline; it gets stuck in 90° corners and narrow hallways.
+
+    ## Action Space
+    ``Discrete(3)``: tip towards frame direction 0, 1 or 2 (azimuths 0°, 120°, 240° in the resting face's frame,
+    counter-clockwise from above). Direction 0 points back over the edge the robot last tipped over (after a
+    reset: the edge opposite the resting face's first-lettered actuator), so action 0 undoes the previous tip.
+    A tip whose landing point would bring the body (radius 13 cm) against a wall is blocked: the robot stays.
+
+    ## Observation Space
+    ``Box(0, 1, (19,), float32)``, described by ``env.observation_structure``:
+
+    | index | name | meaning |
+    |-------|------|---------|
+    | 0-5 | range | reading / 182.88 cm of the sensors at azimuths 22.24°, 97.76°, 142.24°, 217.76°, 262.24°, 337.76°; 0 if too close, 1 if no return |
+    | 6-11 | too_close | 1 where the sensor did not settle (< 30.48 cm) |
+    | 12-17 | no_return | 1 where nothing was seen within 182.88 cm |
+    | 18 | tip_failed | 1 if the last tip was blocked |
+
+    Readings follow the paper's eq. 6, ``d + (0.013 d + 0.448) w`` cm, rounded to 2.54 cm.
+
+    ## Rewards
+    The paper's per-step cost ``(d - d*)² - x_s · progress``, normalised by ``2 x_s · 9.129 cm`` so a step along
+    the wall earns about 1 (the weight 2 x_s makes the paper's target-tracking rule the greedy minimiser):
+    ``reward_progress = Δs / 9.129`` with Δs the displacement along the nearest wall's counter-clockwise
+    tangent (z × centre-to-wall), ``reward_distance = -(d - d*)² / (2 x_s · 9.129)`` with d the true distance to
+    the nearest wall after the tip, and ``reward_blocked = -1`` for a blocked tip.
+
+    ## Starting State
+    A seeded position at least 23 cm from every wall, uniform heading and resting face; or
+    ``reset(options={"pose": (x_cm, y_cm, heading_deg), "face": 1..20})``.
+
+    ## Episode End
+    Never terminates; truncated after ``max_episode_steps`` (500 at registration).
+    ``info["episode_metrics"]`` holds ``wall_distance_error_cm`` (mean |d - d*|), ``perimeter_fraction``
+    (fraction of the wall length passed within ``follow_tolerance_cm`` of d*), ``laps`` (completed
+    counter-clockwise turns about the room's centre), ``progress_cm``, ``blocked_tips`` and
+    ``oscillation_events`` (tips that undo the previous tip).
+
+    ## Arguments
+    | argument | default | meaning |
+    |----------|---------|---------|
+    | floor_plan | "rectangle" | a built-in plan ("rectangle", "l_room", "corner", "hallway", "office"), "random", or a list of (x1, y1, x2, y2) wall segments in cm |
+    | d_star_cm | 50.0 | wall-following distance d* (the paper leaves it free) |
+    | x_s_cm | 20.0 | the paper's x_s, weight of progress against distance error |
+    | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed |
+    | noise_scale | 1.0 | tipping noise: 0 = ideal lattice, 1 = the paper's Vicon measurements |
+    | range_noise_scale | 1.0 | multiplies the eq. 6 range noise sd |
+    | step_forward_cm, step_forward_sd_cm | 9.266, 0.105 | forward step per tip (paper, Test Results) |
+    | step_lateral_cm, step_lateral_sd_cm | -0.745, 0.149 | lateral step per tip (paper) |
+    | heading_change_deg, heading_sd_deg | 0.31, 0.44 | heading change per tip (paper) |
+    | body_radius_cm | 13.0 | contact radius (the 26 cm diameter) |
+    | render_mode | None | "rgb_array" or "human" |
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    def __init__(
+        self,
+        *,
+        d_star_cm: float = 50.0,
+        x_s_cm: float = 20.0,
+        follow_tolerance_cm: float = 20.0,
+        **kwargs,
+    ):
+        self.d_star_cm = check_positive("d_star_cm", d_star_cm)
+        self.x_s_cm = check_positive("x_s_cm", x_s_cm)
+        self.follow_tolerance_cm = check_positive("follow_tolerance_cm", follow_tolerance_cm)
+        super().__init__(**kwargs)
+        self._distance_norm = 2.0 * self.x_s_cm * STEP_LENGTH_CM
+
+    def _reward_names(self):
+        return ("progress", "distance", "blocked")
+
+    def _task_reset(self, options):
+        plan = self.plan
+        if getattr(self, "_bins_plan", None) is not plan:
+            self._bins_plan = plan
+            seg = plan.segments
+            length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+            counts = np.maximum(1, np.ceil(length / _PERIMETER_BIN_CM).astype(int))
+            owner = np.repeat(np.arange(len(seg)), counts)
+            frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
+            self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
+            self._bin_length = (length / counts)[owner]
+            self._bin_segment = owner
+            g = plan.grid()
+            self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0)
+        self._followed = np.zeros(len(self._bin_centre), dtype=bool)
+        self._distance_error_sum = 0.0
+        self._progress_cm = 0.0
+        self._winding = 0.0
+        self._angle = self._angle_about_centre()
+        self._previous_position = self.position.copy()
+        self._previous_normal = self._wall_normal()
+
+    def _wall_normal(self) -> np.ndarray:
+        gap = self.sim.wall_foot[0] - self.position
+        return gap / max(float(np.hypot(*gap)), 1e-9)
+
+    def _angle_about_centre(self) -> float:
+        rel = self.position - self._lap_centre
+        return float(np.arctan2(rel[1], rel[0]))
+
+    def _task_step(self, action, blocked):
+        d = float(self.sim.wall_distance[0])
+        n = self._previous_normal
+        tangent = np.array([-n[1], n[0]])  # z x (centre-to-wall): counter-clockwise along the wall
+        progress = float(np.dot(self.position - self._previous_position, tangent))
+        self._progress_cm += progress
+        error = d - self.d_star_cm
+        self._distance_error_sum += abs(error)
+        if abs(error) <= self.follow_tolerance_cm:
+            near = np.hypot(*(self._bin_centre - self.position).T) <= self.d_star_cm + self.follow_tolerance_cm
+            self._followed |= near & (self._bin_segment == self.sim.wall_segment[0])
+        angle = self._angle_about_centre()
+        self._winding += (angle - self._angle + np.pi) % (2 * np.pi) - np.pi
+        self._angle = angle
+        self._previous_position = self.position.copy()
+        self._previous_normal = self._wall_normal()
+        return {
+            "progress": progress / STEP_LENGTH_CM,
+            "distance": -(error * error) / self._distance_norm,
+            "blocked": -1.0 if blocked else 0.0,
+        }
+
+    def _episode_metrics(self):
+        metrics = super()._episode_metrics()
+        metrics.update(
+            wall_distance_error_cm=self._distance_error_sum / max(self.steps, 1),
+            perimeter_fraction=float(self._bin_length[self._followed].sum() / self._bin_length.sum()),
+            laps=int(max(self._winding, 0.0) // (2 * np.pi)),
+            progress_cm=self._progress_cm,
+        )
+        return metrics

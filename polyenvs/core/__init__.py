@@ -1,0 +1,1 @@
+"""Pieces shared by every polyenvs family: planar geometry, argument validation, rendering, rollouts."""

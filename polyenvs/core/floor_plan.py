@@ -1,0 +1,168 @@
+"""Floor plans made of wall segments, shared by the planar robot families.
+
+A plan is a set of wall segments in centimetres. Beyond the walls themselves it knows a coarse free-space grid:
+each cell's distance to the nearest wall and the connected regions of free cells, from which start poses are
+drawn and against which coverage is measured.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from polyenvs.core.geometry2d import SegmentTable, nearest_wall_points
+
+__all__ = ["FloorPlan", "FreeSpaceGrid", "rectangle_walls", "polygon_walls"]
+
+
+def polygon_walls(*corners: tuple[float, float]) -> list[tuple[float, float, float, float]]:
+    """Closed polygon through ``corners`` as wall segments."""
+    return [(*corners[i], *corners[(i + 1) % len(corners)]) for i in range(len(corners))]
+
+
+def rectangle_walls(x0: float, y0: float, x1: float, y1: float) -> list[tuple[float, float, float, float]]:
+    return polygon_walls((x0, y0), (x1, y0), (x1, y1), (x0, y1))
+
+
+@dataclass(frozen=True)
+class FreeSpaceGrid:
+    """A coarse raster of a plan: cell centres, their clearance to walls, and the region they belong to.
+
+    Attributes:
+        origin: world coordinates (cm) of cell (0, 0)'s lower-left corner.
+        cell_cm: cell size.
+        clearance: ``(H, W)`` distance from each cell centre to the nearest wall.
+        region: ``(H, W)`` region label of each free cell, -1 for cells touching a wall.
+        main_region: the label of the largest region enclosed by walls (or the largest region if none is enclosed).
+    """
+
+    origin: np.ndarray
+    cell_cm: float
+    clearance: np.ndarray
+    region: np.ndarray
+    main_region: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.clearance.shape
+
+    def centres(self) -> np.ndarray:
+        h, w = self.shape
+        ys, xs = np.mgrid[0:h, 0:w]
+        return self.origin + (np.stack([xs, ys], axis=-1) + 0.5) * self.cell_cm
+
+    def cell_index(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, col) of points, clipped to the grid."""
+        idx = np.floor((points - self.origin) / self.cell_cm).astype(np.int64)
+        h, w = self.shape
+        return np.clip(idx[..., 1], 0, h - 1), np.clip(idx[..., 0], 0, w - 1)
+
+
+def _label_regions(free: np.ndarray) -> np.ndarray:
+    """4-connected component labels of ``free`` cells (min-label propagation), -1 elsewhere."""
+    h, w = free.shape
+    big = h * w
+    labels = np.where(free, np.arange(big).reshape(h, w), big)
+    while True:
+        padded = np.pad(labels, 1, constant_values=big)
+        neighbours = np.minimum.reduce(
+            [padded[1:-1, 1:-1], padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:]]
+        )
+        new = np.where(free, neighbours, big)
+        if np.array_equal(new, labels):
+            break
+        labels = new
+    return np.where(free, labels, -1)
+
+
+@dataclass(frozen=True, eq=False)
+class FloorPlan:
+    """Walls as segments ``(x1, y1, x2, y2)`` in centimetres.
+
+    Args:
+        segments: sequence of 4-tuples. Must be non-empty, finite and without zero-length segments.
+        name: a label for reports and rendering.
+    """
+
+    segments: np.ndarray
+    name: str = "custom"
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self):
+        try:
+            seg = np.array(self.segments, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("floor_plan must be a plan name or a list of (x1, y1, x2, y2) segments in cm") from None
+        if seg.size == 0:
+            raise ValueError("floor_plan has no wall segments")
+        if seg.ndim != 2 or seg.shape[1] != 4:
+            raise ValueError(f"floor_plan segments must have shape (S, 4), got {seg.shape}")
+        if not np.isfinite(seg).all():
+            raise ValueError("floor_plan segments must be finite numbers")
+        lengths = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+        if (lengths < 1e-6).any():
+            bad = int(np.flatnonzero(lengths < 1e-6)[0])
+            raise ValueError(f"floor_plan segment {bad} {tuple(seg[bad])} is degenerate (zero length)")
+        seg.setflags(write=False)
+        object.__setattr__(self, "segments", seg)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the walls."""
+        pts = self.segments.reshape(-1, 2)
+        return (*pts.min(axis=0), *pts.max(axis=0))
+
+    @property
+    def wall_length(self) -> float:
+        s = self.segments
+        return float(np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]).sum())
+
+    @functools.cached_property
+    def table(self) -> SegmentTable:
+        return SegmentTable(self.segments)
+
+    def clearance(self, points: np.ndarray) -> np.ndarray:
+        """Distance from each point ``(..., 2)`` to the nearest wall."""
+        pts = np.asarray(points, dtype=np.float64)
+        flat = pts.reshape(1, -1, 2)
+        return nearest_wall_points(self.table, flat)[0].reshape(pts.shape[:-1])
+
+    def grid(self, cell_cm: float = 10.0) -> FreeSpaceGrid:
+        """The plan's free-space grid (cached per cell size)."""
+        if cell_cm not in self._cache:
+            self._cache[cell_cm] = self._make_grid(cell_cm)
+        return self._cache[cell_cm]
+
+    def _make_grid(self, cell_cm: float) -> FreeSpaceGrid:
+        xmin, ymin, xmax, ymax = self.bounds
+        margin = 2 * cell_cm
+        origin = np.array([xmin - margin, ymin - margin])
+        w = int(np.ceil((xmax - xmin + 2 * margin) / cell_cm))
+        h = int(np.ceil((ymax - ymin + 2 * margin) / cell_cm))
+        ys, xs = np.mgrid[0:h, 0:w]
+        centres = origin + (np.stack([xs, ys], axis=-1) + 0.5) * cell_cm
+        clearance = np.concatenate(
+            [self.clearance(chunk) for chunk in np.array_split(centres.reshape(-1, 2), max(1, h * w // 4096))]
+        ).reshape(h, w)
+        free = clearance > cell_cm * 0.75  # a wall passes within the cell's reach: not free
+        region = _label_regions(free)
+        border = np.unique(np.concatenate([region[0], region[-1], region[:, 0], region[:, -1]]))
+        labels, counts = np.unique(region[region >= 0], return_counts=True)
+        enclosed = ~np.isin(labels, border)
+        candidates = (labels[enclosed], counts[enclosed]) if enclosed.any() else (labels, counts)
+        main = int(candidates[0][np.argmax(candidates[1])]) if candidates[0].size else -1
+        return FreeSpaceGrid(origin, float(cell_cm), clearance, region, main)
+
+    def sample_start(self, rng: np.random.Generator, min_clearance: float, cell_cm: float = 10.0) -> np.ndarray:
+        """A uniformly drawn point of the main region whose clearance is at least ``min_clearance``."""
+        g = self.grid(cell_cm)
+        eligible = np.flatnonzero(((g.region == g.main_region) & (g.clearance >= min_clearance + cell_cm)).ravel())
+        if eligible.size == 0:
+            raise ValueError(
+                f"floor_plan {self.name!r} has no free space at least {min_clearance:.1f} cm from every wall"
+            )
+        cell = eligible[rng.integers(eligible.size)]
+        row, col = divmod(int(cell), g.shape[1])
+        return g.origin + (np.array([col, row]) + rng.uniform(0.0, 1.0, size=2)) * g.cell_cm
