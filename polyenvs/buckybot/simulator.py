@@ -87,6 +87,8 @@ class BuckybotSimulator:
         self._mean_offsets = tip_model.mean_offsets()  # (3, 2)
         self._frame_turn = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
         self._heading_sd = np.radians(tip_model.heading_sd_deg)
+        beams = np.stack([np.cos(geo.SENSOR_AZIMUTHS_RAD), np.sin(geo.SENSOR_AZIMUTHS_RAD)], axis=-1)
+        self._local_vectors = np.concatenate([beams, self._mean_offsets])
         b = self.batch_size
         self.position = np.zeros((b, 2))
         self.heading = np.zeros(b)  # world azimuth of motion-frame direction 0 (rad)
@@ -140,17 +142,19 @@ class BuckybotSimulator:
         c, s = np.cos(angle), np.sin(angle)
         forward = model.forward_mean_cm + model.forward_sd_cm * normals[:, 0]
         lateral = model.lateral_mean_cm + model.lateral_sd_cm * normals[:, 1]
-        step = np.stack([forward * c + lateral * s, forward * s - lateral * c], axis=-1)
-        self.position += np.where(moved[:, None], step, 0.0)
+        forward *= moved  # a blocked tip moves nothing
+        lateral *= moved
+        self.position[:, 0] += forward * c + lateral * s
+        self.position[:, 1] += forward * s - lateral * c
         turn = self._frame_turn[action] + self._heading_sd * normals[:, 2]
-        self.heading = np.where(moved, np.mod(self.heading + turn, _TWO_PI), self.heading)
+        self.heading = np.mod(self.heading + turn * moved, _TWO_PI)
 
         # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
         dc, ds = np.cos(self.dr_heading), np.sin(self.dr_heading)
-        off = self._mean_offsets[action]
-        dr_step = np.stack([dc * off[:, 0] - ds * off[:, 1], ds * off[:, 0] + dc * off[:, 1]], axis=-1)
-        self.dr_position += np.where(moved[:, None], dr_step, 0.0)
-        self.dr_heading = np.where(moved, np.mod(self.dr_heading + self._frame_turn[action], _TWO_PI), self.dr_heading)
+        off = self._mean_offsets[action] * moved[:, None]
+        self.dr_position[:, 0] += dc * off[:, 0] - ds * off[:, 1]
+        self.dr_position[:, 1] += ds * off[:, 0] + dc * off[:, 1]
+        self.dr_heading = np.mod(self.dr_heading + self._frame_turn[action] * moved, _TWO_PI)
 
         edge = (self.edge0 + action) % 3
         self.face, self.edge0 = (
@@ -164,18 +168,19 @@ class BuckybotSimulator:
 
         Returns ``(reading, too_close, no_return)`` as :func:`polyenvs.buckybot.sensors.measure_ranges`.
         """
+        # Sensor beams (unit vectors of their horizontal projection) and the candidate landing points, in the world.
         c, s = np.cos(self.heading)[:, None], np.sin(self.heading)[:, None]
-        # Sensor beams (horizontal projection) and the three candidate landing points, rotated into the world.
-        az = self.heading[:, None] + geo.SENSOR_AZIMUTHS_RAD
-        beam = np.stack([np.cos(az), np.sin(az)], axis=-1)  # (B, 6, 2)
-        origins = self.position[:, None, :] + geo.SENSOR_HORIZONTAL_OFFSET_CM * beam
-        horizontal = cast_rays(self.walls, origins, beam)
+        local = self._local_vectors  # (7, 2): six beam directions, then the mean tip offsets
+        world = np.empty((self.batch_size, 10, 2))
+        world[:, :9, 0] = c * local[:, 0] - s * local[:, 1]
+        world[:, :9, 1] = s * local[:, 0] + c * local[:, 1]
+        world[:, 9] = 0.0
+        beam = world[:, :6]
+        horizontal = cast_rays(self.walls, self.position[:, None, :] + geo.SENSOR_HORIZONTAL_OFFSET_CM * beam, beam)
         self.true_range = horizontal / _COS_ELEVATION  # slant range along the tilted beam
 
-        off = self._mean_offsets
-        landing = self.position[:, None, :] + np.stack([c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]], axis=-1)
-        points = np.concatenate([self.position[:, None, :], landing], axis=1)  # (B, 4, 2)
+        points = self.position[:, None, :] + world[:, 6:]  # (B, 4, 2): the three landing points, then the centre
         distance, foot, segment = nearest_wall_points(self.walls, points)
-        self.wall_distance, self.wall_foot, self.wall_segment = distance[:, 0], foot[:, 0], segment[:, 0]
-        self.tip_allowed = distance[:, 1:] >= self.body_radius_cm
+        self.wall_distance, self.wall_foot, self.wall_segment = distance[:, 3], foot[:, 3], segment[:, 3]
+        self.tip_allowed = distance[:, :3] >= self.body_radius_cm
         return measure_ranges(self.true_range, normals, self.range_noise_scale)

@@ -76,15 +76,17 @@ def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.nda
         ``(distance, foot, segment)``: ``(B, P)`` distances, ``(B, P, 2)`` nearest wall points and ``(B, P)``
         indices of the segment they lie on.
     """
-    rel = points[:, :, None, :] - table.start[:, None, :, :]  # (B, P, S, 2)
-    vector = table.vector[:, None]  # (B or 1, 1, S, 2): a shared wall set broadcasts over the batch
-    along = (rel[..., 0] * vector[..., 0] + rel[..., 1] * vector[..., 1]) * table.inv_length_sq[:, None, :]
+    px, py = points[..., 0:1], points[..., 1:2]  # (B, P, 1)
+    sx, sy = table.start[:, None, :, 0], table.start[:, None, :, 1]  # (B or 1, 1, S): shared walls broadcast
+    ex, ey = table.vector[:, None, :, 0], table.vector[:, None, :, 1]
+    along = ((px - sx) * ex + (py - sy) * ey) * table.inv_length_sq[:, None, :]
     np.clip(along, 0.0, 1.0, out=along)
-    foot = table.start[:, None] + along[..., None] * vector  # (B, P, S, 2)
-    gap = points[:, :, None, :] - foot
-    dist_sq = gap[..., 0] ** 2 + gap[..., 1] ** 2
-    dist_sq = np.where(table.is_real[:, None, :], dist_sq, np.inf)
+    fx, fy = sx + along * ex, sy + along * ey  # (B, P, S)
+    dist_sq = (px - fx) ** 2 + (py - fy) ** 2
+    if not table.is_real.all():
+        dist_sq = np.where(table.is_real[:, None, :], dist_sq, np.inf)
     segment = dist_sq.argmin(axis=-1)  # (B, P)
-    distance = np.sqrt(np.take_along_axis(dist_sq, segment[..., None], axis=-1)[..., 0])
-    nearest = np.take_along_axis(foot, segment[..., None, None], axis=2)[:, :, 0, :]
-    return distance, nearest, segment
+    b, p = np.indices(segment.shape, sparse=True)
+    foot = np.empty(points.shape)
+    foot[..., 0], foot[..., 1] = fx[b, p, segment], fy[b, p, segment]
+    return np.sqrt(dist_sq[b, p, segment]), foot, segment

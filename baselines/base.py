@@ -1,0 +1,67 @@
+"""The one small interface every hand baseline keeps: Stable-Baselines3's ``predict``.
+
+``predict(observation, state=None, episode_start=None, deterministic=True) -> (action, state)`` accepts a single
+observation or a batch (first axis = environments), so a baseline works wherever an SB3 model does
+(``stable_baselines3.common.evaluation.evaluate_policy``, ``polyenvs evaluate``). A baseline sees only the
+observation; memory (the paper's algorithms sometimes need some) travels in ``state``, one row per environment,
+and is cleared where ``episode_start`` is true.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+from gymnasium import spaces
+
+__all__ = ["Policy", "RandomPolicy"]
+
+
+class Policy:
+    """Base class: subclasses implement ``act(observation, memory) -> action`` for one environment."""
+
+    #: Length of the per-environment memory row (0 for memoryless policies).
+    memory_size: int = 0
+
+    def __init__(self, observation_space: spaces.Space, action_space: spaces.Space):
+        self.observation_space = observation_space
+        self.action_space = action_space
+
+    def describe(self) -> dict:
+        """Name and parameters, stored with evaluation results."""
+        return {"name": type(self).__name__}
+
+    def initial_memory(self) -> np.ndarray:
+        return np.zeros(self.memory_size)
+
+    def act(self, observation: np.ndarray, memory: np.ndarray) -> int | np.ndarray:
+        raise NotImplementedError
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
+        obs = np.asarray(observation)
+        single = obs.shape == self.observation_space.shape
+        batch = obs[None] if single else obs
+        n = batch.shape[0]
+        memory = np.array(state, dtype=np.float64) if state is not None else None
+        if memory is None or memory.shape != (n, self.memory_size):
+            memory = np.tile(self.initial_memory(), (n, 1))
+        if episode_start is not None:
+            restart = np.broadcast_to(np.asarray(episode_start, dtype=bool), (n,))
+            memory[restart] = self.initial_memory()
+        actions = np.array([self.act(batch[i], memory[i]) for i in range(n)])
+        return (actions[0] if single else actions), memory
+
+
+class RandomPolicy(Policy):
+    """Uniformly random actions from the action space, seeded for reproducible evaluations."""
+
+    def __init__(self, observation_space, action_space, seed: int | None = None):
+        # A private copy, so seeding it leaves the environment's own action space alone.
+        super().__init__(observation_space, copy.deepcopy(action_space))
+        self.action_space.seed(seed)
+
+    def describe(self):
+        return {"name": "random"}
+
+    def act(self, observation, memory):
+        return self.action_space.sample()

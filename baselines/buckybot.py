@@ -1,0 +1,169 @@
+"""Hand baselines for the Buckybot environments: the paper's wall follower, an explorer and a goal seeker.
+
+They read only the observation (the six range finders and the tip-failed flag, plus the dead-reckoned goal for
+BuckybotGoal) and act in the resting face's frame, where direction j is the tip at azimuth 120° j and
+direction 0 goes back over the last edge tipped (:mod:`polyenvs.buckybot.simulator`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baselines.base import Policy
+from polyenvs.buckybot.env import SENSOR_OBSERVATION_STRUCTURE
+from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range, walls_from_readings
+from polyenvs.buckybot.simulator import TIP_ANGLES_RAD
+
+__all__ = ["GoalSeeker", "WallFollower", "WallFollowExplorer", "decode_readings"]
+
+_TIP_VECTORS = STEP_LENGTH_CM * np.stack([np.cos(TIP_ANGLES_RAD), np.sin(TIP_ANGLES_RAD)], axis=-1)
+#: The two sensors flanking each tip direction (±22.24° about it).
+_FLANKING_SENSORS = np.array([[5, 0], [1, 2], [3, 4]])
+#: The frame turns by 120° j + 180° when tip j succeeds.
+_FRAME_TURN = TIP_ANGLES_RAD + np.pi
+
+
+def decode_readings(observation: np.ndarray, too_close_cm: float) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Slant readings in cm from an observation (too-close readings replaced by ``too_close_cm``, no return = nan)."""
+    lo, hi = SENSOR_OBSERVATION_STRUCTURE["range"]
+    reading = observation[lo:hi].astype(np.float64) * RANGE_MAX_CM
+    too_close = observation[slice(*SENSOR_OBSERVATION_STRUCTURE["too_close"])] > 0.5
+    no_return = observation[slice(*SENSOR_OBSERVATION_STRUCTURE["no_return"])] > 0.5
+    reading = np.where(too_close, too_close_cm, np.where(no_return, np.nan, reading))
+    tip_failed = bool(observation[SENSOR_OBSERVATION_STRUCTURE["tip_failed"][0]] > 0.5)
+    return reading, too_close, tip_failed
+
+
+class WallFollower(Policy):
+    """The Buckybot paper's wall follower ("Wall Following"), with its proposed fixes as options.
+
+    Before each tip: identify walls from pairs of adjacent sensors (law of cosines, Heron's formula, corrected
+    inclination), take the closest, put a target d* from it along the perpendicular through the centre, add x_s
+    along the wall in the counter-clockwise direction (+z cross centre-to-wall), and tip in the direction whose
+    landing point is closest to the target. With no wall in sight, it heads for open space.
+
+    Known failures (paper, "Anticipated Implementation Issues"): at 90° corners and in narrow hallways the closest
+    wall flips between two, and the robot alternates between two faces. The paper's fixes are options:
+
+    Args:
+        d_star_cm: wall distance to keep.
+        x_s_cm: the look-ahead along the wall; larger values navigate corners better.
+        no_backtrack: never undo the previous tip (unless both other tips face a too-close reading).
+        clockwise_exception: when the closest wall switches to one on the opposite side (normals more than 120°
+            apart), flip the sense of travel, so the robot keeps going the way it went (paper: "if a wall is sensed
+            on the opposite side of the robot, the robot will begin following in a clockwise direction").
+        too_close_cm: the range assumed for a sensor that did not settle (it is near an obstacle).
+    """
+
+    # sense (+1 counter-clockwise), last wall normal azimuth (frame), has a last wall, last action, has acted,
+    # has moved (a tip succeeded, so direction 0 now means "back")
+    memory_size = 6
+
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        d_star_cm: float = 50.0,
+        x_s_cm: float = 20.0,
+        no_backtrack: bool = False,
+        clockwise_exception: bool = False,
+        too_close_cm: float = 20.0,
+    ):
+        super().__init__(observation_space, action_space)
+        if d_star_cm <= 0 or x_s_cm < 0 or too_close_cm <= 0:
+            raise ValueError("d_star_cm and too_close_cm must be > 0 and x_s_cm >= 0")
+        self.d_star_cm, self.x_s_cm = float(d_star_cm), float(x_s_cm)
+        self.no_backtrack, self.clockwise_exception = bool(no_backtrack), bool(clockwise_exception)
+        self.too_close_cm = float(too_close_cm)
+
+    def describe(self):
+        return {
+            "name": type(self).__name__,
+            "d_star_cm": self.d_star_cm,
+            "x_s_cm": self.x_s_cm,
+            "no_backtrack": self.no_backtrack,
+            "clockwise_exception": self.clockwise_exception,
+        }
+
+    def initial_memory(self):
+        return np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+
+    def act(self, observation, memory):
+        reading, too_close, tip_failed = decode_readings(observation, self.too_close_cm)
+        sense, last_normal, has_wall, last_action, acted, has_moved = memory
+        if acted and not tip_failed:
+            has_moved = 1.0
+            last_normal -= _FRAME_TURN[int(last_action)]  # carry the remembered wall into the new frame
+        distance, normal_az = walls_from_readings(reading)
+        if np.isnan(distance).all():
+            action = self._open_space(reading, bool(has_moved))
+            has_wall = 0.0
+        else:
+            i = int(np.nanargmin(distance))
+            d, az = distance[i], normal_az[i]
+            if self.clockwise_exception and has_wall and np.cos(az - last_normal) < -0.5:  # > 120° apart
+                sense = -sense
+            normal = np.array([np.cos(az), np.sin(az)])
+            along = sense * np.array([-normal[1], normal[0]])
+            target = (d - self.d_star_cm) * normal + self.x_s_cm * along
+            cost = np.hypot(*(_TIP_VECTORS - target).T)
+            if self.no_backtrack and has_moved and not too_close[_FLANKING_SENSORS[1:]].any(axis=1).all():
+                cost[0] = np.inf
+            action = int(np.argmin(cost))
+            last_normal, has_wall = az, 1.0
+        memory[:] = (sense, last_normal, has_wall, action, 1.0, has_moved)
+        return action
+
+    def _open_space(self, reading: np.ndarray, has_moved: bool) -> int:
+        reach = np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading)[_FLANKING_SENSORS].min(axis=1)
+        if has_moved:
+            reach[0] = -np.inf  # keep going rather than turn back
+        return int(np.argmax(reach))
+
+
+class WallFollowExplorer(WallFollower):
+    """Explore by following walls: the paper's follower farther from the wall so the beams sweep the rooms.
+
+    Defaults d* = 70 cm, x_s = 30 cm, no backtracking and the clockwise exception (the fixes keep it moving).
+    """
+
+    def __init__(self, observation_space, action_space, d_star_cm=70.0, x_s_cm=30.0, no_backtrack=True, clockwise_exception=True, too_close_cm=20.0):
+        super().__init__(observation_space, action_space, d_star_cm, x_s_cm, no_backtrack, clockwise_exception, too_close_cm)
+
+
+class GoalSeeker(Policy):
+    """Greedy goal seeking on the lattice: tip towards the dead-reckoned goal, around obstacles.
+
+    Each tip direction is scored by its alignment with the goal's bearing; directions whose flanking sensors
+    read closer than ``clearance_cm`` are avoided, and the robot does not undo its last tip unless nothing else
+    is free. When the way ahead is walled off it slides along the wall on the side nearer the goal.
+
+    Args:
+        clearance_cm: a tip direction whose flanking sensors read closer than this is treated as obstructed.
+    """
+
+    memory_size = 1  # has moved
+
+    def __init__(self, observation_space, action_space, clearance_cm: float = 40.0):
+        super().__init__(observation_space, action_space)
+        if clearance_cm <= 0:
+            raise ValueError("clearance_cm must be > 0")
+        self.clearance_cm = float(clearance_cm)
+
+    def describe(self):
+        return {"name": type(self).__name__, "clearance_cm": self.clearance_cm}
+
+    def act(self, observation, memory):
+        reading, too_close, tip_failed = decode_readings(observation, 0.0)
+        lo, _ = SENSOR_OBSERVATION_STRUCTURE["tip_failed"]
+        cos_b, sin_b = observation[lo + 1], observation[lo + 2]
+        bearing = np.arctan2(sin_b, cos_b)
+        alignment = np.cos(TIP_ANGLES_RAD - bearing)
+        reach = horizontal_range(np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading))[_FLANKING_SENSORS].min(axis=1)
+        obstructed = reach < self.clearance_cm
+        score = alignment - 10.0 * obstructed
+        if memory[0] and not tip_failed:
+            score[0] -= 1.5  # going back is the last resort
+        memory[0] = 1.0
+        return int(np.argmax(score))

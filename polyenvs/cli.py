@@ -1,0 +1,136 @@
+"""The ``polyenvs`` command line: list environments, evaluate policies, build the leaderboard.
+
+Expected failures (unknown id or policy, bad JSON or keyword arguments) print one line on stderr and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+class CliError(Exception):
+    """An error the user can fix: printed as one line, no traceback."""
+
+
+def _json_arg(text: str, name: str) -> dict:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CliError(f"{name} is not valid JSON: {exc.msg} (got {text!r})") from None
+    if not isinstance(value, dict):
+        raise CliError(f"{name} must be a JSON object, got {text!r}")
+    return value
+
+
+def _cmd_list(args) -> int:
+    import gymnasium as gym
+
+    import polyenvs
+    from polyenvs.registry import REGISTRY
+
+    rows = []
+    for entry in REGISTRY:
+        env = gym.make(entry.id)
+        rows.append((entry.id, str(env.action_space), str(env.observation_space), entry.description))
+        env.close()
+    if args.json:
+        print(json.dumps([dict(zip(("id", "action_space", "observation_space", "description"), r)) for r in rows], indent=1))
+        return 0
+    width = max(len(r[0]) for r in rows)
+    for env_id, act, obs, desc in rows:
+        print(f"{env_id:<{width}}  action {act}  observation {obs}\n{'':<{width}}  {desc}")
+    print(f"\n{len(rows)} environments (polyenvs {polyenvs.__version__})")
+    return 0
+
+
+def _cmd_evaluate(args) -> int:
+    from polyenvs.evaluation import evaluate
+
+    doc = evaluate(
+        args.env_id,
+        args.policy,
+        episodes=args.episodes,
+        seed=args.seed,
+        env_kwargs=_json_arg(args.env_kwargs, "--env-kwargs"),
+        policy_kwargs=_json_arg(args.policy_kwargs, "--policy-kwargs"),
+    )
+    if args.json:
+        print(json.dumps(doc, indent=1))
+        return 0
+    metric_names = list(doc["episodes"][0]["metrics"])
+    header = ["seed", "return", "length", *metric_names]
+    print(f"{doc['env_id']}  policy {doc['policy']}  {doc['policy_description']}")
+    print("  ".join(f"{h:>14}" for h in header))
+    for ep in doc["episodes"]:
+        values = [ep["seed"], ep["return"], ep["length"], *(ep["metrics"][m] for m in metric_names)]
+        print("  ".join(f"{v:>14.4g}" if isinstance(v, float) else f"{v:>14}" for v in values))
+    summary = doc["summary"]
+    print("  ".join([f"{'mean':>14}"] + [f"{summary[h]:>14.4g}" for h in header[1:]]))
+    return 0
+
+
+def _cmd_leaderboard(args) -> int:
+    from polyenvs.leaderboard import run_leaderboard, write_leaderboard
+    from polyenvs.registry import ENV_IDS
+
+    env_ids = [e for e in ENV_IDS if args.only is None or args.only in e]
+    if not env_ids:
+        raise CliError(f"no environment id contains {args.only!r}")
+    episodes = args.episodes if args.episodes is not None else (5 if args.quick else 50)
+    docs = run_leaderboard(env_ids, episodes, Path(args.results_dir), redo=args.redo, progress=lambda m: print(m, file=sys.stderr))
+    text = write_leaderboard(docs, Path(args.output), quick=episodes < 50)
+    print(text)
+    print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="polyenvs", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("list", help="every environment id with its spaces and a one-line description")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.set_defaults(func=_cmd_list)
+
+    p = sub.add_parser("evaluate", help="run a policy on fixed seeds and print its returns and task metrics")
+    p.add_argument("env_id")
+    p.add_argument("--policy", default="paper", help="'random', a hand baseline's name, or 'paper' (default)")
+    p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--seed", type=int, default=0, help="first seed; episodes use seed, seed+1, ...")
+    p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
+    p.add_argument("--json", action="store_true", help="print one JSON document")
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("leaderboard", help="evaluate every baseline on every environment; write the table")
+    p.add_argument("--episodes", type=int, default=None, help="episodes per policy (default 50, 5 with --quick)")
+    p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
+    p.add_argument("--only", default=None, help="only environment ids containing this text")
+    p.add_argument("--results-dir", default="benchmarks/results")
+    p.add_argument("--output", default="benchmarks/LEADERBOARD.md")
+    p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
+    p.set_defaults(func=_cmd_leaderboard)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (CliError, ValueError, KeyError) as exc:
+        message = exc.args[0] if exc.args else str(exc)
+        print(f"polyenvs {args.command}: error: {message}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("polyenvs: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
