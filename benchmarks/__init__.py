@@ -1,0 +1,1 @@
+"""Throughput benchmarks for polyenvs against peer environments."""

@@ -1,0 +1,118 @@
+"""Top-down frames of a Buckybot episode: walls, the robot's hexagon and resting face, beams and paths.
+
+Drawn with the numpy rasterizer (:mod:`polyenvs.core.raster`), so ``rgb_array`` needs nothing beyond numpy;
+``human`` mode shows the frames in a pygame window (``pip install "polyenvs[render]"``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polyenvs.buckybot.geometry import HEXAGON_INRADIUS_CM, SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM
+from polyenvs.buckybot.sensors import horizontal_range
+from polyenvs.core.raster import Canvas
+
+__all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
+
+FRAME_WIDTH_PX = 480
+WALL = (30, 30, 30)
+TRUE_PATH = (200, 40, 40)
+DEAD_RECKONED_PATH = (60, 90, 220)
+BODY = (250, 190, 60)
+BODY_EDGE = (120, 80, 10)
+BEAM_VALID = (40, 160, 60)
+BEAM_TOO_CLOSE = (230, 120, 0)
+BEAM_NONE = (190, 190, 190)
+GOAL = (140, 30, 160)
+TIP = (90, 50, 0)
+# The robot drawn as the hexagon of its resting face would be tiny; draw the body's 13 cm footprint instead.
+_HEXAGON_ANGLES = np.radians(np.arange(6) * 60.0 + 30.0)
+
+
+class BuckybotRenderer:
+    """Renders a :class:`~polyenvs.buckybot.env.BuckybotEnv`; ``human`` mode opens a pygame window lazily."""
+
+    def __init__(self, render_mode: str, fps: int):
+        self.render_mode = render_mode
+        self.fps = fps
+        self._window = None
+        self._clock = None
+
+    def _base(self, env) -> Canvas:
+        canvas = Canvas(env.plan.bounds, width=FRAME_WIDTH_PX)
+        seg = env.plan.segments
+        canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
+        return canvas
+
+    def frame(self, env) -> np.ndarray:
+        canvas = self._base(env)
+        sim = env.sim
+        pos, heading = sim.position[0], sim.heading[0]
+        # Dead-reckoned and true paths.
+        if len(env.dead_reckoned_path) > 1:
+            canvas.polyline(np.asarray(env.dead_reckoned_path), DEAD_RECKONED_PATH, width_px=1.5)
+        if len(env.true_path) > 1:
+            canvas.polyline(np.asarray(env.true_path), TRUE_PATH, width_px=1.5)
+        goal = getattr(env, "goal", None)
+        if goal is not None:
+            canvas.disc(goal, getattr(env, "goal_radius_cm", 10.0), GOAL)
+        # Beams: to the reading (green), a short stub when too close (orange), full reach when no return (grey).
+        az = heading + SENSOR_AZIMUTHS_RAD
+        direction = np.stack([np.cos(az), np.sin(az)], axis=-1)
+        start = pos + SENSOR_HORIZONTAL_OFFSET_CM * direction
+        reading = env.last_reading
+        length = np.where(
+            env.last_no_return,
+            horizontal_range(182.88),
+            np.where(env.last_too_close, 15.0, horizontal_range(np.nan_to_num(reading))),
+        ) - SENSOR_HORIZONTAL_OFFSET_CM
+        colours = np.where(
+            env.last_no_return[:, None], BEAM_NONE, np.where(env.last_too_close[:, None], BEAM_TOO_CLOSE, BEAM_VALID)
+        )
+        canvas.lines(start, start + length[:, None] * direction, colours, width_px=1.5)
+        valid = ~(env.last_no_return | env.last_too_close)
+        if valid.any():
+            canvas.points((start + length[:, None] * direction)[valid], BEAM_VALID, radius_px=3.0)
+        # Body: the hexagonal resting face (true size), the 13 cm footprint, and the three tip directions.
+        canvas.disc(pos, env.body_radius_cm, BODY)
+        hexagon = pos + HEXAGON_INRADIUS_CM / np.cos(np.pi / 6) * 0.5 * np.stack(
+            [np.cos(_HEXAGON_ANGLES + heading), np.sin(_HEXAGON_ANGLES + heading)], axis=-1
+        )
+        canvas.polygon(hexagon, BODY, outline=BODY_EDGE)
+        tips = heading + np.radians([0.0, 120.0, 240.0])
+        canvas.lines(np.repeat(pos[None], 3, 0), pos + 9.0 * np.stack([np.cos(tips), np.sin(tips)], -1), TIP, 1.0)
+        return canvas.image
+
+    def render(self, env):
+        frame = self.frame(env)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._show(frame)
+        return None
+
+    def _show(self, frame: np.ndarray) -> None:
+        try:
+            import pygame
+        except ImportError as exc:
+            from gymnasium.error import DependencyNotInstalled
+
+            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
+        if self._window is None:
+            pygame.init()
+            pygame.display.init()
+            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
+            pygame.display.set_caption("polyenvs Buckybot")
+            self._clock = pygame.time.Clock()
+        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+        self._window.blit(surface, (0, 0))
+        pygame.event.pump()
+        pygame.display.flip()
+        self._clock.tick(self.fps)
+
+    def close(self) -> None:
+        if self._window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self._window = None

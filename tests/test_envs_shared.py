@@ -1,0 +1,198 @@
+"""Properties every polyenvs Gymnasium environment keeps, parametrised over the registry.
+
+A family added later gets all of these by registering its ids in ``polyenvs.registry``.
+"""
+
+from __future__ import annotations
+
+import pickle
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import polyenvs
+from polyenvs.registry import REGISTRY
+
+ENV_IDS = polyenvs.ENV_IDS
+
+
+def _rollout(env, seed: int, n_steps: int, action_seed: int = 0):
+    env.action_space.seed(action_seed)
+    obs, info = env.reset(seed=seed)
+    trace = [(obs, 0.0, False, False)]
+    for _ in range(n_steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        trace.append((obs, reward, terminated, truncated))
+        if terminated or truncated:
+            obs, info = env.reset()
+            trace.append((obs, 0.0, False, False))
+    return trace
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_gymnasium_env_checker(env_id):
+    env = gym.make(env_id, render_mode="rgb_array")
+    check_env(env.unwrapped, skip_render_check=False)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_sb3_env_checker(env_id):
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(env_id)
+    sb3_checker.check_env(env.unwrapped, warn=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_same_seed_same_trajectory(env_id):
+    a, b = _rollout(gym.make(env_id), 7, 200), _rollout(gym.make(env_id), 7, 200)
+    assert len(a) == len(b)
+    for (oa, ra, ta, ua), (ob, rb, tb, ub) in zip(a, b, strict=True):
+        assert np.array_equal(oa, ob) and ra == rb and ta == tb and ua == ub
+    c = _rollout(gym.make(env_id), 8, 200)
+    assert any(not np.array_equal(x[0], y[0]) for x, y in zip(a, c, strict=False))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_observations_are_fresh_arrays(env_id):
+    env, twin = gym.make(env_id), gym.make(env_id)
+    obs0, _ = env.reset(seed=0)
+    twin.reset(seed=0)
+    kept = obs0.copy()
+    env.action_space.seed(3)
+    first = env.action_space.sample()
+    obs1 = env.step(first)[0]
+    twin.step(first)
+    assert not np.shares_memory(obs0, obs1)
+    assert np.array_equal(obs0, kept), "the environment wrote into an observation it had returned"
+    # Scribbling on returned observations must not change what happens next.
+    obs0[...] = 0.5
+    obs1[...] = 0.5
+    for _ in range(5):
+        action = env.action_space.sample()
+        assert np.array_equal(env.step(action)[0], twin.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_observations_stay_in_space(env_id):
+    env = gym.make(env_id)
+    env.action_space.seed(1)
+    obs, _ = env.reset(seed=1)
+    for _ in range(1000):
+        assert env.observation_space.contains(obs), obs
+        obs, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        if terminated or truncated:
+            obs, _ = env.reset()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reward_terms_sum_and_info_keys_match(env_id):
+    env = gym.make(env_id)
+    _, reset_info = env.reset(seed=2)
+    for _ in range(50):
+        _, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        terms = [v for k, v in info.items() if k.startswith("reward_")]
+        assert terms and np.isclose(sum(terms), reward)
+        assert set(info) == set(reset_info)
+        assert set(info["episode_metrics"]) == set(reset_info["episode_metrics"])
+        if terminated or truncated:
+            break
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_pickles(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=4)
+    clone = pickle.loads(pickle.dumps(env))
+    for action in (0, 1, 2, 1, 2) if isinstance(env.action_space, gym.spaces.Discrete) else []:
+        assert np.array_equal(env.step(action)[0], clone.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_async_vector_env(env_id):
+    envs = gym.make_vec(f"polyenvs:{env_id}", num_envs=2, vectorization_mode="async")
+    try:
+        obs, _ = envs.reset(seed=0)
+        assert obs.shape == (2, *envs.single_observation_space.shape)
+        obs, rewards, *_ = envs.step(envs.action_space.sample())
+        assert rewards.shape == (2,)
+    finally:
+        envs.close()
+
+
+def test_make_in_a_fresh_process():
+    code = "import gymnasium as gym; e = gym.make('polyenvs:" + ENV_IDS[0] + "'); e.reset(seed=0); print('ok')"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_render_rgb_array(env_id):
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    first = env.render()
+    assert first.dtype == np.uint8 and first.ndim == 3 and first.shape[2] == 3
+    for _ in range(3):
+        env.step(env.action_space.sample())
+        assert env.render().shape == first.shape
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_rendering_does_not_change_the_simulation(env_id):
+    plain, drawn = gym.make(env_id), gym.make(env_id, render_mode="rgb_array")
+    a, b = plain.reset(seed=5)[0], drawn.reset(seed=5)[0]
+    assert np.array_equal(a, b)
+    plain.action_space.seed(0)
+    for _ in range(20):
+        action = plain.action_space.sample()
+        drawn.render()
+        assert np.array_equal(plain.step(action)[0], drawn.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_bad_actions_raise(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    space = env.action_space
+    bad = [3, -1, 1.5, "a", None] if isinstance(space, gym.spaces.Discrete) else [np.full(space.shape, np.nan)]
+    for action in bad:
+        with pytest.raises((ValueError, TypeError)):
+            env.unwrapped.step(action)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_discrete_envs_publish_action_masks(env_id):
+    env = gym.make(env_id)
+    if not isinstance(env.action_space, gym.spaces.Discrete):
+        pytest.skip("continuous actions")
+    _, info = env.reset(seed=0)
+    assert info["action_mask"].dtype == np.int8 and info["action_mask"].shape == (env.action_space.n,)
+    assert np.array_equal(env.unwrapped.action_masks(), info["action_mask"].astype(bool))
+
+
+@pytest.mark.parametrize("entry", REGISTRY, ids=lambda e: e.id)
+def test_documented_like_gymnasium(entry):
+    cls = gym.spec(entry.id).entry_point
+    module, name = cls.split(":")
+    doc = getattr(__import__(module, fromlist=[name]), name).__doc__
+    for section in ("## Description", "## Action Space", "## Observation Space", "## Rewards", "## Starting State", "## Episode End", "## Arguments", "## Version History"):
+        assert section in doc, f"{entry.id} docstring lacks {section}"
+    assert entry.description
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_time_limit_truncates_not_terminates(env_id):
+    spec = gym.spec(env_id)
+    assert spec.max_episode_steps is not None
+    env = gym.make(env_id, max_episode_steps=3)
+    env.reset(seed=0)
+    for _ in range(3):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+    assert truncated or terminated
