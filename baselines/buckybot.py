@@ -54,6 +54,8 @@ class WallFollower(Policy):
             apart), flip the sense of travel, so the robot keeps going the way it went (paper: "if a wall is sensed
             on the opposite side of the robot, the robot will begin following in a clockwise direction").
         too_close_cm: the range assumed for a sensor that did not settle (it is near an obstacle).
+        avoid_failed_tip: not in the paper: after a blocked tip (the accelerometer reports the same face), do not
+            repeat it; try the next-best direction instead of pushing against the wall again.
     """
 
     # sense (+1 counter-clockwise), last wall normal azimuth (frame), has a last wall, last action, has acted,
@@ -69,8 +71,10 @@ class WallFollower(Policy):
         no_backtrack: bool = False,
         clockwise_exception: bool = False,
         too_close_cm: float = 20.0,
+        avoid_failed_tip: bool = False,
     ):
         super().__init__(observation_space, action_space)
+        self.avoid_failed_tip = bool(avoid_failed_tip)
         if d_star_cm <= 0 or x_s_cm < 0 or too_close_cm <= 0:
             raise ValueError("d_star_cm and too_close_cm must be > 0 and x_s_cm >= 0")
         self.d_star_cm, self.x_s_cm = float(d_star_cm), float(x_s_cm)
@@ -84,6 +88,7 @@ class WallFollower(Policy):
             "x_s_cm": self.x_s_cm,
             "no_backtrack": self.no_backtrack,
             "clockwise_exception": self.clockwise_exception,
+            "avoid_failed_tip": self.avoid_failed_tip,
         }
 
     def initial_memory(self):
@@ -97,7 +102,11 @@ class WallFollower(Policy):
             last_normal -= _FRAME_TURN[int(last_action)]  # carry the remembered wall into the new frame
         distance, normal_az = walls_from_readings(reading)
         if np.isnan(distance).all():
-            action = self._open_space(reading, bool(has_moved))
+            # No wall in sight (one sensor alone is an object, not a wall): head for the most open direction.
+            reach = np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading)[_FLANKING_SENSORS].min(axis=1)
+            cost = -reach
+            if has_moved:
+                cost[0] = np.inf  # keep going rather than turn back
             has_wall = 0.0
         else:
             i = int(np.nanargmin(distance))
@@ -110,26 +119,44 @@ class WallFollower(Policy):
             cost = np.hypot(*(_TIP_VECTORS - target).T)
             if self.no_backtrack and has_moved and not too_close[_FLANKING_SENSORS[1:]].any(axis=1).all():
                 cost[0] = np.inf
-            action = int(np.argmin(cost))
             last_normal, has_wall = az, 1.0
+        if self.avoid_failed_tip and tip_failed and acted:
+            cost[int(last_action)] = np.inf
+        if np.isinf(cost).all():
+            cost = np.zeros(3)
+        action = int(np.argmin(cost))
         memory[:] = (sense, last_normal, has_wall, action, 1.0, has_moved)
         return action
-
-    def _open_space(self, reading: np.ndarray, has_moved: bool) -> int:
-        reach = np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading)[_FLANKING_SENSORS].min(axis=1)
-        if has_moved:
-            reach[0] = -np.inf  # keep going rather than turn back
-        return int(np.argmax(reach))
 
 
 class WallFollowExplorer(WallFollower):
     """Explore by following walls: the paper's follower farther from the wall so the beams sweep the rooms.
 
-    Defaults d* = 70 cm, x_s = 30 cm, no backtracking and the clockwise exception (the fixes keep it moving).
+    Defaults: d* = 70 cm, x_s = 30 cm, no backtracking, the clockwise exception and no repeated blocked
+    tips (the fixes keep it moving through doors and past wall ends).
     """
 
-    def __init__(self, observation_space, action_space, d_star_cm=70.0, x_s_cm=30.0, no_backtrack=True, clockwise_exception=True, too_close_cm=20.0):
-        super().__init__(observation_space, action_space, d_star_cm, x_s_cm, no_backtrack, clockwise_exception, too_close_cm)
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        d_star_cm: float = 70.0,
+        x_s_cm: float = 30.0,
+        no_backtrack: bool = True,
+        clockwise_exception: bool = True,
+        too_close_cm: float = 20.0,
+        avoid_failed_tip: bool = True,
+    ):
+        super().__init__(
+            observation_space,
+            action_space,
+            d_star_cm=d_star_cm,
+            x_s_cm=x_s_cm,
+            no_backtrack=no_backtrack,
+            clockwise_exception=clockwise_exception,
+            too_close_cm=too_close_cm,
+            avoid_failed_tip=avoid_failed_tip,
+        )
 
 
 class GoalSeeker(Policy):

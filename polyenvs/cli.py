@@ -39,7 +39,12 @@ def _cmd_list(args) -> int:
         rows.append((entry.id, str(env.action_space), str(env.observation_space), entry.description))
         env.close()
     if args.json:
-        print(json.dumps([dict(zip(("id", "action_space", "observation_space", "description"), r)) for r in rows], indent=1))
+        print(
+            json.dumps(
+                [dict(zip(("id", "action_space", "observation_space", "description"), r, strict=True)) for r in rows],
+                indent=1,
+            )
+        )
         return 0
     width = max(len(r[0]) for r in rows)
     for env_id, act, obs, desc in rows:
@@ -82,7 +87,9 @@ def _cmd_leaderboard(args) -> int:
     if not env_ids:
         raise CliError(f"no environment id contains {args.only!r}")
     episodes = args.episodes if args.episodes is not None else (5 if args.quick else 50)
-    docs = run_leaderboard(env_ids, episodes, Path(args.results_dir), redo=args.redo, progress=lambda m: print(m, file=sys.stderr))
+    docs = run_leaderboard(
+        env_ids, episodes, Path(args.results_dir), redo=args.redo, progress=lambda m: print(m, file=sys.stderr)
+    )
     text = write_leaderboard(docs, Path(args.output), quick=episodes < 50)
     print(text)
     print(f"wrote {args.output}", file=sys.stderr)

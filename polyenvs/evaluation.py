@@ -50,7 +50,10 @@ def evaluate(
         results = [_run_episode(env, agent, s) for s in seeds]
     finally:
         env.close()
-    summary = {"return": float(np.mean([r["return"] for r in results])), "length": float(np.mean([r["length"] for r in results]))}
+    summary = {
+        "return": float(np.mean([r["return"] for r in results])),
+        "length": float(np.mean([r["length"] for r in results])),
+    }
     for key in results[0]["metrics"]:
         summary[key] = float(np.mean([r["metrics"][key] for r in results]))
     return {

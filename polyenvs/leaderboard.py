@@ -36,9 +36,14 @@ def _provenance() -> dict:
     except (OSError, subprocess.SubprocessError):
         commit = ""
     return {
-        "versions": {"polyenvs": polyenvs.__version__, "gymnasium": gymnasium.__version__, "numpy": numpy.__version__, "python": platform.python_version()},
+        "versions": {
+            "polyenvs": polyenvs.__version__,
+            "gymnasium": gymnasium.__version__,
+            "numpy": numpy.__version__,
+            "python": platform.python_version(),
+        },
         "git_commit": commit or None,
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
 
 
@@ -102,7 +107,16 @@ def leaderboard_markdown(documents: list[dict], quick: bool = False) -> str:
         metric_names = list(docs[0]["summary"].keys() - {"return", "length"})
         metric_names.sort()
         lines += [f"## {env_id}", ""]
-        header = ["algo", "env_id", "mean_reward", "std_reward", "n_timesteps", "eval_episodes", "IQM [95% CI]", "normalised"]
+        header = [
+            "algo",
+            "env_id",
+            "mean_reward",
+            "std_reward",
+            "n_timesteps",
+            "eval_episodes",
+            "IQM [95% CI]",
+            "normalised",
+        ]
         lines += ["| " + " | ".join(header + metric_names) + " |", "|" + "---|" * (len(header) + len(metric_names))]
         for d in docs:
             returns = np.array([e["return"] for e in d["episodes"]])

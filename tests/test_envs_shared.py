@@ -182,7 +182,16 @@ def test_documented_like_gymnasium(entry):
     cls = gym.spec(entry.id).entry_point
     module, name = cls.split(":")
     doc = getattr(__import__(module, fromlist=[name]), name).__doc__
-    for section in ("## Description", "## Action Space", "## Observation Space", "## Rewards", "## Starting State", "## Episode End", "## Arguments", "## Version History"):
+    for section in (
+        "## Description",
+        "## Action Space",
+        "## Observation Space",
+        "## Rewards",
+        "## Starting State",
+        "## Episode End",
+        "## Arguments",
+        "## Version History",
+    ):
         assert section in doc, f"{entry.id} docstring lacks {section}"
     assert entry.description
 

@@ -3,17 +3,10 @@
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import gymnasium as gym
 
-# The benchmarks package lives at the repo root, which plain `pytest` (unlike `python -m pytest`) does not import from.
-_REPO_ROOT = str(Path(__file__).resolve().parents[1])
-if _REPO_ROOT not in sys.path:
-    sys.path.insert(0, _REPO_ROOT)
-
-from benchmarks import throughput
+from benchmarks import throughput  # the repo root is on the path (pyproject: [tool.pytest.ini_options] pythonpath)
 
 
 def test_measure_env_steps_on_cartpole_gives_a_positive_finite_rate() -> None:

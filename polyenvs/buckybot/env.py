@@ -147,6 +147,8 @@ class BuckybotEnv(gym.Env):
                     f"reset option 'pose' puts the robot {clearance:.1f} cm from a wall "
                     f"(inside or touching it; the body radius is {self.body_radius_cm} cm)"
                 )
+            if not self.plan.in_main_region(position):
+                raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
             heading = np.radians(heading_deg)
         else:
             position = self.plan.sample_start(rng, _START_CLEARANCE_CM)
@@ -230,7 +232,9 @@ class BuckybotEnv(gym.Env):
 
     def _get_observation(self) -> np.ndarray:
         obs = self._observation
-        obs[0:6] = np.where(self.last_no_return, 1.0, np.where(self.last_too_close, 0.0, self.last_reading / RANGE_MAX_CM))
+        obs[0:6] = np.where(
+            self.last_no_return, 1.0, np.where(self.last_too_close, 0.0, self.last_reading / RANGE_MAX_CM)
+        )
         obs[6:12] = self.last_too_close
         obs[12:18] = self.last_no_return
         obs[18] = self.last_blocked

@@ -74,6 +74,8 @@ def make_floor_plan(floor_plan) -> FloorPlan | None:
         if floor_plan == "random":
             return None
         if floor_plan not in BUILTIN_PLANS:
-            raise ValueError(f"floor_plan must be one of {sorted([*BUILTIN_PLANS, 'random'])} or a list of segments, got {floor_plan!r}")
+            raise ValueError(
+                f"floor_plan must be one of {sorted([*BUILTIN_PLANS, 'random'])} or a list of segments, got {floor_plan!r}"
+            )
         return FloorPlan(BUILTIN_PLANS[floor_plan], name=floor_plan)
     return FloorPlan(floor_plan, name="custom")

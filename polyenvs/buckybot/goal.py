@@ -85,7 +85,12 @@ class BuckybotGoalEnv(BuckybotEnv):
                 goal = np.array([float(v) for v in options["goal"]])
             except (TypeError, ValueError):
                 raise ValueError("reset option 'goal' must be (x_cm, y_cm)") from None
-            if goal.shape != (2,) or float(self.plan.clearance(goal)) < self.body_radius_cm:
+            if (
+                goal.shape != (2,)
+                or not np.isfinite(goal).all()
+                or float(self.plan.clearance(goal)) < self.body_radius_cm
+                or not self.plan.in_main_region(goal)
+            ):
                 raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
         else:
             goal = self._sample_goal(clearance)

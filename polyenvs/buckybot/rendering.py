@@ -61,11 +61,14 @@ class BuckybotRenderer:
         direction = np.stack([np.cos(az), np.sin(az)], axis=-1)
         start = pos + SENSOR_HORIZONTAL_OFFSET_CM * direction
         reading = env.last_reading
-        length = np.where(
-            env.last_no_return,
-            horizontal_range(182.88),
-            np.where(env.last_too_close, 15.0, horizontal_range(np.nan_to_num(reading))),
-        ) - SENSOR_HORIZONTAL_OFFSET_CM
+        length = (
+            np.where(
+                env.last_no_return,
+                horizontal_range(182.88),
+                np.where(env.last_too_close, 15.0, horizontal_range(np.nan_to_num(reading))),
+            )
+            - SENSOR_HORIZONTAL_OFFSET_CM
+        )
         colours = np.where(
             env.last_no_return[:, None], BEAM_NONE, np.where(env.last_too_close[:, None], BEAM_TOO_CLOSE, BEAM_VALID)
         )

@@ -66,7 +66,10 @@ class TipModel:
         """(3, 2) mean displacement of each of the three tips in the motion frame."""
         c, s = np.cos(TIP_ANGLES_RAD), np.sin(TIP_ANGLES_RAD)
         # Forward along (c, s); "right" of the tip direction is (s, -c).
-        return np.stack([self.forward_mean_cm * c + self.lateral_mean_cm * s, self.forward_mean_cm * s - self.lateral_mean_cm * c], axis=-1)
+        return np.stack(
+            [self.forward_mean_cm * c + self.lateral_mean_cm * s, self.forward_mean_cm * s - self.lateral_mean_cm * c],
+            axis=-1,
+        )
 
 
 class BuckybotSimulator:

@@ -155,6 +155,14 @@ class FloorPlan:
         main = int(candidates[0][np.argmax(candidates[1])]) if candidates[0].size else -1
         return FreeSpaceGrid(origin, float(cell_cm), clearance, region, main)
 
+    def in_main_region(self, point, cell_cm: float = 10.0) -> bool:
+        """Whether ``point`` lies in the plan's main free region (inside the room, not outside its walls)."""
+        g = self.grid(cell_cm)
+        row, col = g.cell_index(np.asarray(point, dtype=np.float64))
+        # Cells hugging a wall are not labelled; a point there belongs to the region of its neighbours.
+        block = g.region[max(row - 1, 0) : row + 2, max(col - 1, 0) : col + 2]
+        return bool((block == g.main_region).any())
+
     def sample_start(self, rng: np.random.Generator, min_clearance: float, cell_cm: float = 10.0) -> np.ndarray:
         """A uniformly drawn point of the main region whose clearance is at least ``min_clearance``."""
         g = self.grid(cell_cm)

@@ -3,13 +3,14 @@
 ``Canvas`` maps a world rectangle (y up) onto an ``(H, W, 3)`` uint8 image (row 0 at the top) and draws the few
 primitives a planar scene needs: segments (walls, beams), polylines (paths), filled polygons (robot bodies), discs
 and point markers. There is no anti-aliasing. Every primitive is drawn with a constant number of numpy calls
-whatever the number of points, so a full frame takes on the order of a millisecond.
+whatever the number of points, so a typical 480x480 frame takes a few milliseconds.
 
 Pixel convention: :meth:`Canvas.to_pixels` returns continuous ``(col, row)`` coordinates in which pixel ``(c, r)``
 covers ``[c, c + 1) x [r, r + 1)``; its centre is ``(c + 0.5, r + 0.5)``. Area fills (polygons, discs) test pixel
 centres; strokes (lines, markers) paint the pixel each sample falls in, plus a disc-shaped footprint of neighbours.
 
-Everything clips silently to the image, non-finite points are skipped and empty inputs draw nothing.
+Everything clips silently to the image, non-finite points (and points so far away that their pixel coordinates
+overflow) are skipped, and empty inputs draw nothing.
 """
 
 from __future__ import annotations
@@ -23,15 +24,15 @@ from polyenvs.core.validation import check_finite, check_positive
 
 __all__ = ["Canvas"]
 
-# At most half a pixel between samples along a stroke, so consecutive samples land in the same or adjacent pixels
-# and a 1-px line has no gaps.
-_SAMPLE_SPACING_PX = 0.5
+# Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
+# bounds-checked pixel by pixel. Grown on demand for very wide strokes.
+_INITIAL_BORDER_PX = 8
 
 
 @lru_cache(maxsize=32)
 def _footprint(radius_px: float) -> tuple[np.ndarray, np.ndarray]:
     """``(drow, dcol)`` offsets of the pixels whose centres lie within ``radius_px`` of a pixel centre."""
-    reach = int(math.floor(radius_px))
+    reach = math.floor(radius_px)
     d = np.arange(-reach, reach + 1)
     drow, dcol = np.meshgrid(d, d, indexing="ij")
     keep = drow * drow + dcol * dcol <= radius_px * radius_px
@@ -52,17 +53,18 @@ def _as_points(name: str, points) -> np.ndarray:
     return p
 
 
-def _as_colors(name: str, color, count: int) -> np.ndarray:
-    """One RGB triple ``(3,)`` or one per item ``(count, 3)``, as uint8 in 0..255."""
+def _as_colors(name: str, color, count: int | None = None) -> np.ndarray:
+    """One RGB triple ``(3,)``, or (if ``count`` is given) one per item ``(count, 3)``, as uint8 in 0..255."""
     c = np.asarray(color, dtype=np.float64)
-    if c.shape != (3,) and c.shape != (count, 3):
-        raise ValueError(f"{name} must be an RGB triple or have shape ({count}, 3), got {c.shape}")
+    if c.shape != (3,) and (count is None or c.shape != (count, 3)):
+        expected = "an RGB triple" if count is None else f"an RGB triple or have shape ({count}, 3)"
+        raise ValueError(f"{name} must be {expected}, got shape {c.shape}")
     if not np.isfinite(c).all():
         raise ValueError(f"{name} must be finite")
     return np.clip(np.rint(c), 0, 255).astype(np.uint8)
 
 
-def _clip_segments(a: np.ndarray, b: np.ndarray, low: tuple[float, float], high: tuple[float, float]):
+def _clip_segments(a: np.ndarray, b: np.ndarray, low: np.ndarray, high: np.ndarray):
     """Liang-Barsky clipping of segments ``a -> b`` to a box; returns clipped ends and a keep mask.
 
     Clipping before sampling bounds the sample count by the frame size, so a wall a kilometre off-screen costs
@@ -79,8 +81,10 @@ def _clip_segments(a: np.ndarray, b: np.ndarray, low: tuple[float, float], high:
                 ratio = q / p
                 t0 = np.where(p < 0, np.maximum(t0, ratio), t0)
                 t1 = np.where(p > 0, np.minimum(t1, ratio), t1)
-    keep &= t0 <= t1
-    return a + t0[:, None] * d, a + t1[:, None] * d, keep
+        start, end = a + t0[:, None] * d, a + t1[:, None] * d
+    # Ends near the float limit overflow (inf - inf); such segments are dropped rather than drawn wrongly.
+    keep &= (t0 <= t1) & np.isfinite(start).all(axis=1) & np.isfinite(end).all(axis=1)
+    return start, end, keep
 
 
 class Canvas:
@@ -129,8 +133,9 @@ class Canvas:
         self.scale = min(self.width / span_x, self.height / span_y)  # pixels per world unit
         self._centre = (0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
         self.bounds = (xmin, ymin, xmax, ymax)
-        self._image = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        self._image[...] = _as_colors("background", background, 1)
+        self._background = _as_colors("background", background)
+        self._border = -1
+        self._reserve_border(_INITIAL_BORDER_PX)
 
     @property
     def image(self) -> np.ndarray:
@@ -143,8 +148,9 @@ class Canvas:
         if p.shape[-1:] != (2,):
             raise ValueError(f"points must have shape (..., 2), got {p.shape}")
         out = np.empty_like(p)
-        out[..., 0] = (p[..., 0] - self._centre[0]) * self.scale + 0.5 * self.width
-        out[..., 1] = 0.5 * self.height - (p[..., 1] - self._centre[1]) * self.scale
+        with np.errstate(over="ignore"):  # absurdly far points become inf, which every primitive skips
+            out[..., 0] = (p[..., 0] - self._centre[0]) * self.scale + 0.5 * self.width
+            out[..., 1] = 0.5 * self.height - (p[..., 1] - self._centre[1]) * self.scale
         return out
 
     def lines(self, starts, ends, color, width_px: float = 1.0) -> None:
@@ -162,7 +168,7 @@ class Canvas:
     def polyline(self, points, color, width_px: float = 1.0) -> None:
         """Draw the connected path through ``points`` (world ``(N, 2)``); a NaN point breaks the path there."""
         p = _as_points("points", points)
-        colors = _as_colors("color", color, 1)
+        colors = _as_colors("color", color)
         width_px = check_positive("width_px", width_px)
         if len(p) == 0:
             return
@@ -178,13 +184,13 @@ class Canvas:
         Filled by the even-odd rule, so any simple polygon works (convex or not) in either winding order.
         """
         v = _as_points("vertices", vertices)
-        fill = _as_colors("color", color, 1)
-        edge = None if outline is None else _as_colors("outline", outline, 1)
-        v = v[np.isfinite(v).all(axis=1)]
-        if len(v) == 0:
-            return
+        fill = _as_colors("color", color)
+        edge = None if outline is None else _as_colors("outline", outline)
         px = self.to_pixels(v)
-        if len(v) >= 3:
+        px = px[np.isfinite(px).all(axis=1)]
+        if len(px) == 0:
+            return
+        if len(px) >= 3:
             self._fill_polygon(px, fill)
         if edge is not None:
             self._stroke(px, np.roll(px, -1, axis=0), edge, 1.0)
@@ -195,22 +201,22 @@ class Canvas:
         if c.shape != (2,):
             raise ValueError(f"centre must have shape (2,), got {c.shape}")
         radius = check_positive("radius", radius, allow_zero=True)
-        fill = _as_colors("color", color, 1)
-        if not np.isfinite(c).all():
-            return
-        cx, cy = self.to_pixels(c)
+        fill = _as_colors("color", color)
+        cx, cy = (float(v) for v in self.to_pixels(c))
         r = radius * self.scale
+        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(r)):
+            return
         c0, c1 = max(math.floor(cx - r), 0), min(math.floor(cx + r) + 1, self.width)
         r0, r1 = max(math.floor(cy - r), 0), min(math.floor(cy + r) + 1, self.height)
         if c0 >= c1 or r0 >= r1:
             return
         dx = np.arange(c0, c1) + 0.5 - cx
         dy = np.arange(r0, r1) + 0.5 - cy
-        inside = dy[:, None] ** 2 + dx[None, :] ** 2 <= r * r
+        inside = np.hypot(dy[:, None], dx[None, :]) <= r  # hypot, not squares: a huge far-off disc must not overflow
         # Sub-pixel discs would otherwise vanish; the centre pixel is always inside the clipped box if on-screen.
         if c0 <= cx < c1 and r0 <= cy < r1:
             inside[math.floor(cy) - r0, math.floor(cx) - c0] = True
-        self._image[r0:r1, c0:c1][inside] = fill
+        self._cells[r0:r1, c0:c1][inside] = fill.view("V3")[0]
 
     def points(self, points, color, radius_px: float = 1.5) -> None:
         """Draw a round marker of ``radius_px`` pixels at each world point ``(N, 2)``; ``color`` RGB or ``(N, 3)``."""
@@ -221,72 +227,111 @@ class Canvas:
             return
         px = self.to_pixels(p)
         reach = math.floor(radius_px) + 1
-        on_screen = np.isfinite(px).all(axis=1)
-        on_screen &= (px[:, 0] > -reach) & (px[:, 0] < self.width + reach)
-        on_screen &= (px[:, 1] > -reach) & (px[:, 1] < self.height + reach)
+        self._reserve_border(2 * reach)
+        # Markers centred more than their radius off-frame are invisible; dropping them also keeps huge
+        # coordinates away from the integer cast.
+        on_screen = (px > -reach).all(axis=1) & (px < (self.width + reach, self.height + reach)).all(axis=1)
         index = np.flatnonzero(on_screen)
-        px = px[index]
-        self._stamp(
-            np.floor(px[:, 1]).astype(np.intp),
-            np.floor(px[:, 0]).astype(np.intp),
-            colors if colors.ndim == 1 else colors[index],
-            radius_px,
-        )
+        cells = np.floor(px[index]).astype(np.intp)
+        self._stamp(self._flat_index(cells), colors if colors.ndim == 1 else colors[index], radius_px)
+
+    def _reserve_border(self, border: int) -> None:
+        """Make the hidden border at least ``border`` px wide, keeping the frame's contents."""
+        if border <= self._border:
+            return
+        old = self._image if self._border >= 0 else None
+        shape = (self.height + 2 * border, self.width + 2 * border, 3)
+        buffer = np.empty(shape, dtype=np.uint8)
+        # Filling one row and copying it down is far faster than broadcasting a 3-vector over every pixel.
+        buffer[0] = self._background
+        buffer[1:] = buffer[0]
+        self._border = border
+        self._stride = shape[1]
+        self._image = buffer[border : border + self.height, border : border + self.width]
+        if old is not None:
+            self._image[...] = old
+        # One 3-byte void item per pixel: a masked or fancy-indexed write then moves whole RGB triples, several
+        # times faster than broadcasting a colour over the last axis of the (H, W, 3) array.
+        self._pixels = buffer.reshape(-1).view("V3")
+        self._cells = self._pixels.reshape(shape[:2])[border : border + self.height, border : border + self.width]
+
+    def _flat_index(self, cells: np.ndarray) -> np.ndarray:
+        """Index into ``self._pixels`` of integer pixel cells ``(M, 2)`` given as ``(col, row)``."""
+        return (cells[:, 1] + self._border) * self._stride + (cells[:, 0] + self._border)
 
     def _stroke(self, a: np.ndarray, b: np.ndarray, colors: np.ndarray, width_px: float) -> None:
-        """Draw pixel-space segments ``a -> b`` by sampling them densely and stamping a round footprint."""
+        """Draw pixel-space segments ``a -> b``: DDA-sample them and stamp a round footprint at every sample."""
         radius = 0.5 * width_px
         pad = math.floor(radius) + 1
-        finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
-        a, b = a[finite], b[finite]
-        a, b, keep = _clip_segments(a, b, (-pad, -pad), (self.width + pad, self.height + pad))
-        index = np.flatnonzero(keep)
-        if index.size == 0:
-            return
-        a, b = a[index], b[index]
+        self._reserve_border(2 * pad)
+        low = np.array([-pad, -pad], dtype=np.float64)
+        high = np.array([self.width + pad, self.height + pad], dtype=np.float64)
+        # Typically every segment is on-screen and finite (NaN compares False), so clipping is skipped outright.
+        within = (np.minimum(a, b) >= low).all(axis=1) & (np.maximum(a, b) <= high).all(axis=1)
+        index = None
+        if not within.all():
+            index = np.flatnonzero(np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1))
+            a, b, keep = _clip_segments(a[index], b[index], low, high)
+            index, a, b = index[keep], a[keep], b[keep]
+            if index.size == 0:
+                return
         d = b - a
-        count = np.ceil(np.hypot(d[:, 0], d[:, 1]) / _SAMPLE_SPACING_PX).astype(np.intp) + 1
-        segment = np.repeat(np.arange(len(a)), count)
+        # One sample per pixel step along the major axis: consecutive samples are at most one pixel apart on
+        # each axis, so the stroke is 8-connected (a Bresenham-like line) with no duplicated work.
+        count = np.ceil(np.abs(d).max(axis=1)).astype(np.intp) + 1
+        increment = d / np.maximum(count - 1, 1)[:, None]
         first = np.cumsum(count) - count
-        step = np.arange(segment.size) - first[segment]
-        t = step / np.maximum(count - 1, 1)[segment]
-        rows = np.floor(a[segment, 1] + t * d[segment, 1]).astype(np.intp)
-        cols = np.floor(a[segment, 0] + t * d[segment, 0]).astype(np.intp)
-        # Dense sampling hits each pixel about twice; dropping repeats halves the footprint work for thick strokes.
-        fresh = np.ones(rows.size, dtype=bool)
-        fresh[1:] = (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1])
+        step = np.arange(int(count[-1] + first[-1])) - np.repeat(first, count)
+        samples = np.repeat(a, count, axis=0) + step[:, None] * np.repeat(increment, count, axis=0)
+        flat = self._flat_index(np.floor(samples).astype(np.intp))
+        # Connected segments share end pixels; painting them once saves a footprint per joint.
+        fresh = np.empty(flat.size, dtype=bool)
+        fresh[0] = True
+        np.not_equal(flat[1:], flat[:-1], out=fresh[1:])
         if colors.ndim == 1:
-            self._stamp(rows[fresh], cols[fresh], colors, radius)
+            self._stamp(flat[fresh], colors, radius)
         else:
-            self._stamp(rows[fresh], cols[fresh], colors[finite][index][segment[fresh]], radius)
+            per_segment = colors if index is None else colors[index]
+            self._stamp(flat[fresh], np.repeat(per_segment, count, axis=0)[fresh], radius)
 
-    def _stamp(self, rows: np.ndarray, cols: np.ndarray, colors: np.ndarray, radius_px: float) -> None:
-        """Paint the footprint of ``radius_px`` around each pixel ``(rows[i], cols[i])``, clipped to the image."""
+    def _stamp(self, flat: np.ndarray, colors: np.ndarray, radius_px: float) -> None:
+        """Paint the footprint of ``radius_px`` around each pixel index ``flat`` (see ``_flat_index``).
+
+        Callers guarantee every footprint pixel lies within the hidden border, so no bounds test is needed.
+        """
         drow, dcol = _footprint(float(radius_px))
-        r = (rows[:, None] + drow[None, :]).ravel()
-        c = (cols[:, None] + dcol[None, :]).ravel()
-        inside = (r >= 0) & (r < self.height) & (c >= 0) & (c < self.width)
+        offsets = drow * self._stride + dcol
+        index = flat if len(offsets) == 1 else (flat[:, None] + offsets[None, :]).ravel()
         if colors.ndim == 1:
-            self._image[r[inside], c[inside]] = colors
+            self._pixels[index] = colors.view("V3")[0]
         else:
-            self._image[r[inside], c[inside]] = np.repeat(colors, len(drow), axis=0)[inside]
+            self._pixels[index] = np.repeat(np.ascontiguousarray(colors).view("V3").ravel(), len(offsets))
 
     def _fill_polygon(self, px: np.ndarray, fill: np.ndarray) -> None:
-        """Fill a pixel-space polygon by the even-odd rule over its clipped bounding box only."""
+        """Fill a pixel-space polygon by the even-odd rule over its clipped bounding box only.
+
+        A pixel is inside when an odd number of edges cross its row of pixel centres to its right. All edges are
+        handled at once: each (edge, row) crossing adds one to a per-row histogram at the first column it does
+        not cover, and a right-to-left cumulative sum turns the histogram into per-pixel crossing counts.
+        """
         c0, c1 = max(math.floor(px[:, 0].min()), 0), min(math.ceil(px[:, 0].max()), self.width)
         r0, r1 = max(math.floor(px[:, 1].min()), 0), min(math.ceil(px[:, 1].max()), self.height)
         if c0 >= c1 or r0 >= r1:
             return
-        xc = np.arange(c0, c1) + 0.5
-        yc = np.arange(r0, r1) + 0.5
-        inside = np.zeros((r1 - r0, c1 - c0), dtype=bool)
-        for (x0, y0), (x1, y1) in zip(px, np.roll(px, -1, axis=0)):
-            if y0 == y1:
-                continue  # horizontal edges never cross a row of pixel centres under the half-open rule
-            # Half-open in y so a vertex shared by two edges is counted once.
-            crosses = (y0 <= yc) != (y1 <= yc)
-            if not crosses.any():
-                continue
-            x_at = x0 + (yc[crosses] - y0) * ((x1 - x0) / (y1 - y0))
-            inside[crosses] ^= xc[None, :] < x_at[:, None]
-        self._image[r0:r1, c0:c1][inside] = fill
+        h, w = r1 - r0, c1 - c0
+        y_centre = np.arange(r0, r1) + 0.5
+        start, end = px, np.roll(px, -1, axis=0)
+        # Half-open in y, so a vertex shared by two edges counts once and horizontal edges never count.
+        edge, row = np.nonzero((start[:, 1, None] <= y_centre) != (end[:, 1, None] <= y_centre))
+        if edge.size == 0:
+            return
+        with np.errstate(over="ignore", invalid="ignore"):
+            d = end[edge] - start[edge]
+            x_cross = start[edge, 0] + (y_centre[row] - start[edge, 1]) * (d[:, 0] / d[:, 1])
+            # Columns c with centre c0 + c + 0.5 < x_cross are 0 .. covered - 1. fmax maps a crossing lost to
+            # overflow (NaN, from vertices near the float limit) to 0, i.e. no effect.
+            covered = np.fmin(np.fmax(np.ceil(x_cross - c0 - 0.5), 0), w).astype(np.intp)
+        histogram = np.bincount(row * (w + 1) + covered, minlength=h * (w + 1)).reshape(h, w + 1)
+        # [r, c]: crossings with covered > c, modulo 256 (only the parity matters).
+        right_of = np.cumsum(histogram[:, :0:-1], axis=1, dtype=np.uint8)[:, ::-1]
+        self._cells[r0:r1, c0:c1][(right_of & 1).view(bool)] = fill.view("V3")[0]

@@ -1,0 +1,104 @@
+"""Hand baselines: the paper's wall follower and its failure modes, and every baseline beating random."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from baselines import available_policies, make_policy
+from polyenvs.evaluation import evaluate
+
+WALL = "polyenvs/BuckybotWallFollow-v0"
+
+
+def _summary(env_id, policy, plan=None, episodes=6, **policy_kwargs):
+    env_kwargs = {"floor_plan": plan} if plan else {}
+    return evaluate(env_id, policy, episodes=episodes, seed=100, env_kwargs=env_kwargs, policy_kwargs=policy_kwargs)
+
+
+def test_wall_follower_laps_a_rectangular_room_counter_clockwise():
+    """With the paper's noise: at least one counter-clockwise lap per episode, mean |d - d*| under 10 cm."""
+    doc = _summary(WALL, "paper", "rectangle")
+    for episode in doc["episodes"]:
+        assert episode["metrics"]["laps"] >= 1
+        assert episode["metrics"]["progress_cm"] > 0  # counter-clockwise along the walls
+        assert episode["metrics"]["wall_distance_error_cm"] < 10.0
+        assert episode["metrics"]["blocked_tips"] == 0
+    assert doc["summary"]["perimeter_fraction"] > 0.95
+
+
+def test_corner_oscillation_is_observable_and_reduced_by_the_rules():
+    """Paper: at 90° corners the follower alternates between faces; larger x_s and no backtracking help."""
+    plain = _summary(WALL, "wall_follower", "corner")["summary"]["oscillation_events"]
+    larger_xs = _summary(WALL, "wall_follower", "corner", x_s_cm=40.0)["summary"]["oscillation_events"]
+    no_backtrack = _summary(WALL, "wall_follower", "corner", no_backtrack=True)["summary"]["oscillation_events"]
+    assert plain > 50  # back-and-forth tips per 500 steps
+    assert larger_xs < 0.6 * plain
+    assert no_backtrack < 5
+
+
+def test_hallway_oscillation_is_observable_and_reduced_by_the_rules():
+    """Paper: nearly equidistant from two walls the follower alternates; the clockwise exception (with the
+    other rules) stops it, at the price of travelling clockwise, which the paper also warns about."""
+    plain = _summary(WALL, "wall_follower", "hallway")["summary"]
+    rules = _summary(WALL, "wall_follower_rules", "hallway")["summary"]
+    exception_only = _summary(WALL, "wall_follower", "hallway", clockwise_exception=True)["summary"]
+    assert plain["oscillation_events"] > 30
+    assert exception_only["oscillation_events"] < plain["oscillation_events"]
+    assert rules["oscillation_events"] < 5
+    assert rules["progress_cm"] < plain["progress_cm"]
+
+
+@pytest.mark.parametrize(
+    "env_id, metric",
+    [
+        ("polyenvs/BuckybotWallFollow-v0", "perimeter_fraction"),
+        ("polyenvs/BuckybotExplore-v0", "coverage"),
+        ("polyenvs/BuckybotGoal-v0", "success"),
+    ],
+)
+def test_paper_baseline_beats_random(env_id, metric):
+    paper = _summary(env_id, "paper", episodes=4)["summary"]
+    rand = _summary(env_id, "random", episodes=4)["summary"]
+    assert paper[metric] > rand[metric] + 0.2
+    assert paper["return"] > rand["return"]
+
+
+def test_every_registered_policy_runs():
+    for env_id in ("polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0", "polyenvs/BuckybotGoal-v0"):
+        for name in available_policies(env_id):
+            doc = evaluate(env_id, name, episodes=1, seed=0)
+            assert doc["episodes"][0]["length"] > 0
+
+
+def test_predict_follows_the_sb3_convention():
+    env = gym.make(WALL)
+    policy = make_policy("paper", WALL, env.observation_space, env.action_space)
+    obs, _ = env.reset(seed=0)
+    action, state = policy.predict(obs)
+    assert env.action_space.contains(int(action))
+    batch = np.stack([obs, obs])
+    actions, state = policy.predict(batch, state=None, episode_start=np.array([True, True]))
+    assert actions.shape == (2,) and state.shape[0] == 2
+    again, _ = policy.predict(batch, state=state, episode_start=np.array([True, True]))
+    np.testing.assert_array_equal(actions, again)  # episode_start clears the memory
+
+
+def test_sb3_evaluate_policy_accepts_a_baseline():
+    evaluation = pytest.importorskip("stable_baselines3.common.evaluation")
+    from stable_baselines3.common.env_util import make_vec_env
+
+    venv = make_vec_env(WALL, n_envs=2, seed=0)
+    policy = make_policy("paper", WALL, venv.observation_space, venv.action_space)
+    mean, _ = evaluation.evaluate_policy(policy, venv, n_eval_episodes=2)
+    assert mean > 0
+
+
+def test_unknown_policies_and_parameters_are_clear_errors():
+    with pytest.raises(ValueError, match="unknown policy"):
+        evaluate(WALL, "nope", episodes=1)
+    with pytest.raises(ValueError, match="bad parameters"):
+        evaluate(WALL, "paper", episodes=1, policy_kwargs={"nonsense": 1})
+    with pytest.raises(ValueError, match="unknown environment"):
+        evaluate("polyenvs/Missing-v0", "paper", episodes=1)

@@ -1,0 +1,184 @@
+"""Buckybot environment behaviour: starts, reset options, blocked tips, floor plans, observations, metrics."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import polyenvs  # noqa: F401
+from polyenvs.buckybot.floor_plans import BUILTIN_PLANS
+from polyenvs.buckybot.sensors import RANGE_MAX_CM
+
+IDS = ["polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0", "polyenvs/BuckybotGoal-v0"]
+
+
+@pytest.mark.parametrize("plan", [*BUILTIN_PLANS, "random"])
+def test_seeded_starts_are_clear_of_walls(plan):
+    env = gym.make(IDS[0], floor_plan=plan)
+    starts = set()
+    for seed in range(25):
+        _, info = env.reset(seed=seed)
+        assert info["wall_distance_cm"] > 13.0 + 9.1
+        assert info["action_mask"].all()
+        starts.add(tuple(np.round(info["pose"][:2], 3)))
+    assert len(starts) == 25  # the initial state is randomised
+
+
+def test_reset_options_place_the_robot():
+    env = gym.make(IDS[0])
+    _, info = env.reset(seed=0, options={"pose": (100.0, 150.0, 30.0), "face": 7})
+    np.testing.assert_allclose(info["pose"], [100.0, 150.0, 30.0])
+    np.testing.assert_allclose(info["dead_reckoned_pose"], [100.0, 150.0, 30.0])
+    assert info["face"] == 7
+    np.testing.assert_allclose(info["tip_directions_deg"], [30.0, 150.0, 270.0])
+    assert len(info["actuators"]) == 3 and set(info["actuators"]) <= set("ABCDEFGHIJKL")
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"pose": (5.0, 150.0, 0.0)}, "from a wall"),
+        ({"pose": (-50.0, 150.0, 0.0)}, "outside"),
+        ({"pose": (1.0, 2.0)}, "pose"),
+        ({"pose": (np.nan, 2.0, 0.0)}, "finite"),
+        ({"face": 0}, "face"),
+        ({"face": 21}, "face"),
+        ({"bogus": 1}, "unknown reset option"),
+    ],
+)
+def test_bad_reset_options(options, match):
+    env = gym.make(IDS[0])
+    with pytest.raises(ValueError, match=match):
+        env.reset(seed=0, options=options)
+
+
+def test_blocked_tip_stays_put_and_is_flagged():
+    env = gym.make(IDS[0])
+    # 20 cm from the west wall, frame direction 1 (120°+60° = 180°) points at it.
+    _, info = env.reset(seed=0, options={"pose": (20.0, 150.0, 60.0), "face": 1})
+    assert info["action_mask"].tolist() == [1, 0, 1]
+    obs, reward, _, _, info = env.step(1)
+    assert info["blocked"] and info["reward_blocked"] == -1.0
+    np.testing.assert_allclose(info["pose"], [20.0, 150.0, 60.0])
+    assert info["face"] == 1
+    assert obs[18] == 1.0  # tip_failed
+    assert info["episode_metrics"]["blocked_tips"] == 1
+    obs, *_, info = env.step(0)
+    assert not info["blocked"] and obs[18] == 0.0
+
+
+def test_a_tip_moves_one_lattice_step_and_turns_the_frame():
+    env = gym.make(IDS[0], noise_scale=0.0)
+    _, info = env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0), "face": 1})
+    _, _, _, _, info = env.step(1)
+    np.testing.assert_allclose(
+        info["pose"][:2], [200.0 + 9.129 * np.cos(np.radians(120)), 150.0 + 9.129 * np.sin(np.radians(120))], atol=1e-3
+    )
+    assert info["heading_deg"] == pytest.approx(300.0)  # 120° + 180°: direction 0 now points back
+    assert info["face"] != 1
+    _, _, _, _, info = env.step(0)  # back where it came from, on the same face
+    np.testing.assert_allclose(info["pose"][:2], [200.0, 150.0], atol=1e-9)
+    assert info["face"] == 1
+
+
+def test_too_close_and_no_return_are_distinguishable():
+    env = gym.make(IDS[0], range_noise_scale=0.0)
+    # Facing the east wall from 25 cm: the sensors flanking direction 0 read too close; the room is 400 wide,
+    # so the sensors looking west along the long axis see nothing within 182.88 cm.
+    obs, info = env.reset(seed=0, options={"pose": (375.0, 150.0, 0.0)})
+    too_close, no_return = obs[6:12].astype(bool), obs[12:18].astype(bool)
+    assert too_close[[0, 5]].all() and obs[0] == 0.0
+    assert no_return[[2, 3]].all() and obs[2] == 1.0
+    valid = ~(too_close | no_return)
+    assert ((obs[:6][valid] >= 30.48 / RANGE_MAX_CM - 1e-6) & (obs[:6][valid] <= 1.0)).all()
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"floor_plan": "nowhere"}, "floor_plan"),
+        ({"floor_plan": []}, "floor_plan"),
+        ({"floor_plan": [(0, 0, 0, 0), (0, 0, 100, 0)]}, "degenerate"),
+        ({"floor_plan": [(0, 0, 1, 1, 5)]}, "floor_plan"),
+        ({"floor_plan": [(0, 0, 30, 0), (30, 0, 30, 30), (30, 30, 0, 30), (0, 30, 0, 0)]}, "floor_plan"),
+        ({"noise_scale": -0.1}, "noise_scale"),
+        ({"noise_scale": 2.0}, "noise_scale"),
+        ({"range_noise_scale": float("nan")}, "range_noise_scale"),
+        ({"heading_sd_deg": -1.0}, "heading_sd_deg"),
+        ({"step_forward_cm": 0.0}, "step_forward_cm"),
+        ({"body_radius_cm": -3.0}, "body_radius_cm"),
+        ({"render_mode": "ascii"}, "render_mode"),
+    ],
+)
+@pytest.mark.filterwarnings("ignore:.*render_mode")
+def test_bad_constructor_arguments_name_the_parameter(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make(IDS[0], **kwargs)
+
+
+def test_task_argument_errors():
+    with pytest.raises(ValueError, match="d_star_cm"):
+        gym.make(IDS[0], d_star_cm=0)
+    with pytest.raises(ValueError, match="coverage_goal"):
+        gym.make(IDS[1], coverage_goal=1.5)
+    with pytest.raises(ValueError, match="goal_distance_cm"):
+        gym.make(IDS[2], goal_distance_cm=(300, 100))
+
+
+def test_user_floor_plan():
+    walls = [(0, 0, 300, 0), (300, 0, 300, 200), (300, 200, 0, 200), (0, 200, 0, 0), (140, 80, 160, 80)]
+    env = gym.make(IDS[0], floor_plan=walls)
+    _, info = env.reset(seed=0)
+    assert info["wall_distance_cm"] > 22
+
+
+def test_random_rooms_follow_the_seed():
+    env = gym.make(IDS[1], floor_plan="random")
+    env.reset(seed=11)
+    first = env.unwrapped.plan.segments.copy()
+    env.reset(seed=12)
+    assert not np.array_equal(first, env.unwrapped.plan.segments)
+    env.reset(seed=11)
+    np.testing.assert_array_equal(first, env.unwrapped.plan.segments)
+
+
+def test_dead_reckoning_drifts_with_noise_and_not_without():
+    for scale, drifts in ((0.0, False), (1.0, True)):
+        env = gym.make(IDS[0], noise_scale=scale)
+        env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0)})
+        for a in [1, 2] * 40:  # 80 tips back and forth across the middle of the room
+            _, _, _, _, info = env.step(a if a == 1 else 0)
+        gap = np.hypot(*(info["pose"][:2] - info["dead_reckoned_pose"][:2]))
+        assert (gap > 0.5) == drifts
+
+
+def test_explore_map_error_grows_with_distance():
+    env = gym.make(IDS[1], floor_plan="rectangle")
+    errors = []
+    for seed in range(4):
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+        early = None
+        for t in range(400):
+            *_, info = env.step(env.action_space.sample())
+            if t == 20:
+                early = info["episode_metrics"]["map_error_cm"]
+        errors.append((early, info["episode_metrics"]["map_error_cm"]))
+    assert all(late > early for early, late in errors)
+
+
+def test_goal_observation_is_dead_reckoned():
+    env = gym.make(IDS[2], noise_scale=0.0)
+    obs, info = env.reset(seed=0, options={"pose": (100.0, 100.0, 0.0), "goal": (100.0, 300.0)})
+    bearing = np.degrees(np.arctan2(obs[20], obs[19]))
+    assert bearing == pytest.approx(90.0, abs=1e-4)  # 90° left of frame direction 0
+    assert obs[21] == pytest.approx(np.tanh(200.0 / 200.0), abs=1e-6)
+
+
+def test_goal_success_terminates():
+    env = gym.make(IDS[2], noise_scale=0.0)
+    env.reset(seed=0, options={"pose": (100.0, 100.0, 0.0), "goal": (109.0, 100.0)})
+    _, reward, terminated, truncated, info = env.step(0)
+    assert terminated and not truncated
+    assert info["reward_goal"] == 10.0 and info["episode_metrics"]["success"] == 1.0
