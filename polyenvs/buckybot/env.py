@@ -7,6 +7,7 @@ A task subclasses :class:`BuckybotEnv` and fills in five hooks (``_task_reset``,
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -15,7 +16,6 @@ from gymnasium import spaces
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.floor_plans import make_floor_plan, random_room
-from polyenvs.buckybot.sensors import RANGE_MAX_CM
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.validation import check_action, check_in_range, check_positive
@@ -30,6 +30,12 @@ SENSOR_OBSERVATION_STRUCTURE = {
     "tip_failed": (18, 19),  # 1 if the last tip was blocked (the accelerometer reports the same face)
 }
 _N_SENSOR_OBS = 19
+#: Actuator letters each action extends, by (face, edge at frame direction 0).
+_ACTUATOR_NAMES = [
+    ["".join(geo.ACTUATOR_LETTERS[geo.FACE_CORNER_ACTUATOR[f, (e0 + j) % 3]] for j in range(3)) for e0 in range(3)]
+    for f in range(geo.N_FACES)
+]
+_INT_TYPES = (int, np.int64, np.int32, np.intp)
 # The tips undo one another only geometrically; this clearance guarantees all three tips are free at a start.
 _START_CLEARANCE_CM = geo.BODY_RADIUS_CM + geo.STEP_LENGTH_CM + 1.0
 
@@ -118,7 +124,6 @@ class BuckybotEnv(gym.Env):
         self.blocked_tips = 0
         self.oscillation_events = 0
         self._last_tip_moved = False
-        self.last_reading = np.full(6, np.nan)
         self.last_blocked = False
 
     # --- Gymnasium API ----------------------------------------------------------------------------------------
@@ -171,9 +176,12 @@ class BuckybotEnv(gym.Env):
     def step(self, action):
         if self.plan is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        check_action(self.action_space, action)
-        a = int(action)
-        normals = self.np_random.standard_normal((1, 9))
+        if type(action) in _INT_TYPES and 0 <= action < 3:
+            a = int(action)  # the common case, checked without the space's slower generic test
+        else:
+            check_action(self.action_space, action)
+            a = int(action)
+        normals = self.np_random.standard_normal((1, 9))  # 3 for the tip, 6 for the range finders
         self._action_buffer[0] = a
         blocked = bool(self.sim.tip(self._action_buffer, normals[:, :3])[0])
         self.steps += 1
@@ -223,20 +231,31 @@ class BuckybotEnv(gym.Env):
     def _sense(self, normals: np.ndarray | None = None) -> None:
         if normals is None:
             normals = self.np_random.standard_normal((1, 6))
-        reading, too_close, no_return = self.sim.sense(normals)
-        self.last_reading, self.last_too_close, self.last_no_return = reading[0], too_close[0], no_return[0]
+        self.sim.sense(normals)
+
+    # The last readings of the (single) robot: views of the simulator's buffers, never handed out directly.
+    @property
+    def last_reading(self) -> np.ndarray:
+        return self.sim.reading[0]
+
+    @property
+    def last_too_close(self) -> np.ndarray:
+        return self.sim.too_close[0]
+
+    @property
+    def last_no_return(self) -> np.ndarray:
+        return self.sim.no_return[0]
 
     def _record_path(self) -> None:
-        self.true_path.append(tuple(self.sim.position[0]))
-        self.dead_reckoned_path.append(tuple(self.sim.dr_position[0]))
+        self.true_path.append(self.sim.position[0].tolist())
+        self.dead_reckoned_path.append(self.sim.dr_position[0].tolist())
 
     def _get_observation(self) -> np.ndarray:
         obs = self._observation
-        obs[0:6] = np.where(
-            self.last_no_return, 1.0, np.where(self.last_too_close, 0.0, self.last_reading / RANGE_MAX_CM)
-        )
-        obs[6:12] = self.last_too_close
-        obs[12:18] = self.last_no_return
+        sim = self.sim
+        obs[0:6] = sim.normalised[0]
+        obs[6:12] = sim.too_close[0]
+        obs[12:18] = sim.no_return[0]
         obs[18] = self.last_blocked
         if obs.size > _N_SENSOR_OBS:
             obs[_N_SENSOR_OBS:] = self._task_observation()
@@ -244,15 +263,16 @@ class BuckybotEnv(gym.Env):
 
     def _get_info(self, reward_terms: dict[str, float]) -> dict[str, Any]:
         sim = self.sim
-        heading_deg = float(np.degrees(sim.heading[0]))
+        heading_deg = math.degrees(sim.heading[0])
+        face, edge0 = int(sim.face[0]), int(sim.edge0[0])
         info = {
             "action_mask": sim.tip_allowed[0].astype(np.int8),
-            "face": int(sim.face[0]) + 1,
+            "face": face + 1,
             "heading_deg": heading_deg,
-            "tip_directions_deg": (heading_deg + np.array([0.0, 120.0, 240.0])) % 360.0,
-            "actuators": "".join(geo.ACTUATOR_LETTERS[i] for i in sim.actuators()[0]),
-            "pose": np.array([*sim.position[0], heading_deg]),
-            "dead_reckoned_pose": np.array([*sim.dr_position[0], np.degrees(sim.dr_heading[0])]),
+            "tip_directions_deg": np.array([heading_deg, heading_deg + 120.0, heading_deg + 240.0]) % 360.0,
+            "actuators": _ACTUATOR_NAMES[face][edge0],
+            "pose": np.array([*sim.position[0].tolist(), heading_deg]),
+            "dead_reckoned_pose": np.array([*sim.dr_position[0].tolist(), math.degrees(sim.dr_heading[0])]),
             "true_range_cm": sim.true_range[0].copy(),
             "wall_distance_cm": float(sim.wall_distance[0]),
             "blocked": self.last_blocked,

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from polyenvs.buckybot.env import BuckybotEnv
-from polyenvs.buckybot.mapping import OccupancyGrid, obstacle_points
+from polyenvs.buckybot.mapping import OccupancyGrid, placement_error
 from polyenvs.core.validation import check_in_range, check_positive
 
 __all__ = ["BuckybotExploreEnv"]
@@ -64,10 +62,9 @@ class BuckybotExploreEnv(BuckybotEnv):
 
     def _task_reset(self, options):
         g = self.plan.grid(self.cell_cm)
-        self._free = (g.region == g.main_region).ravel()
+        self._free = g.region == g.main_region  # the free area coverage is measured against
         self._free_total = max(int(self._free.sum()), 1)
         self.map = OccupancyGrid(g.origin, g.shape, g.cell_cm)
-        self._seen = np.zeros(self._free.size, dtype=bool)
         self._seen_count = 0
         self._map_error_sum = 0.0
         self._map_points = 0
@@ -75,18 +72,18 @@ class BuckybotExploreEnv(BuckybotEnv):
 
     def _observe(self) -> int:
         sim = self.sim
-        free_idx = self.map.observe(
-            sim.position[0], sim.heading[0], self.last_reading, self.last_too_close, self.last_no_return
+        reading = self.last_reading
+        fresh = self.map.observe(
+            sim.position[0], sim.heading[0], reading, self.last_too_close, self.last_no_return, count_in=self._free
         )
-        fresh = np.unique(free_idx[self._free[free_idx] & ~self._seen[free_idx]])
-        self._seen[fresh] = True
-        self._seen_count += fresh.size
-        true_pts = obstacle_points(sim.position[0], sim.heading[0], self.last_reading)
-        dr_pts = obstacle_points(sim.dr_position[0], sim.dr_heading[0], self.last_reading)
-        valid = ~np.isnan(true_pts[:, 0])
-        self._map_error_sum += float(np.hypot(*(true_pts[valid] - dr_pts[valid]).T).sum())
-        self._map_points += int(valid.sum())
-        return fresh.size
+        self._seen_count += fresh
+        # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
+        x, y = sim.position[0].tolist()
+        xd, yd = sim.dr_position[0].tolist()
+        total, count = placement_error((x, y, sim.heading[0]), (xd, yd, sim.dr_heading[0]), reading)
+        self._map_error_sum += total
+        self._map_points += count
+        return fresh
 
     @property
     def coverage(self) -> float:

@@ -7,12 +7,20 @@ from whichever pose it is given, so both maps can be built side by side and comp
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_ELEVATION_RAD, SENSOR_HORIZONTAL_OFFSET_CM
+from polyenvs.buckybot.geometry import (
+    HEXAGON_INRADIUS_CM,
+    SENSOR_AZIMUTHS_RAD,
+    SENSOR_ELEVATION_RAD,
+    SENSOR_HORIZONTAL_OFFSET_CM,
+)
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range
+from polyenvs.core.jit import njit
 
-__all__ = ["OccupancyGrid", "obstacle_points"]
+__all__ = ["OccupancyGrid", "obstacle_points", "placement_error"]
 
 _COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
 _MAX_BEAM_CM = RANGE_MAX_CM * _COS_ELEVATION  # horizontal reach of a beam from its sensor
@@ -25,8 +33,33 @@ def obstacle_points(position: np.ndarray, heading: float, reading: np.ndarray) -
     return position + r[:, None] * np.stack([np.cos(az), np.sin(az)], axis=-1)
 
 
+def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]:
+    """How far the obstacle points of one set of readings move when placed from the dead-reckoned pose instead
+    of the true one (the paper's Figure 8): ``(sum of distances in cm, number of valid readings)``.
+
+    Poses are ``(x, y, heading_rad)``.
+    """
+    return _placement_error(
+        *(float(v) for v in true_pose), *(float(v) for v in dead_reckoned_pose), reading, SENSOR_AZIMUTHS_RAD
+    )
+
+
+@njit(cache=True)
+def _placement_error(xt, yt, ht, xd, yd, hd, reading, azimuths):
+    total, count = 0.0, 0
+    for i in range(reading.shape[0]):
+        if math.isnan(reading[i]):
+            continue
+        r = (reading[i] + HEXAGON_INRADIUS_CM) * _COS_ELEVATION  # horizontal distance from the centre
+        dx = xt + r * math.cos(ht + azimuths[i]) - xd - r * math.cos(hd + azimuths[i])
+        dy = yt + r * math.sin(ht + azimuths[i]) - yd - r * math.sin(hd + azimuths[i])
+        total += math.hypot(dx, dy)
+        count += 1
+    return total, count
+
+
 class OccupancyGrid:
-    """Cells seen free by a beam (0 = unknown, 1 = free, 2 = occupied) on a regular grid.
+    """Cells seen by the beams (0 = unknown, 1 = free, 2 = occupied) on a regular grid.
 
     Args:
         origin: world coordinates (cm) of the lower-left corner of cell (0, 0).
@@ -40,33 +73,51 @@ class OccupancyGrid:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.cell_cm = float(cell_cm)
         self.cells = np.zeros(shape, dtype=np.int8)
-        n_samples = int(np.ceil(_MAX_BEAM_CM / (0.5 * self.cell_cm))) + 1
-        self._fractions = np.linspace(0.0, 1.0, n_samples)
+        self._everywhere = np.ones(shape, dtype=np.bool_)
 
-    def observe(self, position, heading: float, reading, too_close, no_return) -> np.ndarray:
-        """Mark the beams of one set of readings; returns the flat indices of the cells seen free.
+    def observe(self, position, heading: float, reading, too_close, no_return, count_in=None) -> int:
+        """Mark the six beams of one set of readings from a pose; returns how many cells turned from unknown to free
+        (only those where ``count_in`` is true, if given).
 
         A beam with a valid reading frees the cells up to its hit and marks the hit occupied; a beam with no return
         frees its whole reach; a sensor that did not settle (too close) tells nothing about where.
         """
-        az = heading + SENSOR_AZIMUTHS_RAD
-        direction = np.stack([np.cos(az), np.sin(az)], axis=-1)  # (6, 2)
-        origin = np.asarray(position) + SENSOR_HORIZONTAL_OFFSET_CM * direction
-        length = np.where(no_return, _MAX_BEAM_CM, np.where(too_close, 0.0, np.nan_to_num(reading) * _COS_ELEVATION))
-        # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
-        free_len = np.maximum(length - np.where(no_return, 0.0, 0.5 * self.cell_cm), 0.0)
-        samples = origin[:, None, :] + (free_len[:, None] * self._fractions)[..., None] * direction[:, None, :]
-        free_idx = self._flat_index(samples[free_len > 0].reshape(-1, 2))
-        self.cells.flat[free_idx] = np.maximum(self.cells.flat[free_idx], self.FREE)
-        valid = ~(too_close | no_return)
-        if valid.any():
-            hits = origin[valid] + length[valid, None] * direction[valid]
-            self.cells.flat[self._flat_index(hits)] = self.OCCUPIED
-        return free_idx
+        x, y = (float(v) for v in position)
+        return _observe(
+            self.cells, self.origin[0], self.origin[1], self.cell_cm, x, y, float(heading), SENSOR_AZIMUTHS_RAD,
+            SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, _MAX_BEAM_CM, np.asarray(reading, dtype=np.float64),
+            np.asarray(too_close), np.asarray(no_return), self._everywhere if count_in is None else count_in,
+        )  # fmt: skip
 
-    def _flat_index(self, points: np.ndarray) -> np.ndarray:
-        idx = np.floor((points - self.origin) / self.cell_cm).astype(np.int64)
-        rows, cols = self.cells.shape
-        inside = (idx[:, 0] >= 0) & (idx[:, 0] < cols) & (idx[:, 1] >= 0) & (idx[:, 1] < rows)
-        idx = idx[inside]
-        return idx[:, 1] * cols + idx[:, 0]
+
+@njit(cache=True)
+def _observe(
+    cells, ox, oy, cell, x, y, heading, azimuths, sensor_offset, cos_elevation, max_beam, reading, too_close,
+    no_return, count_in,
+):  # fmt: skip
+    rows, cols = cells.shape
+    step = 0.5 * cell  # sample each beam at half a cell so no crossed cell is skipped
+    fresh = 0
+    for i in range(6):
+        if too_close[i]:
+            continue
+        dx, dy = math.cos(heading + azimuths[i]), math.sin(heading + azimuths[i])
+        sx, sy = x + sensor_offset * dx, y + sensor_offset * dy
+        length = max_beam if no_return[i] else reading[i] * cos_elevation
+        # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
+        free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
+        n = int(free_length / step) + 1
+        for k in range(n + 1):
+            t = min(k * step, free_length)
+            col = int(math.floor((sx + t * dx - ox) / cell))
+            row = int(math.floor((sy + t * dy - oy) / cell))
+            if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
+                cells[row, col] = 1
+                if count_in[row, col]:
+                    fresh += 1
+        if not no_return[i]:
+            col = int(math.floor((sx + length * dx - ox) / cell))
+            row = int(math.floor((sy + length * dy - oy) / cell))
+            if 0 <= row < rows and 0 <= col < cols:
+                cells[row, col] = 2
+    return fresh

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from polyenvs.buckybot.geometry import HEXAGON_INRADIUS_CM, SENSOR_AZIMUTHS_RAD, SENSOR_ELEVATION_RAD
+from polyenvs.core.jit import njit
 
 __all__ = [
     "RANGE_MAX_CM",
@@ -19,6 +20,7 @@ __all__ = [
     "SENSOR_PAIR_SEPARATION_RAD",
     "horizontal_range",
     "measure_ranges",
+    "measure_ranges_normalised",
     "wall_from_pair",
     "walls_from_readings",
 ]
@@ -52,13 +54,39 @@ def measure_ranges(
         ``(reading, too_close, no_return)``: the quantised reading in cm (``nan`` where invalid) and the two
         boolean invalid cases.
     """
-    with np.errstate(invalid="ignore"):
-        noisy = true_range + (NOISE_SLOPE * true_range + NOISE_OFFSET_CM) * (noise_scale * normals)
-        reading = np.round(noisy / RANGE_QUANTUM_CM) * RANGE_QUANTUM_CM
-    too_close = reading < RANGE_MIN_CM - 1e-9
-    no_return = ~(reading <= RANGE_MAX_CM + 1e-9)  # also true for inf / nan
-    reading = np.where(too_close | no_return, np.nan, reading)
+    reading, too_close, no_return, _ = measure_ranges_normalised(true_range, normals, noise_scale)
     return reading, too_close, no_return
+
+
+def measure_ranges_normalised(true_range: np.ndarray, normals: np.ndarray, noise_scale: float = 1.0):
+    """:func:`measure_ranges`, plus the observation's normalised range: reading / 182.88 cm, 0 when too close,
+    1 when there is no return."""
+    true_range = np.asarray(true_range, dtype=np.float64)
+    flat_range = np.ascontiguousarray(true_range).reshape(-1)
+    flat_normals = np.ascontiguousarray(np.broadcast_to(normals, true_range.shape), dtype=np.float64).reshape(-1)
+    reading = np.empty(flat_range.shape)
+    too_close = np.empty(flat_range.shape, dtype=np.bool_)
+    no_return = np.empty(flat_range.shape, dtype=np.bool_)
+    normalised = np.empty(flat_range.shape, dtype=np.float32)
+    _measure(flat_range, flat_normals, float(noise_scale), reading, too_close, no_return, normalised)
+    shape = true_range.shape
+    return reading.reshape(shape), too_close.reshape(shape), no_return.reshape(shape), normalised.reshape(shape)
+
+
+@njit(cache=True)
+def _measure(true_range, normals, noise_scale, reading, too_close, no_return, normalised):
+    for i in range(true_range.shape[0]):
+        d = true_range[i]
+        noisy = d + (NOISE_SLOPE * d + NOISE_OFFSET_CM) * (noise_scale * normals[i])
+        r = np.round(noisy / RANGE_QUANTUM_CM) * RANGE_QUANTUM_CM  # the sensor reports whole inches
+        too_close[i] = r < RANGE_MIN_CM - 1e-9
+        no_return[i] = not (r <= RANGE_MAX_CM + 1e-9)  # also true for inf and nan
+        if too_close[i] or no_return[i]:
+            reading[i] = np.nan
+            normalised[i] = 0.0 if too_close[i] else 1.0
+        else:
+            reading[i] = r
+            normalised[i] = r / RANGE_MAX_CM
 
 
 def horizontal_range(reading: np.ndarray) -> np.ndarray:

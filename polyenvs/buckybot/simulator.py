@@ -14,13 +14,15 @@ resting face and the actuator each action extends.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.sensors import measure_ranges
-from polyenvs.core.geometry2d import SegmentTable, cast_rays, nearest_wall_points
+from polyenvs.buckybot.sensors import _measure
+from polyenvs.core.geometry2d import SegmentTable, nearest_point, ray_distance
+from polyenvs.core.jit import njit
 
 __all__ = ["TipModel", "BuckybotSimulator", "TIP_ANGLES_RAD"]
 
@@ -106,6 +108,12 @@ class BuckybotSimulator:
         self.wall_foot = np.zeros((b, 2))
         self.wall_segment = np.zeros(b, dtype=np.int64)
         self.tip_allowed = np.ones((b, 3), dtype=bool)
+        # What the sensors reported at the last sense(): reading (cm, nan if invalid), the two invalid cases, and
+        # the observation's normalised range.
+        self.reading = np.full((b, 6), np.nan)
+        self.too_close = np.zeros((b, 6), dtype=bool)
+        self.no_return = np.zeros((b, 6), dtype=bool)
+        self.normalised = np.zeros((b, 6), dtype=np.float32)
 
     # --- state ------------------------------------------------------------------------------------------------
     def set_walls(self, walls: SegmentTable) -> None:
@@ -138,52 +146,82 @@ class BuckybotSimulator:
         A tip onto a wall (by the mean landing point, i.e. ``tip_allowed``) is blocked: the robot stays put and
         knows it (its accelerometer still reports the same face). Returns the (B,) blocked flags.
         """
-        b = np.arange(self.batch_size)
-        moved = self.tip_allowed[b, action]
-        model = self.tip_model
-        angle = self.heading + TIP_ANGLES_RAD[action]
-        c, s = np.cos(angle), np.sin(angle)
-        forward = model.forward_mean_cm + model.forward_sd_cm * normals[:, 0]
-        lateral = model.lateral_mean_cm + model.lateral_sd_cm * normals[:, 1]
-        forward *= moved  # a blocked tip moves nothing
-        lateral *= moved
-        self.position[:, 0] += forward * c + lateral * s
-        self.position[:, 1] += forward * s - lateral * c
-        turn = self._frame_turn[action] + self._heading_sd * normals[:, 2]
-        self.heading = np.mod(self.heading + turn * moved, _TWO_PI)
-
-        # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
-        dc, ds = np.cos(self.dr_heading), np.sin(self.dr_heading)
-        off = self._mean_offsets[action] * moved[:, None]
-        self.dr_position[:, 0] += dc * off[:, 0] - ds * off[:, 1]
-        self.dr_position[:, 1] += ds * off[:, 0] + dc * off[:, 1]
-        self.dr_heading = np.mod(self.dr_heading + self._frame_turn[action] * moved, _TWO_PI)
-
-        edge = (self.edge0 + action) % 3
-        self.face, self.edge0 = (
-            np.where(moved, geo.NEIGHBOR[self.face, edge], self.face),
-            np.where(moved, geo.BACK_EDGE[self.face, edge], self.edge0),
-        )
-        return ~moved
+        blocked = np.empty(self.batch_size, dtype=np.bool_)
+        m = self.tip_model
+        _tip(
+            np.asarray(action, dtype=np.int64), normals, self.tip_allowed, self.position, self.heading, self.face,
+            self.edge0, self.dr_position, self.dr_heading, self._mean_offsets, self._frame_turn,
+            m.forward_mean_cm, m.forward_sd_cm, m.lateral_mean_cm, m.lateral_sd_cm, self._heading_sd,
+            geo.NEIGHBOR, geo.BACK_EDGE, blocked,
+        )  # fmt: skip
+        return blocked
 
     def sense(self, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Range readings at the current pose (``normals`` (B, 6)); also refreshes contact geometry.
+        """Range readings at the current pose (``normals`` (B, 6)); also refreshes the contact geometry.
 
-        Returns ``(reading, too_close, no_return)`` as :func:`polyenvs.buckybot.sensors.measure_ranges`.
+        Returns ``(reading, too_close, no_return, normalised)`` as
+        :func:`polyenvs.buckybot.sensors.measure_ranges_normalised`.
         """
-        # Sensor beams (unit vectors of their horizontal projection) and the candidate landing points, in the world.
-        c, s = np.cos(self.heading)[:, None], np.sin(self.heading)[:, None]
-        local = self._local_vectors  # (7, 2): six beam directions, then the mean tip offsets
-        world = np.empty((self.batch_size, 10, 2))
-        world[:, :9, 0] = c * local[:, 0] - s * local[:, 1]
-        world[:, :9, 1] = s * local[:, 0] + c * local[:, 1]
-        world[:, 9] = 0.0
-        beam = world[:, :6]
-        horizontal = cast_rays(self.walls, self.position[:, None, :] + geo.SENSOR_HORIZONTAL_OFFSET_CM * beam, beam)
-        self.true_range = horizontal / _COS_ELEVATION  # slant range along the tilted beam
+        w = self.walls
+        _sense(
+            self.position, self.heading, w.start, w.vector, w.inv_length_sq, w.is_real, self._local_vectors,
+            geo.SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, self.body_radius_cm,
+            self.true_range, self.wall_distance, self.wall_foot, self.wall_segment, self.tip_allowed,
+        )  # fmt: skip
+        _measure(
+            self.true_range.reshape(-1), np.ascontiguousarray(normals).reshape(-1), self.range_noise_scale,
+            self.reading.reshape(-1), self.too_close.reshape(-1), self.no_return.reshape(-1),
+            self.normalised.reshape(-1),
+        )  # fmt: skip
+        return self.reading, self.too_close, self.no_return, self.normalised
 
-        points = self.position[:, None, :] + world[:, 6:]  # (B, 4, 2): the three landing points, then the centre
-        distance, foot, segment = nearest_wall_points(self.walls, points)
-        self.wall_distance, self.wall_foot, self.wall_segment = distance[:, 3], foot[:, 3], segment[:, 3]
-        self.tip_allowed = distance[:, :3] >= self.body_radius_cm
-        return measure_ranges(self.true_range, normals, self.range_noise_scale)
+
+@njit(cache=True)
+def _tip(
+    action, normals, tip_allowed, position, heading, face, edge0, dr_position, dr_heading, mean_offsets, frame_turn,
+    forward_mean, forward_sd, lateral_mean, lateral_sd, heading_sd, neighbor, back_edge, blocked,
+):  # fmt: skip
+    for b in range(action.shape[0]):
+        a = action[b]
+        blocked[b] = not tip_allowed[b, a]
+        if blocked[b]:
+            continue
+        angle = heading[b] + TIP_ANGLES_RAD[a]
+        c, s = math.cos(angle), math.sin(angle)
+        forward = forward_mean + forward_sd * normals[b, 0]
+        lateral = lateral_mean + lateral_sd * normals[b, 1]  # +lateral is to the right of the tip direction
+        position[b, 0] += forward * c + lateral * s
+        position[b, 1] += forward * s - lateral * c
+        heading[b] = (heading[b] + frame_turn[a] + heading_sd * normals[b, 2]) % _TWO_PI
+        # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
+        dc, ds = math.cos(dr_heading[b]), math.sin(dr_heading[b])
+        dr_position[b, 0] += dc * mean_offsets[a, 0] - ds * mean_offsets[a, 1]
+        dr_position[b, 1] += ds * mean_offsets[a, 0] + dc * mean_offsets[a, 1]
+        dr_heading[b] = (dr_heading[b] + frame_turn[a]) % _TWO_PI
+        edge = (edge0[b] + a) % 3
+        old = face[b]
+        face[b] = neighbor[old, edge]
+        edge0[b] = back_edge[old, edge]
+
+
+@njit(cache=True)
+def _sense(
+    position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation, body_radius,
+    true_range, wall_distance, wall_foot, wall_segment, tip_allowed,
+):  # fmt: skip
+    shared = start.shape[0] == 1
+    for b in range(position.shape[0]):
+        w = 0 if shared else b
+        px, py = position[b, 0], position[b, 1]
+        c, s = math.cos(heading[b]), math.sin(heading[b])
+        for i in range(6):  # beams: slant range along the tilted beam = horizontal distance / cos(19.47°)
+            dx, dy = c * local[i, 0] - s * local[i, 1], s * local[i, 0] + c * local[i, 1]
+            h = ray_distance(px + sensor_offset * dx, py + sensor_offset * dy, dx, dy, start[w], vector[w], is_real[w])
+            true_range[b, i] = h / cos_elevation
+        for j in range(3):  # a tip is allowed when its mean landing point keeps the body off the walls
+            lx = px + c * local[6 + j, 0] - s * local[6 + j, 1]
+            ly = py + s * local[6 + j, 0] + c * local[6 + j, 1]
+            d = nearest_point(lx, ly, start[w], vector[w], inv_length_sq[w], is_real[w])[0]
+            tip_allowed[b, j] = d >= body_radius
+        d, fx, fy, k = nearest_point(px, py, start[w], vector[w], inv_length_sq[w], is_real[w])
+        wall_distance[b], wall_foot[b, 0], wall_foot[b, 1], wall_segment[b] = d, fx, fy, k

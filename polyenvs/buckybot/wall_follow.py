@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from polyenvs.buckybot.env import BuckybotEnv
@@ -99,6 +101,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     def _task_reset(self, options):
         plan = self.plan
         if getattr(self, "_bins_plan", None) is not plan:
+            # Each wall is cut into ~10 cm bins; bins are stored segment by segment so a step looks at one slice.
             self._bins_plan = plan
             seg = plan.segments
             length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
@@ -107,41 +110,45 @@ class BuckybotWallFollowEnv(BuckybotEnv):
             frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
             self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
             self._bin_length = (length / counts)[owner]
-            self._bin_segment = owner
+            bounds = np.concatenate([[0], np.cumsum(counts)])
+            self._segment_bins = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+            self._wall_length = float(length.sum())
             g = plan.grid()
-            self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0)
+            self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0).tolist()
         self._followed = np.zeros(len(self._bin_centre), dtype=bool)
+        self._followed_length = 0.0
         self._distance_error_sum = 0.0
         self._progress_cm = 0.0
         self._winding = 0.0
-        self._angle = self._angle_about_centre()
-        self._previous_position = self.position.copy()
-        self._previous_normal = self._wall_normal()
+        self._previous = self._pose_terms()
 
-    def _wall_normal(self) -> np.ndarray:
-        gap = self.sim.wall_foot[0] - self.position
-        return gap / max(float(np.hypot(*gap)), 1e-9)
-
-    def _angle_about_centre(self) -> float:
-        rel = self.position - self._lap_centre
-        return float(np.arctan2(rel[1], rel[0]))
+    def _pose_terms(self) -> tuple[float, float, float, float, float]:
+        """(x, y, wall normal x, wall normal y, angle about the room's centre) at the current pose."""
+        x, y = self.sim.position[0].tolist()
+        fx, fy = self.sim.wall_foot[0].tolist()
+        gap = max(math.hypot(fx - x, fy - y), 1e-9)
+        cx, cy = self._lap_centre
+        return x, y, (fx - x) / gap, (fy - y) / gap, math.atan2(y - cy, x - cx)
 
     def _task_step(self, action, blocked):
         d = float(self.sim.wall_distance[0])
-        n = self._previous_normal
-        tangent = np.array([-n[1], n[0]])  # z x (centre-to-wall): counter-clockwise along the wall
-        progress = float(np.dot(self.position - self._previous_position, tangent))
+        x0, y0, nx, ny, angle0 = self._previous
+        x, y, *_, angle = current = self._pose_terms()
+        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
+        progress = (x - x0) * -ny + (y - y0) * nx
         self._progress_cm += progress
         error = d - self.d_star_cm
         self._distance_error_sum += abs(error)
         if abs(error) <= self.follow_tolerance_cm:
-            near = np.hypot(*(self._bin_centre - self.position).T) <= self.d_star_cm + self.follow_tolerance_cm
-            self._followed |= near & (self._bin_segment == self.sim.wall_segment[0])
-        angle = self._angle_about_centre()
-        self._winding += (angle - self._angle + np.pi) % (2 * np.pi) - np.pi
-        self._angle = angle
-        self._previous_position = self.position.copy()
-        self._previous_normal = self._wall_normal()
+            bins = self._segment_bins[int(self.sim.wall_segment[0])]
+            centre = self._bin_centre[bins]
+            near = np.hypot(centre[:, 0] - x, centre[:, 1] - y) <= self.d_star_cm + self.follow_tolerance_cm
+            fresh = near & ~self._followed[bins]
+            if fresh.any():
+                self._followed[bins] |= fresh
+                self._followed_length += float(self._bin_length[bins][fresh].sum())
+        self._winding += (angle - angle0 + math.pi) % (2 * math.pi) - math.pi
+        self._previous = current
         return {
             "progress": progress / STEP_LENGTH_CM,
             "distance": -(error * error) / self._distance_norm,
@@ -152,8 +159,8 @@ class BuckybotWallFollowEnv(BuckybotEnv):
         metrics = super()._episode_metrics()
         metrics.update(
             wall_distance_error_cm=self._distance_error_sum / max(self.steps, 1),
-            perimeter_fraction=float(self._bin_length[self._followed].sum() / self._bin_length.sum()),
-            laps=int(max(self._winding, 0.0) // (2 * np.pi)),
+            perimeter_fraction=self._followed_length / self._wall_length,
+            laps=int(max(self._winding, 0.0) // (2 * math.pi)),
             progress_cm=self._progress_cm,
         )
         return metrics

@@ -1,23 +1,28 @@
-"""Batched planar geometry against wall segments: ray casting and clearance.
+"""Planar geometry against wall segments: ray casting and clearance, compiled and batched.
 
-Walls are segments ``(x1, y1, x2, y2)`` in an array of shape ``(..., S, 4)``. Every function broadcasts a leading
-batch axis so that one environment (batch of one) and a vector of environments share the same arithmetic.
-Padding segments (for batches whose plans have different numbers of walls) are zero-length, which never hits a
-ray and is given infinite distance.
+Walls are segments ``(x1, y1, x2, y2)`` held in a :class:`SegmentTable` of shape ``(W, S)``: ``W`` is 1 (one wall
+set shared by every robot) or the batch size (one set per environment). Padding segments (for batches whose plans
+have different numbers of walls) have zero length and are ignored. The scalar kernels ``ray_distance`` and
+``nearest_point`` can be called from other compiled code (each family's simulator); ``cast_rays`` and
+``nearest_wall_points`` are their batched numpy-facing forms.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["SegmentTable", "cast_rays", "nearest_wall_points"]
+from polyenvs.core.jit import njit
+
+__all__ = ["SegmentTable", "cast_rays", "nearest_point", "nearest_wall_points", "ray_distance"]
 
 
 class SegmentTable:
-    """Precomputed terms of a batch of wall sets: start points, direction vectors, squared lengths.
+    """Wall segments with the terms every query reuses: start points, direction vectors, 1 / squared length.
 
     Args:
-        segments: ``(B, S, 4)`` or ``(S, 4)`` array of wall segments (x1, y1, x2, y2).
+        segments: ``(W, S, 4)`` or ``(S, 4)`` array of wall segments (x1, y1, x2, y2).
     """
 
     def __init__(self, segments: np.ndarray):
@@ -25,68 +30,114 @@ class SegmentTable:
         if seg.ndim == 2:
             seg = seg[None]
         self.segments = seg
-        self.start = seg[..., 0:2]  # (B, S, 2)
-        self.vector = seg[..., 2:4] - seg[..., 0:2]
-        self.length_sq = np.einsum("bsk,bsk->bs", self.vector, self.vector)
-        self.is_real = self.length_sq > 0.0
-        # Zero-length padding: make the reciprocal finite; the distance test masks these segments out.
-        self.inv_length_sq = np.where(self.is_real, 1.0 / np.where(self.is_real, self.length_sq, 1.0), 0.0)
-        # start x vector, reused by every ray cast.
-        self.start_cross_vector = self.start[..., 0] * self.vector[..., 1] - self.start[..., 1] * self.vector[..., 0]
+        self.start = np.ascontiguousarray(seg[..., 0:2])  # (W, S, 2)
+        self.vector = np.ascontiguousarray(seg[..., 2:4] - seg[..., 0:2])
+        length_sq = (self.vector**2).sum(axis=-1)
+        self.is_real = length_sq > 0.0
+        self.inv_length_sq = np.where(self.is_real, 1.0 / np.where(self.is_real, length_sq, 1.0), 0.0)
 
     @property
     def batch_size(self) -> int:
         return self.segments.shape[0]
 
 
+@njit(cache=True)
+def ray_distance(ox, oy, dx, dy, start, vector, is_real):
+    """Distance along the ray (o, d) to the first of the segments ``start``/``vector`` (S, 2); ``inf`` if none."""
+    best = math.inf
+    for k in range(start.shape[0]):
+        if not is_real[k]:
+            continue
+        ex, ey = vector[k, 0], vector[k, 1]
+        denom = dx * ey - dy * ex
+        if denom == 0.0:
+            continue  # parallel
+        qx, qy = start[k, 0] - ox, start[k, 1] - oy
+        t = (qx * ey - qy * ex) / denom
+        u = (qx * dy - qy * dx) / denom
+        if t >= 0.0 and 0.0 <= u <= 1.0 and t < best:
+            best = t
+    return best
+
+
+@njit(cache=True)
+def nearest_point(px, py, start, vector, inv_length_sq, is_real):
+    """Nearest point of the segments to (px, py): ``(distance, foot_x, foot_y, segment index)``."""
+    best, fx, fy, index = math.inf, math.nan, math.nan, -1
+    for k in range(start.shape[0]):
+        if not is_real[k]:
+            continue
+        sx, sy, ex, ey = start[k, 0], start[k, 1], vector[k, 0], vector[k, 1]
+        along = ((px - sx) * ex + (py - sy) * ey) * inv_length_sq[k]
+        along = min(max(along, 0.0), 1.0)
+        qx, qy = sx + along * ex, sy + along * ey
+        d2 = (px - qx) ** 2 + (py - qy) ** 2
+        if d2 < best:
+            best, fx, fy, index = d2, qx, qy, k
+    return math.sqrt(best), fx, fy, index
+
+
+@njit(cache=True)
+def _cast_rays(start, vector, is_real, origins, directions, out):
+    shared = start.shape[0] == 1
+    for b in range(origins.shape[0]):
+        w = 0 if shared else b
+        for r in range(origins.shape[1]):
+            out[b, r] = ray_distance(
+                origins[b, r, 0],
+                origins[b, r, 1],
+                directions[b, r, 0],
+                directions[b, r, 1],
+                start[w],
+                vector[w],
+                is_real[w],
+            )
+
+
+@njit(cache=True)
+def _nearest(start, vector, inv_length_sq, is_real, points, distance, foot, segment):
+    shared = start.shape[0] == 1
+    for b in range(points.shape[0]):
+        w = 0 if shared else b
+        for p in range(points.shape[1]):
+            d, fx, fy, k = nearest_point(
+                points[b, p, 0], points[b, p, 1], start[w], vector[w], inv_length_sq[w], is_real[w]
+            )
+            distance[b, p], foot[b, p, 0], foot[b, p, 1], segment[b, p] = d, fx, fy, k
+
+
 def cast_rays(table: SegmentTable, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Distance along each ray to the first wall (``inf`` where none is hit).
 
     Args:
-        table: walls of shape (B, S).
+        table: walls, shared (W = 1) or one set per batch row.
         origins: ``(B, R, 2)`` ray origins.
         directions: ``(B, R, 2)`` unit ray directions.
 
     Returns:
         ``(B, R)`` distances.
     """
-    ox, oy = origins[..., 0:1], origins[..., 1:2]  # (B, R, 1)
-    dx, dy = directions[..., 0:1], directions[..., 1:2]
-    sx, sy = table.start[:, None, :, 0], table.start[:, None, :, 1]  # (B, 1, S)
-    ex, ey = table.vector[:, None, :, 0], table.vector[:, None, :, 1]
-    # Solve o + t d = s + u e with 2-D cross products.
-    denom = dx * ey - dy * ex  # (B, R, S)
-    t_num = table.start_cross_vector[:, None, :] - (ox * ey - oy * ex)
-    u_num = (sx - ox) * dy - (sy - oy) * dx
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = t_num / denom
-        u = u_num / denom
-    hit = (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
-    return np.where(hit, t, np.inf).min(axis=-1)
+    origins = np.ascontiguousarray(origins, dtype=np.float64)
+    directions = np.ascontiguousarray(np.broadcast_to(directions, origins.shape), dtype=np.float64)
+    out = np.empty(origins.shape[:2])
+    _cast_rays(table.start, table.vector, table.is_real, origins, directions, out)
+    return out
 
 
 def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nearest wall point to each query point.
 
     Args:
-        table: walls of shape (B, S).
+        table: walls, shared (W = 1) or one set per batch row.
         points: ``(B, P, 2)`` query points.
 
     Returns:
         ``(distance, foot, segment)``: ``(B, P)`` distances, ``(B, P, 2)`` nearest wall points and ``(B, P)``
         indices of the segment they lie on.
     """
-    px, py = points[..., 0:1], points[..., 1:2]  # (B, P, 1)
-    sx, sy = table.start[:, None, :, 0], table.start[:, None, :, 1]  # (B or 1, 1, S): shared walls broadcast
-    ex, ey = table.vector[:, None, :, 0], table.vector[:, None, :, 1]
-    along = ((px - sx) * ex + (py - sy) * ey) * table.inv_length_sq[:, None, :]
-    np.clip(along, 0.0, 1.0, out=along)
-    fx, fy = sx + along * ex, sy + along * ey  # (B, P, S)
-    dist_sq = (px - fx) ** 2 + (py - fy) ** 2
-    if not table.is_real.all():
-        dist_sq = np.where(table.is_real[:, None, :], dist_sq, np.inf)
-    segment = dist_sq.argmin(axis=-1)  # (B, P)
-    b, p = np.indices(segment.shape, sparse=True)
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    distance = np.empty(points.shape[:2])
     foot = np.empty(points.shape)
-    foot[..., 0], foot[..., 1] = fx[b, p, segment], fy[b, p, segment]
-    return np.sqrt(dist_sq[b, p, segment]), foot, segment
+    segment = np.empty(points.shape[:2], dtype=np.int64)
+    _nearest(table.start, table.vector, table.inv_length_sq, table.is_real, points, distance, foot, segment)
+    return distance, foot, segment
