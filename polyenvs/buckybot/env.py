@@ -183,7 +183,7 @@ class BuckybotEnv(gym.Env):
             a = int(action)
         normals = self.np_random.standard_normal((1, 9))  # 3 for the tip, 6 for the range finders
         self._action_buffer[0] = a
-        blocked = bool(self.sim.tip(self._action_buffer, normals[:, :3])[0])
+        blocked = bool(self.sim.step(self._action_buffer, normals)[0])
         self.steps += 1
         if blocked:
             self.blocked_tips += 1
@@ -191,7 +191,6 @@ class BuckybotEnv(gym.Env):
             self.oscillation_events += 1  # undid the previous tip: alternating between two faces
         self._last_tip_moved = not blocked
         self.last_blocked = blocked
-        self._sense(normals[:, 3:])
         reward_terms = self._task_step(a, blocked)
         self._record_path()
         reward = float(sum(reward_terms.values()))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from polyenvs.buckybot.env import BuckybotEnv
@@ -95,6 +97,7 @@ class BuckybotGoalEnv(BuckybotEnv):
         else:
             goal = self._sample_goal(clearance)
         self.goal = goal
+        self._goal_xy = goal.tolist()
         self._distance = self._true_distance()
         self._success = False
 
@@ -109,13 +112,14 @@ class BuckybotGoalEnv(BuckybotEnv):
         return pool[self.np_random.integers(len(pool))] + self.np_random.uniform(-0.5, 0.5, 2) * g.cell_cm
 
     def _true_distance(self) -> float:
-        return float(np.hypot(*(self.goal - self.position)))
+        x, y = self.sim.position[0].tolist()
+        return math.hypot(self._goal_xy[0] - x, self._goal_xy[1] - y)
 
     def _task_observation(self):
-        rel = self.goal - self.sim.dr_position[0]
-        bearing = np.arctan2(rel[1], rel[0]) - self.sim.dr_heading[0]
-        distance = np.hypot(rel[0], rel[1])
-        return np.array([np.cos(bearing), np.sin(bearing), np.tanh(distance / GOAL_DISTANCE_SCALE_CM)])
+        x, y = self.sim.dr_position[0].tolist()
+        dx, dy = self._goal_xy[0] - x, self._goal_xy[1] - y
+        bearing = math.atan2(dy, dx) - self.sim.dr_heading[0]
+        return (math.cos(bearing), math.sin(bearing), math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM))
 
     def _task_step(self, action, blocked):
         distance = self._true_distance()

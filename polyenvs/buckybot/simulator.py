@@ -147,33 +147,49 @@ class BuckybotSimulator:
         knows it (its accelerometer still reports the same face). Returns the (B,) blocked flags.
         """
         blocked = np.empty(self.batch_size, dtype=np.bool_)
-        m = self.tip_model
-        _tip(
-            np.asarray(action, dtype=np.int64), normals, self.tip_allowed, self.position, self.heading, self.face,
-            self.edge0, self.dr_position, self.dr_heading, self._mean_offsets, self._frame_turn,
-            m.forward_mean_cm, m.forward_sd_cm, m.lateral_mean_cm, m.lateral_sd_cm, self._heading_sd,
-            geo.NEIGHBOR, geo.BACK_EDGE, blocked,
-        )  # fmt: skip
+        _tip(np.asarray(action, dtype=np.int64), np.ascontiguousarray(normals), *self._tip_args(), blocked)
         return blocked
 
-    def sense(self, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sense(self, normals: np.ndarray):
         """Range readings at the current pose (``normals`` (B, 6)); also refreshes the contact geometry.
 
-        Returns ``(reading, too_close, no_return, normalised)`` as
-        :func:`polyenvs.buckybot.sensors.measure_ranges_normalised`.
+        Returns the simulator's ``(reading, too_close, no_return, normalised)`` buffers (B, 6), as
+        :func:`polyenvs.buckybot.sensors.measure_ranges_normalised` would compute them.
         """
-        w = self.walls
-        _sense(
-            self.position, self.heading, w.start, w.vector, w.inv_length_sq, w.is_real, self._local_vectors,
-            geo.SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, self.body_radius_cm,
-            self.true_range, self.wall_distance, self.wall_foot, self.wall_segment, self.tip_allowed,
-        )  # fmt: skip
-        _measure(
-            self.true_range.reshape(-1), np.ascontiguousarray(normals).reshape(-1), self.range_noise_scale,
-            self.reading.reshape(-1), self.too_close.reshape(-1), self.no_return.reshape(-1),
-            self.normalised.reshape(-1),
-        )  # fmt: skip
+        _sense(np.ascontiguousarray(normals), *self._sense_args())
         return self.reading, self.too_close, self.no_return, self.normalised
+
+    def step(self, action: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """``tip`` then ``sense`` in one compiled call; ``normals`` (B, 9): three for the tip, six for the sensors.
+
+        Returns the (B,) blocked flags; the readings are in the simulator's buffers.
+        """
+        blocked = np.empty(self.batch_size, dtype=np.bool_)
+        _step(action, normals, blocked, self._tip_args(), self._sense_args())
+        return blocked
+
+    def _tip_args(self) -> tuple:
+        m = self.tip_model
+        return (
+            self.tip_allowed, self.position, self.heading, self.face, self.edge0, self.dr_position,
+            self.dr_heading, self._mean_offsets, self._frame_turn, m.forward_mean_cm, m.forward_sd_cm,
+            m.lateral_mean_cm, m.lateral_sd_cm, self._heading_sd, geo.NEIGHBOR, geo.BACK_EDGE,
+        )  # fmt: skip
+
+    def _sense_args(self) -> tuple:
+        w = self.walls
+        return (
+            self.position, self.heading, w.start, w.vector, w.inv_length_sq, w.is_real, self._local_vectors,
+            geo.SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, self.body_radius_cm, self.range_noise_scale,
+            self.true_range, self.wall_distance, self.wall_foot, self.wall_segment, self.tip_allowed,
+            self.reading, self.too_close, self.no_return, self.normalised,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _step(action, normals, blocked, tip_args, sense_args):
+    _tip(action, normals[:, :3], *tip_args, blocked)
+    _sense(normals[:, 3:], *sense_args)
 
 
 @njit(cache=True)
@@ -206,8 +222,9 @@ def _tip(
 
 @njit(cache=True)
 def _sense(
-    position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation, body_radius,
-    true_range, wall_distance, wall_foot, wall_segment, tip_allowed,
+    normals, position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation,
+    body_radius, range_noise_scale, true_range, wall_distance, wall_foot, wall_segment, tip_allowed, reading,
+    too_close, no_return, normalised,
 ):  # fmt: skip
     shared = start.shape[0] == 1
     for b in range(position.shape[0]):
@@ -218,6 +235,7 @@ def _sense(
             dx, dy = c * local[i, 0] - s * local[i, 1], s * local[i, 0] + c * local[i, 1]
             h = ray_distance(px + sensor_offset * dx, py + sensor_offset * dy, dx, dy, start[w], vector[w], is_real[w])
             true_range[b, i] = h / cos_elevation
+        _measure(true_range[b], normals[b], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b])
         for j in range(3):  # a tip is allowed when its mean landing point keeps the body off the walls
             lx = px + c * local[6 + j, 0] - s * local[6 + j, 1]
             ly = py + s * local[6 + j, 0] + c * local[6 + j, 1]
