@@ -182,3 +182,26 @@ def test_goal_success_terminates():
     _, reward, terminated, truncated, info = env.step(0)
     assert terminated and not truncated
     assert info["reward_goal"] == 10.0 and info["episode_metrics"]["success"] == 1.0
+
+
+def test_info_maps_the_face_frame_to_the_world():
+    """The six observed sensors sit on the faces whose normals point 19.47° up at the frame's sensor azimuths."""
+    from polyenvs.buckybot import geometry as geo
+
+    env = gym.make(IDS[0])
+    _, info = env.reset(seed=3)
+    for _ in range(40):
+        face = info["face"] - 1
+        heading = np.radians(info["heading_deg"])
+        edge0 = int(env.unwrapped.sim.edge0[0])
+        body = geo.body_rotation(face, edge0, heading)
+        normals = geo.FACE_NORMALS_HOME[np.array(info["sensor_faces"]) - 1] @ body.T
+        np.testing.assert_allclose(np.degrees(np.arcsin(normals[:, 2])), 19.47, atol=0.01)
+        world_az = np.degrees(np.arctan2(normals[:, 1], normals[:, 0]))
+        expected = np.degrees(heading + geo.SENSOR_AZIMUTHS_RAD)
+        np.testing.assert_allclose((world_az - expected + 180) % 360 - 180, 0.0, atol=1e-6)
+        # The actuator of each action is the corner opposite that tip direction.
+        corners = geo.ACTUATOR_AXES_HOME[[geo.ACTUATOR_LETTERS.index(c) for c in info["actuators"]]] @ body.T
+        corner_az = np.degrees(np.arctan2(corners[:, 1], corners[:, 0]))
+        np.testing.assert_allclose((corner_az - info["tip_directions_deg"] - 180 + 180) % 360 - 180, 0.0, atol=1e-6)
+        *_, info = env.step(env.action_space.sample())

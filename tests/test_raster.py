@@ -212,3 +212,15 @@ def test_invalid_arguments_raise_value_error():
         canvas.disc((0.0, 0.0), -1.0, RED)
     with pytest.raises(ValueError, match="bounds"):
         Canvas((1.0, 0.0, 0.0, 1.0))
+
+
+def test_text_draws_digits_centred_and_skips_unknown_characters():
+    canvas = Canvas((0.0, 0.0, 10.0, 10.0), width=100)
+    blank = canvas.image
+    canvas.text((5.0, 5.0), "x", (0, 0, 0))
+    assert np.array_equal(canvas.image, blank)
+    canvas.text((5.0, 5.0), "18", (255, 0, 0), scale=2)
+    red = np.argwhere((canvas.image == (255, 0, 0)).all(axis=-1))
+    assert len(red) > 0
+    centre = canvas.to_pixels(np.array([5.0, 5.0]))
+    assert abs(red[:, 1].mean() - centre[0]) < 3 and abs(red[:, 0].mean() - centre[1]) < 3

@@ -35,6 +35,12 @@ _ACTUATOR_NAMES = [
     ["".join(geo.ACTUATOR_LETTERS[geo.FACE_CORNER_ACTUATOR[f, (e0 + j) % 3]] for j in range(3)) for e0 in range(3)]
     for f in range(geo.N_FACES)
 ]
+#: Face numbers (1-20) of the six observed range finders, by (face, edge at frame direction 0). The six upper
+#: sensors repeat every 120° in pairs, so turning the frame by one edge shifts the list by two.
+_SENSOR_FACES = [
+    [tuple(int(v) + 1 for v in np.roll(geo.upper_sensor_faces()[0][f], -2 * e0)) for e0 in range(3)]
+    for f in range(geo.N_FACES)
+]
 _INT_TYPES = (int, np.int64, np.int32, np.intp)
 # The tips undo one another only geometrically; this clearance guarantees all three tips are free at a start.
 _START_CLEARANCE_CM = geo.BODY_RADIUS_CM + geo.STEP_LENGTH_CM + 1.0
@@ -270,6 +276,7 @@ class BuckybotEnv(gym.Env):
             "heading_deg": heading_deg,
             "tip_directions_deg": np.array([heading_deg, heading_deg + 120.0, heading_deg + 240.0]) % 360.0,
             "actuators": _ACTUATOR_NAMES[face][edge0],
+            "sensor_faces": _SENSOR_FACES[face][edge0],
             "pose": np.array([*sim.position[0].tolist(), heading_deg]),
             "dead_reckoned_pose": np.array([*sim.dr_position[0].tolist(), math.degrees(sim.dr_heading[0])]),
             "true_range_cm": sim.true_range[0].copy(),

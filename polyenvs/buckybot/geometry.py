@@ -26,6 +26,7 @@ import itertools
 import numpy as np
 
 __all__ = [
+    "ACTUATOR_AXES_HOME",
     "ACTUATOR_LETTERS",
     "BACK_EDGE",
     "BODY_RADIUS_CM",
@@ -136,6 +137,8 @@ def _build():
 
 
 _VERTS_HOME, FACE_NORMALS_HOME, _FACE_VERTS = _build()
+#: Unit axes of the 12 actuators (icosahedron vertices, A..L) in the home frame.
+ACTUATOR_AXES_HOME = _VERTS_HOME
 
 
 def face_frames() -> np.ndarray:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from polyenvs.buckybot.geometry import HEXAGON_INRADIUS_CM, SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM
+from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
 from polyenvs.core.raster import Canvas
 
@@ -20,12 +20,12 @@ TRUE_PATH = (200, 40, 40)
 DEAD_RECKONED_PATH = (60, 90, 220)
 BODY = (250, 190, 60)
 BODY_EDGE = (120, 80, 10)
+BODY_FACE = (255, 236, 170)
 BEAM_VALID = (40, 160, 60)
 BEAM_TOO_CLOSE = (230, 120, 0)
 BEAM_NONE = (190, 190, 190)
 GOAL = (140, 30, 160)
 TIP = (90, 50, 0)
-# The robot drawn as the hexagon of its resting face would be tiny; draw the body's 13 cm footprint instead.
 _HEXAGON_ANGLES = np.radians(np.arange(6) * 60.0 + 30.0)
 
 
@@ -76,14 +76,18 @@ class BuckybotRenderer:
         valid = ~(env.last_no_return | env.last_too_close)
         if valid.any():
             canvas.points((start + length[:, None] * direction)[valid], BEAM_VALID, radius_px=3.0)
-        # Body: the hexagonal resting face (true size), the 13 cm footprint, and the three tip directions.
+        # Body: the 13 cm footprint, the hexagonal resting face (side 5.27 cm), ticks for the three tip
+        # directions (direction 0, "back", is the darker one) and the resting face's number.
         canvas.disc(pos, env.body_radius_cm, BODY)
-        hexagon = pos + HEXAGON_INRADIUS_CM / np.cos(np.pi / 6) * 0.5 * np.stack(
+        hexagon = pos + TRUNCATED_EDGE_CM * np.stack(
             [np.cos(_HEXAGON_ANGLES + heading), np.sin(_HEXAGON_ANGLES + heading)], axis=-1
         )
-        canvas.polygon(hexagon, BODY, outline=BODY_EDGE)
+        canvas.polygon(hexagon, BODY_FACE, outline=BODY_EDGE)
         tips = heading + np.radians([0.0, 120.0, 240.0])
-        canvas.lines(np.repeat(pos[None], 3, 0), pos + 9.0 * np.stack([np.cos(tips), np.sin(tips)], -1), TIP, 1.0)
+        unit = np.stack([np.cos(tips), np.sin(tips)], -1)
+        canvas.lines(pos + 7.5 * unit, pos + env.body_radius_cm * unit, [TIP, BODY_EDGE, BODY_EDGE], 2.0)
+        label_at = pos + 1.6 * env.body_radius_cm * np.array([1.0, 1.0])  # beside the body: it is too small
+        canvas.text(label_at, str(int(sim.face[0]) + 1), TIP, scale=2)
         return canvas.image
 
     def render(self, env):

@@ -30,6 +30,27 @@ _INITIAL_BORDER_PX = 8
 
 
 @lru_cache(maxsize=32)
+def _glyph(*rows: str) -> np.ndarray:
+    return np.array([[c == "#" for c in row] for row in rows], dtype=bool)
+
+
+# A 3x5 pixel font for numeric labels.
+_GLYPHS = {
+    "0": _glyph("###", "#.#", "#.#", "#.#", "###"),
+    "1": _glyph(".#.", "##.", ".#.", ".#.", "###"),
+    "2": _glyph("###", "..#", "###", "#..", "###"),
+    "3": _glyph("###", "..#", "###", "..#", "###"),
+    "4": _glyph("#.#", "#.#", "###", "..#", "..#"),
+    "5": _glyph("###", "#..", "###", "..#", "###"),
+    "6": _glyph("###", "#..", "###", "#.#", "###"),
+    "7": _glyph("###", "..#", "..#", "..#", "..#"),
+    "8": _glyph("###", "#.#", "###", "#.#", "###"),
+    "9": _glyph("###", "#.#", "###", "..#", "###"),
+    "-": _glyph("...", "...", "###", "...", "..."),
+    ".": _glyph("...", "...", "...", "...", ".#."),
+}
+
+
 def _footprint(radius_px: float) -> tuple[np.ndarray, np.ndarray]:
     """``(drow, dcol)`` offsets of the pixels whose centres lie within ``radius_px`` of a pixel centre."""
     reach = math.floor(radius_px)
@@ -217,6 +238,25 @@ class Canvas:
         if c0 <= cx < c1 and r0 <= cy < r1:
             inside[math.floor(cy) - r0, math.floor(cx) - c0] = True
         self._cells[r0:r1, c0:c1][inside] = fill.view("V3")[0]
+
+    def text(self, anchor, label: str, color, scale: int = 2) -> None:
+        """Write digits (and '-', '.') centred on world point ``anchor`` in a 3x5 pixel font, ``scale`` px per dot.
+
+        Enough for labels such as face or robot numbers without a font library; other characters are skipped.
+        """
+        glyphs = [_GLYPHS[ch] for ch in str(label) if ch in _GLYPHS]
+        if not glyphs:
+            return
+        bitmap = np.concatenate([np.pad(g, ((0, 0), (0, 1))) for g in glyphs], axis=1)[:, :-1]
+        bitmap = np.kron(bitmap, np.ones((scale, scale), dtype=bool))
+        cx, cy = (float(v) for v in self.to_pixels(np.asarray(anchor, dtype=np.float64)))
+        if not (math.isfinite(cx) and math.isfinite(cy)):
+            return
+        rows, cols = np.nonzero(bitmap)
+        rows = rows + math.floor(cy - bitmap.shape[0] / 2)
+        cols = cols + math.floor(cx - bitmap.shape[1] / 2)
+        keep = (rows >= 0) & (rows < self.height) & (cols >= 0) & (cols < self.width)
+        self._cells[rows[keep], cols[keep]] = _as_colors("color", color).view("V3")[0]
 
     def points(self, points, color, radius_px: float = 1.5) -> None:
         """Draw a round marker of ``radius_px`` pixels at each world point ``(N, 2)``; ``color`` RGB or ``(N, 3)``."""
