@@ -136,27 +136,16 @@ class WallFollowExplorer(WallFollower):
     tips (the fixes keep it moving through doors and past wall ends).
     """
 
-    def __init__(
-        self,
-        observation_space,
-        action_space,
-        d_star_cm: float = 70.0,
-        x_s_cm: float = 30.0,
-        no_backtrack: bool = True,
-        clockwise_exception: bool = True,
-        too_close_cm: float = 20.0,
-        avoid_failed_tip: bool = True,
-    ):
-        super().__init__(
-            observation_space,
-            action_space,
-            d_star_cm=d_star_cm,
-            x_s_cm=x_s_cm,
-            no_backtrack=no_backtrack,
-            clockwise_exception=clockwise_exception,
-            too_close_cm=too_close_cm,
-            avoid_failed_tip=avoid_failed_tip,
-        )
+    DEFAULTS = {
+        "d_star_cm": 70.0,
+        "x_s_cm": 30.0,
+        "no_backtrack": True,
+        "clockwise_exception": True,
+        "avoid_failed_tip": True,
+    }
+
+    def __init__(self, observation_space, action_space, **kwargs):
+        super().__init__(observation_space, action_space, **{**self.DEFAULTS, **kwargs})
 
 
 class GoalSeeker(Policy):

@@ -119,10 +119,6 @@ class BuckybotEnv(gym.Env):
     def position(self) -> np.ndarray:
         return self.sim.position[0]
 
-    @property
-    def dead_reckoned_position(self) -> np.ndarray:
-        return self.sim.dr_position[0]
-
     def _reset_episode_record(self) -> None:
         self.true_path: list[tuple[float, float]] = []
         self.dead_reckoned_path: list[tuple[float, float]] = []
