@@ -107,6 +107,7 @@ class BuckybotEnv(gym.Env):
         self._observation = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._action_buffer = np.zeros(1, dtype=np.int64)
         self._renderer = None
+        self._reward_keys = {name: f"reward_{name}" for name in self._reward_names()}
         self._reset_episode_record()
 
     # --- helpers for tasks ------------------------------------------------------------------------------------
@@ -270,7 +271,7 @@ class BuckybotEnv(gym.Env):
             "action_mask": sim.tip_allowed[0].astype(np.int8),
             "face": face + 1,
             "heading_deg": heading_deg,
-            "tip_directions_deg": np.array([heading_deg, heading_deg + 120.0, heading_deg + 240.0]) % 360.0,
+            "tip_directions_deg": np.array([heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0]),
             "actuators": _ACTUATOR_NAMES[face][edge0],
             "sensor_faces": _SENSOR_FACES[face][edge0],
             "pose": np.array([*sim.position[0].tolist(), heading_deg]),
@@ -279,7 +280,8 @@ class BuckybotEnv(gym.Env):
             "wall_distance_cm": float(sim.wall_distance[0]),
             "blocked": self.last_blocked,
         }
-        info.update({f"reward_{name}": float(value) for name, value in reward_terms.items()})
+        for name, value in reward_terms.items():
+            info[self._reward_keys[name]] = float(value)
         info["episode_metrics"] = self._episode_metrics()
         return info
 

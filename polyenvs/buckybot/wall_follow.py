@@ -8,6 +8,7 @@ import numpy as np
 
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_positive
 
 __all__ = ["BuckybotWallFollowEnv"]
@@ -94,6 +95,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
         self.follow_tolerance_cm = check_positive("follow_tolerance_cm", follow_tolerance_cm)
         super().__init__(**kwargs)
         self._distance_norm = 2.0 * self.x_s_cm * STEP_LENGTH_CM
+        self._follow_reach = self.d_star_cm + self.follow_tolerance_cm
 
     def _reward_names(self):
         return ("progress", "distance", "blocked")
@@ -110,8 +112,8 @@ class BuckybotWallFollowEnv(BuckybotEnv):
             frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
             self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
             self._bin_length = (length / counts)[owner]
-            bounds = np.concatenate([[0], np.cumsum(counts)])
-            self._segment_bins = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+            bounds = np.concatenate([[0], np.cumsum(counts)]).tolist()
+            self._segment_bins = list(zip(bounds[:-1], bounds[1:], strict=True))
             self._wall_length = float(length.sum())
             g = plan.grid()
             self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0).tolist()
@@ -140,13 +142,10 @@ class BuckybotWallFollowEnv(BuckybotEnv):
         error = d - self.d_star_cm
         self._distance_error_sum += abs(error)
         if abs(error) <= self.follow_tolerance_cm:
-            bins = self._segment_bins[int(self.sim.wall_segment[0])]
-            centre = self._bin_centre[bins]
-            near = np.hypot(centre[:, 0] - x, centre[:, 1] - y) <= self.d_star_cm + self.follow_tolerance_cm
-            fresh = near & ~self._followed[bins]
-            if fresh.any():
-                self._followed[bins] |= fresh
-                self._followed_length += float(self._bin_length[bins][fresh].sum())
+            first, stop = self._segment_bins[int(self.sim.wall_segment[0])]
+            self._followed_length += _mark_bins(
+                self._bin_centre, self._bin_length, self._followed, first, stop, x, y, self._follow_reach
+            )
         self._winding += (angle - angle0 + math.pi) % (2 * math.pi) - math.pi
         self._previous = current
         return {
@@ -164,3 +163,14 @@ class BuckybotWallFollowEnv(BuckybotEnv):
             progress_cm=self._progress_cm,
         )
         return metrics
+
+
+@njit(cache=True)
+def _mark_bins(centre, length, followed, first, stop, x, y, reach):
+    """Mark the bins first..stop-1 within ``reach`` of (x, y) as followed; returns the wall length newly followed."""
+    added = 0.0
+    for i in range(first, stop):
+        if not followed[i] and math.hypot(centre[i, 0] - x, centre[i, 1] - y) <= reach:
+            followed[i] = True
+            added += length[i]
+    return added
