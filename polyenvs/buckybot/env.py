@@ -42,8 +42,6 @@ _SENSOR_FACES = [
     for f in range(geo.N_FACES)
 ]
 _INT_TYPES = (int, np.int64, np.int32, np.intp)
-# The tips undo one another only geometrically; this clearance guarantees all three tips are free at a start.
-_START_CLEARANCE_CM = geo.BODY_RADIUS_CM + geo.STEP_LENGTH_CM + 1.0
 
 
 class BuckybotEnv(gym.Env):
@@ -85,6 +83,9 @@ class BuckybotEnv(gym.Env):
             heading_sd_deg=check_positive("heading_sd_deg", heading_sd_deg, allow_zero=True),
         )
         self.tip_model = model.scaled(self.noise_scale)
+        # A start this far from every wall leaves all three tips free: each lands one step away, the body needs
+        # its radius.
+        self.start_clearance_cm = self.body_radius_cm + geo.STEP_LENGTH_CM + 1.0
         self.floor_plan = make_floor_plan(floor_plan)  # None: a random room at every reset
         if self.floor_plan is not None:
             self._check_plan(self.floor_plan, "floor_plan")
@@ -112,17 +113,16 @@ class BuckybotEnv(gym.Env):
 
     # --- helpers for tasks ------------------------------------------------------------------------------------
     def _check_plan(self, plan: FloorPlan, name: str) -> None:
-        g = plan.grid()
-        if g.main_region < 0 or not ((g.region == g.main_region) & (g.clearance >= _START_CLEARANCE_CM)).any():
-            raise ValueError(f"{name} leaves no room for the robot ({_START_CLEARANCE_CM:.1f} cm from every wall)")
+        if not plan.has_room(self.start_clearance_cm):
+            raise ValueError(f"{name} leaves no room for the robot ({self.start_clearance_cm:.1f} cm from every wall)")
 
     @property
     def position(self) -> np.ndarray:
         return self.sim.position[0]
 
     def _reset_episode_record(self) -> None:
-        self.true_path: list[tuple[float, float]] = []
-        self.dead_reckoned_path: list[tuple[float, float]] = []
+        self.true_path: list[list[float]] = []  # (x, y) after every step, for rendering
+        self.dead_reckoned_path: list[list[float]] = []
         self.steps = 0
         self.blocked_tips = 0
         self.oscillation_events = 0
@@ -133,9 +133,11 @@ class BuckybotEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         options = dict(options or {})
-        unknown = set(options) - {"pose", "face", *self._task_option_names()}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; expected 'pose' and/or 'face'")
+        allowed = {"pose", "face", *self._task_option_names()}
+        if set(options) - allowed:
+            raise ValueError(
+                f"unknown reset option(s) {sorted(set(options) - allowed)}; expected some of {sorted(allowed)}"
+            )
         if self.floor_plan is None or self.plan is None or self.plan is not self.floor_plan:
             self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
             self.sim.set_walls(self.plan.table)
@@ -159,7 +161,7 @@ class BuckybotEnv(gym.Env):
                 raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
             heading = np.radians(heading_deg)
         else:
-            position = self.plan.sample_start(rng, _START_CLEARANCE_CM)
+            position = self.plan.sample_start(rng, self.start_clearance_cm)
             heading = rng.uniform(0.0, 2 * np.pi)
         if "face" in options:
             face = options["face"]
@@ -225,8 +227,7 @@ class BuckybotEnv(gym.Env):
     def _random_plan(self) -> FloorPlan:
         for _ in range(100):
             plan = random_room(self.np_random)
-            g = plan.grid()
-            if g.main_region >= 0 and ((g.region == g.main_region) & (g.clearance >= _START_CLEARANCE_CM + 10)).any():
+            if plan.has_room(self.start_clearance_cm):
                 return plan
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 

@@ -45,6 +45,13 @@ class BuckybotWallFollowEnv(BuckybotEnv):
 
     Readings follow the paper's eq. 6, ``d + (0.013 d + 0.448) w`` cm, rounded to 2.54 cm.
 
+    Ground truth stays out of the observation and goes into ``info`` (in reset and step alike): ``pose`` and
+    ``dead_reckoned_pose`` (x cm, y cm, heading of frame direction 0 in degrees), ``face`` (1-20),
+    ``tip_directions_deg`` (world azimuths of the three actions), ``actuators`` (the actuator letter each action
+    extends), ``sensor_faces`` (the faces carrying the six observed sensors), ``true_range_cm``,
+    ``wall_distance_cm``, ``blocked``, ``action_mask`` (int8, tips that would not hit a wall; also
+    ``env.action_masks()`` for MaskablePPO), the ``reward_*`` terms and ``episode_metrics``.
+
     ## Rewards
     The paper's per-step cost ``(d - d*)² - x_s · progress``, normalised by ``2 x_s · 9.129 cm`` so a step along
     the wall earns about 1 (the weight 2 x_s makes the paper's target-tracking rule the greedy minimiser):

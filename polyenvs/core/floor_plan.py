@@ -155,6 +155,13 @@ class FloorPlan:
         main = int(candidates[0][np.argmax(candidates[1])]) if candidates[0].size else -1
         return FreeSpaceGrid(origin, float(cell_cm), clearance, region, main)
 
+    def has_room(self, min_clearance: float, cell_cm: float = 10.0) -> bool:
+        """Whether the main region has points at least ``min_clearance`` from every wall (a start can be drawn)."""
+        g = self.grid(cell_cm)
+        return g.main_region >= 0 and bool(
+            ((g.region == g.main_region) & (g.clearance >= min_clearance + cell_cm)).any()
+        )
+
     def in_main_region(self, point, cell_cm: float = 10.0) -> bool:
         """Whether ``point`` lies in the plan's main free region (inside the room, not outside its walls)."""
         g = self.grid(cell_cm)
