@@ -20,6 +20,7 @@ __all__ = [
     "SENSOR_PAIR_SEPARATION_RAD",
     "horizontal_range",
     "measure_ranges",
+    "measure_into",
     "measure_ranges_normalised",
     "wall_from_pair",
     "walls_from_readings",
@@ -68,13 +69,14 @@ def measure_ranges_normalised(true_range: np.ndarray, normals: np.ndarray, noise
     too_close = np.empty(flat_range.shape, dtype=np.bool_)
     no_return = np.empty(flat_range.shape, dtype=np.bool_)
     normalised = np.empty(flat_range.shape, dtype=np.float32)
-    _measure(flat_range, flat_normals, float(noise_scale), reading, too_close, no_return, normalised)
+    measure_into(flat_range, flat_normals, float(noise_scale), reading, too_close, no_return, normalised)
     shape = true_range.shape
     return reading.reshape(shape), too_close.reshape(shape), no_return.reshape(shape), normalised.reshape(shape)
 
 
 @njit(cache=True)
-def _measure(true_range, normals, noise_scale, reading, too_close, no_return, normalised):
+def measure_into(true_range, normals, noise_scale, reading, too_close, no_return, normalised):
+    """Compiled core of :func:`measure_ranges_normalised` on 1-D arrays, writing into the output arrays."""
     for i in range(true_range.shape[0]):
         d = true_range[i]
         noisy = d + (NOISE_SLOPE * d + NOISE_OFFSET_CM) * (noise_scale * normals[i])

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.sensors import _measure
+from polyenvs.buckybot.sensors import measure_into
 from polyenvs.core.geometry2d import SegmentTable, nearest_point, ray_distance
 from polyenvs.core.jit import njit
 
@@ -130,15 +130,6 @@ class BuckybotSimulator:
         self.heading[index] = np.mod(heading, _TWO_PI)
         self.dr_heading[index] = self.heading[index]
 
-    def tip_headings(self) -> np.ndarray:
-        """(B, 3) world azimuths of the three tip directions."""
-        return self.heading[:, None] + TIP_ANGLES_RAD
-
-    def actuators(self) -> np.ndarray:
-        """(B, 3) actuator (vertex) index each action would extend."""
-        edges = (self.edge0[:, None] + np.arange(3)) % 3
-        return geo.FACE_CORNER_ACTUATOR[self.face[:, None], edges]
-
     # --- dynamics ---------------------------------------------------------------------------------------------
     def tip(self, action: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """Tip every robot in direction ``action`` (B,) ints in {0, 1, 2}; ``normals`` (B, 3) standard normals.
@@ -235,7 +226,9 @@ def _sense(
             dx, dy = c * local[i, 0] - s * local[i, 1], s * local[i, 0] + c * local[i, 1]
             h = ray_distance(px + sensor_offset * dx, py + sensor_offset * dy, dx, dy, start[w], vector[w], is_real[w])
             true_range[b, i] = h / cos_elevation
-        _measure(true_range[b], normals[b], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b])
+        measure_into(
+            true_range[b], normals[b], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b]
+        )
         for j in range(3):  # a tip is allowed when its mean landing point keeps the body off the walls
             lx = px + c * local[6 + j, 0] - s * local[6 + j, 1]
             ly = py + s * local[6 + j, 0] + c * local[6 + j, 1]
