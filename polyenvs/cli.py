@@ -1,4 +1,4 @@
-"""The ``polyenvs`` command line: list environments, evaluate policies, build the leaderboard.
+"""The ``polyenvs`` command line: list environments, evaluate policies, build the leaderboard, record episodes.
 
 Expected failures (unknown id or policy, bad JSON or keyword arguments) print one line on stderr and exit 2.
 """
@@ -96,6 +96,47 @@ def _cmd_leaderboard(args) -> int:
     return 0
 
 
+def _cmd_record(args) -> int:
+    import gymnasium as gym
+    import numpy as np
+
+    import polyenvs  # noqa: F401
+    from baselines import make_policy
+
+    try:
+        import imageio.v2 as imageio
+    except ImportError:
+        raise CliError('recording needs imageio: pip install "polyenvs[render]"') from None
+    env_id = args.env_id.split(":", 1)[-1]
+    if env_id not in gym.registry:
+        raise CliError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
+    try:
+        env = gym.make(env_id, render_mode="rgb_array", **_json_arg(args.env_kwargs, "--env-kwargs"))
+    except TypeError as exc:
+        raise CliError(f"bad environment keyword arguments for {env_id}: {exc}") from None
+    policy = make_policy(args.policy, env_id, env.observation_space, env.action_space, seed=args.seed)
+    obs, _ = env.reset(seed=args.seed)
+    frames, state, start = [env.render()], None, True
+    for _ in range(args.max_steps):
+        action, state = policy.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
+        obs, _, terminated, truncated, _ = env.step(action)
+        frames.append(env.render())
+        start = False
+        if terminated or truncated:
+            break
+    env.close()
+    fps = args.fps or env.metadata.get("render_fps", 10)
+    try:
+        if args.output.endswith(".gif"):
+            imageio.mimsave(args.output, frames, duration=1000 / fps, loop=0)
+        else:
+            imageio.mimsave(args.output, frames, fps=fps)
+    except (OSError, ValueError) as exc:
+        raise CliError(f"could not write {args.output}: {exc}") from None
+    print(f"wrote {len(frames)} frames to {args.output}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="polyenvs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -122,6 +163,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output", default="benchmarks/LEADERBOARD.md")
     p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
     p.set_defaults(func=_cmd_leaderboard)
+    p = sub.add_parser("record", help="record a GIF or MP4 of a policy (needs imageio: polyenvs[render])")
+    p.add_argument("env_id")
+    p.add_argument("--policy", default="paper")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--max-steps", type=int, default=300)
+    p.add_argument("--fps", type=float, default=None, help="frames per second (default: the env's render_fps)")
+    p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    p.add_argument("--output", default="episode.gif", help="a .gif, or .mp4 with imageio-ffmpeg installed")
+    p.set_defaults(func=_cmd_record)
     return parser
 
 

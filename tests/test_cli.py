@@ -124,3 +124,11 @@ def test_console_script_is_installed():
         pytest.skip("polyenvs is not installed in this interpreter's environment (source checkout only)")
     result = subprocess.run([str(script), "list"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0 and polyenvs.ENV_IDS[0] in result.stdout
+
+
+def test_record_writes_a_gif(tmp_path: Path):
+    imageio = pytest.importorskip("imageio.v2")
+    out = tmp_path / "episode.gif"
+    assert main(["record", "polyenvs/BuckybotGoal-v0", "--max-steps", "5", "--output", str(out)]) == 0
+    frames = imageio.mimread(out)
+    assert 2 <= len(frames) <= 6 and frames[0].shape[-1] in (3, 4)
