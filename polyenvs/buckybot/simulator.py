@@ -114,6 +114,7 @@ class BuckybotSimulator:
         self.too_close = np.zeros((b, 6), dtype=bool)
         self.no_return = np.zeros((b, 6), dtype=bool)
         self.normalised = np.zeros((b, 6), dtype=np.float32)
+        self._all_rows = np.arange(b, dtype=np.int64)
 
     # --- state ------------------------------------------------------------------------------------------------
     def set_walls(self, walls: SegmentTable) -> None:
@@ -135,19 +136,25 @@ class BuckybotSimulator:
         """Tip every robot in direction ``action`` (B,) ints in {0, 1, 2}; ``normals`` (B, 3) standard normals.
 
         A tip onto a wall (by the mean landing point, i.e. ``tip_allowed``) is blocked: the robot stays put and
-        knows it (its accelerometer still reports the same face). Returns the (B,) blocked flags.
+        knows it (its accelerometer still reports the same face). An action of -1 leaves that robot alone (a
+        vector env resetting it). Returns the (B,) blocked flags.
         """
         blocked = np.empty(self.batch_size, dtype=np.bool_)
         _tip(np.asarray(action, dtype=np.int64), np.ascontiguousarray(normals), *self._tip_args(), blocked)
         return blocked
 
-    def sense(self, normals: np.ndarray):
-        """Range readings at the current pose (``normals`` (B, 6)); also refreshes the contact geometry.
+    def sense(self, normals: np.ndarray, rows: np.ndarray | None = None):
+        """Range readings at the current pose; also refreshes the contact geometry.
+
+        Args:
+            normals: ``(len(rows), 6)`` standard normals.
+            rows: the robots to sense (default: all).
 
         Returns the simulator's ``(reading, too_close, no_return, normalised)`` buffers (B, 6), as
         :func:`polyenvs.buckybot.sensors.measure_ranges_normalised` would compute them.
         """
-        _sense(np.ascontiguousarray(normals), *self._sense_args())
+        rows = self._all_rows if rows is None else np.asarray(rows, dtype=np.int64)
+        _sense(np.ascontiguousarray(normals), rows, *self._sense_args())
         return self.reading, self.too_close, self.no_return, self.normalised
 
     def step(self, action: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -156,7 +163,7 @@ class BuckybotSimulator:
         Returns the (B,) blocked flags; the readings are in the simulator's buffers.
         """
         blocked = np.empty(self.batch_size, dtype=np.bool_)
-        _step(action, normals, blocked, self._tip_args(), self._sense_args())
+        _step(action, normals, blocked, self._all_rows, self._tip_args(), self._sense_args())
         return blocked
 
     def _tip_args(self) -> tuple:
@@ -178,9 +185,9 @@ class BuckybotSimulator:
 
 
 @njit(cache=True)
-def _step(action, normals, blocked, tip_args, sense_args):
+def _step(action, normals, blocked, rows, tip_args, sense_args):
     _tip(action, normals[:, :3], *tip_args, blocked)
-    _sense(normals[:, 3:], *sense_args)
+    _sense(normals[:, 3:], rows, *sense_args)
 
 
 @njit(cache=True)
@@ -190,6 +197,9 @@ def _tip(
 ):  # fmt: skip
     for b in range(action.shape[0]):
         a = action[b]
+        if a < 0:
+            blocked[b] = False
+            continue
         blocked[b] = not tip_allowed[b, a]
         if blocked[b]:
             continue
@@ -213,12 +223,13 @@ def _tip(
 
 @njit(cache=True)
 def _sense(
-    normals, position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation,
+    normals, rows, position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation,
     body_radius, range_noise_scale, true_range, wall_distance, wall_foot, wall_segment, tip_allowed, reading,
     too_close, no_return, normalised,
 ):  # fmt: skip
     shared = start.shape[0] == 1
-    for b in range(position.shape[0]):
+    for n in range(rows.shape[0]):
+        b = rows[n]
         w = 0 if shared else b
         px, py = position[b, 0], position[b, 1]
         c, s = math.cos(heading[b]), math.sin(heading[b])
@@ -227,7 +238,7 @@ def _sense(
             h = ray_distance(px + sensor_offset * dx, py + sensor_offset * dy, dx, dy, start[w], vector[w], is_real[w])
             true_range[b, i] = h / cos_elevation
         measure_into(
-            true_range[b], normals[b], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b]
+            true_range[b], normals[n], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b]
         )
         for j in range(3):  # a tip is allowed when its mean landing point keeps the body off the walls
             lx = px + c * local[6 + j, 0] - s * local[6 + j, 1]
