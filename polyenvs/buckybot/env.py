@@ -1,7 +1,9 @@
 """The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, sensing, info, rendering.
 
-A task subclasses :class:`BuckybotEnv` and fills in five hooks (``_task_reset``, ``_task_step``,
-``_task_observation``, ``_task_terminated``, ``_episode_metrics``); the physics lives in
+Everything inside works on a batch of robots ("rows"), like the simulator: a Gymnasium ``BuckybotEnv`` is a batch
+of one, and :class:`polyenvs.buckybot.vector.BuckybotVectorEnv` runs the same class with many rows, so the task
+equations exist once. A task subclasses :class:`BuckybotEnv` and fills in the batched hooks (``_task_reset``,
+``_task_step``, ``_task_observation``, ``_task_terminated``) and ``_episode_metrics(row)``; the physics lives in
 :mod:`polyenvs.buckybot.simulator`, the sensors in :mod:`polyenvs.buckybot.sensors`.
 """
 
@@ -18,6 +20,7 @@ from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.floor_plans import make_floor_plan, random_room
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.floor_plan import FloorPlan
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_action, check_in_range, check_positive
 
 __all__ = ["BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE"]
@@ -53,6 +56,10 @@ class BuckybotEnv(gym.Env):
     #: Bounds of the task's extra observation entries, in order.
     task_observation_low: tuple[float, ...] = ()
     task_observation_high: tuple[float, ...] = ()
+    #: Names of the reward terms, in the order of the task's reward columns.
+    reward_names: tuple[str, ...] = ()
+    #: Rows (robots) this instance simulates; a vector env builds the class with more (see ``vector.py``).
+    _batch_size = 1
 
     def __init__(
         self,
@@ -89,11 +96,14 @@ class BuckybotEnv(gym.Env):
         self.floor_plan = make_floor_plan(floor_plan)  # None: a random room at every reset
         if self.floor_plan is not None:
             self._check_plan(self.floor_plan, "floor_plan")
+        elif self._batch_size > 1:
+            raise ValueError("floor_plan='random' draws a room per episode; a vector env needs one fixed plan")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
 
-        self.sim = BuckybotSimulator(1, self.tip_model, self.range_noise_scale, self.body_radius_cm)
+        n = self._batch_size
+        self.sim = BuckybotSimulator(n, self.tip_model, self.range_noise_scale, self.body_radius_cm)
         self.action_space = spaces.Discrete(3)
         low = np.concatenate([np.zeros(_N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
         high = np.concatenate([np.ones(_N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
@@ -105,78 +115,52 @@ class BuckybotEnv(gym.Env):
             start += size
 
         self.plan: FloorPlan | None = None
-        self._observation = np.zeros(self.observation_space.shape, dtype=np.float32)
-        self._action_buffer = np.zeros(1, dtype=np.int64)
+        self._observations = np.zeros((n, *self.observation_space.shape), dtype=np.float32)
+        self._rewards = np.zeros((n, len(self.reward_names)))
+        self._reward_keys = [f"reward_{name}" for name in self.reward_names]
+        self._actions = np.zeros(n, dtype=np.int64)
+        self._active = np.zeros(n, dtype=bool)
+        self._row0 = np.zeros(1, dtype=np.int64)
+        # Per-row episode records.
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.blocked_tips = np.zeros(n, dtype=np.int64)
+        self.oscillation_events = np.zeros(n, dtype=np.int64)
+        self.last_blocked = np.zeros(n, dtype=bool)
+        self._last_tip_moved = np.zeros(n, dtype=bool)
+        self.true_path: list[list[float]] = []  # row 0's (x, y) after every step, for rendering
+        self.dead_reckoned_path: list[list[float]] = []
         self._renderer = None
-        self._reward_keys = {name: f"reward_{name}" for name in self._reward_names()}
-        self._reset_episode_record()
 
-    # --- helpers for tasks ------------------------------------------------------------------------------------
+    # --- helpers ----------------------------------------------------------------------------------------------
     def _check_plan(self, plan: FloorPlan, name: str) -> None:
         if not plan.has_room(self.start_clearance_cm):
             raise ValueError(f"{name} leaves no room for the robot ({self.start_clearance_cm:.1f} cm from every wall)")
 
     @property
     def position(self) -> np.ndarray:
+        """Row 0's true position (cm)."""
         return self.sim.position[0]
 
-    def _reset_episode_record(self) -> None:
-        self.true_path: list[list[float]] = []  # (x, y) after every step, for rendering
-        self.dead_reckoned_path: list[list[float]] = []
-        self.steps = 0
-        self.blocked_tips = 0
-        self.oscillation_events = 0
-        self._last_tip_moved = False
-        self.last_blocked = False
+    # Row 0's last readings: views of the simulator's buffers, never handed out as observations.
+    @property
+    def last_reading(self) -> np.ndarray:
+        return self.sim.reading[0]
+
+    @property
+    def last_too_close(self) -> np.ndarray:
+        return self.sim.too_close[0]
+
+    @property
+    def last_no_return(self) -> np.ndarray:
+        return self.sim.no_return[0]
 
     # --- Gymnasium API ----------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        allowed = {"pose", "face", *self._task_option_names()}
-        if set(options) - allowed:
-            raise ValueError(
-                f"unknown reset option(s) {sorted(set(options) - allowed)}; expected some of {sorted(allowed)}"
-            )
-        if self.floor_plan is None or self.plan is None or self.plan is not self.floor_plan:
-            self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
-            self.sim.set_walls(self.plan.table)
-
-        rng = self.np_random
-        if "pose" in options:
-            try:
-                x, y, heading_deg = (float(v) for v in options["pose"])
-            except (TypeError, ValueError):
-                raise ValueError("reset option 'pose' must be (x_cm, y_cm, heading_deg)") from None
-            position = np.array([x, y])
-            if not np.isfinite(position).all() or not np.isfinite(heading_deg):
-                raise ValueError(f"reset option 'pose' must be finite, got {options['pose']!r}")
-            clearance = float(self.plan.clearance(position))
-            if clearance < self.body_radius_cm:
-                raise ValueError(
-                    f"reset option 'pose' puts the robot {clearance:.1f} cm from a wall "
-                    f"(inside or touching it; the body radius is {self.body_radius_cm} cm)"
-                )
-            if not self.plan.in_main_region(position):
-                raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
-            heading = np.radians(heading_deg)
-        else:
-            position = self.plan.sample_start(rng, self.start_clearance_cm)
-            heading = rng.uniform(0.0, 2 * np.pi)
-        if "face" in options:
-            face = options["face"]
-            if isinstance(face, bool) or not isinstance(face, (int, np.integer)) or not 1 <= face <= geo.N_FACES:
-                raise ValueError(f"reset option 'face' must be an integer 1..20, got {face!r}")
-            face = int(face) - 1
-        else:
-            face = int(rng.integers(geo.N_FACES))
-        self.sim.place(0, position, face, heading)
-        self._reset_episode_record()
-        self._sense()
-        self._task_reset(options)
-        self._record_path()
-        reward_terms = dict.fromkeys(self._reward_names(), 0.0)
-        return self._get_observation(), self._get_info(reward_terms)
+        self._reset_rows(self._row0, dict(options or {}))
+        self.true_path = [self.sim.position[0].tolist()]
+        self.dead_reckoned_path = [self.sim.dr_position[0].tolist()]
+        return self._get_observations()[0].copy(), self._get_info(0)
 
     def step(self, action):
         if self.plan is None:
@@ -186,23 +170,15 @@ class BuckybotEnv(gym.Env):
         else:
             check_action(self.action_space, action)
             a = int(action)
-        normals = self.np_random.standard_normal((1, 9))  # 3 for the tip, 6 for the range finders
-        self._action_buffer[0] = a
-        blocked = bool(self.sim.step(self._action_buffer, normals)[0])
-        self.steps += 1
-        if blocked:
-            self.blocked_tips += 1
-        elif a == 0 and self._last_tip_moved:
-            self.oscillation_events += 1  # undid the previous tip: alternating between two faces
-        self._last_tip_moved = not blocked
-        self.last_blocked = blocked
-        reward_terms = self._task_step(a, blocked)
-        self._record_path()
-        reward = float(sum(reward_terms.values()))
-        terminated = bool(self._task_terminated())
+        self._actions[0] = a
+        self._advance(self._actions, self.np_random.standard_normal((1, 9)))  # 3 for the tip, 6 for the sensors
+        self.true_path.append(self.sim.position[0].tolist())
+        self.dead_reckoned_path.append(self.sim.dr_position[0].tolist())
+        reward = float(sum(self._rewards[0].tolist()))
+        terminated = bool(self._terminated[0])
         if self.render_mode == "human":
             self.render()
-        return self._get_observation(), reward, terminated, False, self._get_info(reward_terms)
+        return self._get_observations()[0].copy(), reward, terminated, False, self._get_info(0)
 
     def render(self):
         if self.render_mode is None:
@@ -223,7 +199,105 @@ class BuckybotEnv(gym.Env):
         """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""
         return self.sim.tip_allowed[0].copy()
 
-    # --- internals --------------------------------------------------------------------------------------------
+    # --- the batched core (shared with the vector env) --------------------------------------------------------
+    def _reset_rows(self, rows: np.ndarray, options: dict) -> None:
+        """Start new episodes in ``rows``: place the robots, sense once, set up the task."""
+        allowed = {"pose", "face", *self._task_option_names()}
+        if set(options) - allowed:
+            raise ValueError(
+                f"unknown reset option(s) {sorted(set(options) - allowed)}; expected some of {sorted(allowed)}"
+            )
+        if self.floor_plan is None or self.plan is None:
+            self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
+            self.sim.set_walls(self.plan.table)
+        rng = self.np_random
+        for row in rows.tolist():
+            position, heading = self._start_pose(options)
+            face = self._start_face(options)
+            self.sim.place(row, position, face, heading)
+        for record in (self.steps, self.blocked_tips, self.oscillation_events):
+            record[rows] = 0
+        self.last_blocked[rows] = False
+        self._last_tip_moved[rows] = False
+        self.sim.sense(rng.standard_normal((len(rows), 6)), rows)
+        self._task_reset(rows, options)
+        self._rewards[rows] = 0.0
+        self._terminated = self._task_terminated()
+
+    def _start_pose(self, options: dict) -> tuple[np.ndarray, float]:
+        if "pose" not in options:
+            return self.plan.sample_start(self.np_random, self.start_clearance_cm), self.np_random.uniform(
+                0.0, 2 * np.pi
+            )
+        try:
+            x, y, heading_deg = (float(v) for v in options["pose"])
+        except (TypeError, ValueError):
+            raise ValueError("reset option 'pose' must be (x_cm, y_cm, heading_deg)") from None
+        position = np.array([x, y])
+        if not np.isfinite(position).all() or not np.isfinite(heading_deg):
+            raise ValueError(f"reset option 'pose' must be finite, got {options['pose']!r}")
+        clearance = float(self.plan.clearance(position))
+        if clearance < self.body_radius_cm:
+            raise ValueError(
+                f"reset option 'pose' puts the robot {clearance:.1f} cm from a wall "
+                f"(inside or touching it; the body radius is {self.body_radius_cm} cm)"
+            )
+        if not self.plan.in_main_region(position):
+            raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
+        return position, np.radians(heading_deg)
+
+    def _start_face(self, options: dict) -> int:
+        if "face" not in options:
+            return int(self.np_random.integers(geo.N_FACES))
+        face = options["face"]
+        if isinstance(face, bool) or not isinstance(face, (int, np.integer)) or not 1 <= face <= geo.N_FACES:
+            raise ValueError(f"reset option 'face' must be an integer 1..20, got {face!r}")
+        return int(face) - 1
+
+    def _advance(self, actions: np.ndarray, normals: np.ndarray) -> None:
+        """Tip and sense every row whose action is >= 0 (rows with -1 are being reset), then score the step."""
+        blocked = self.sim.step(actions, normals)
+        active = self._active
+        _update_records(
+            actions, blocked, active, self.steps, self.blocked_tips, self.oscillation_events, self._last_tip_moved,
+            self.last_blocked,
+        )  # fmt: skip
+        self._task_step(actions, blocked, active)
+        self._terminated = self._task_terminated()
+
+    def _get_observations(self) -> np.ndarray:
+        """(rows, D) observations, in a buffer the caller must copy before handing out."""
+        obs, sim = self._observations, self.sim
+        obs[:, 0:6] = sim.normalised
+        obs[:, 6:12] = sim.too_close
+        obs[:, 12:18] = sim.no_return
+        obs[:, 18] = self.last_blocked
+        if obs.shape[1] > _N_SENSOR_OBS:
+            obs[:, _N_SENSOR_OBS:] = self._task_observation()
+        return obs
+
+    def _get_info(self, row: int) -> dict[str, Any]:
+        sim = self.sim
+        heading_deg = math.degrees(sim.heading[row])
+        face, edge0 = int(sim.face[row]), int(sim.edge0[row])
+        info = {
+            "action_mask": sim.tip_allowed[row].astype(np.int8),
+            "face": face + 1,
+            "heading_deg": heading_deg,
+            "tip_directions_deg": np.array([heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0]),
+            "actuators": _ACTUATOR_NAMES[face][edge0],
+            "sensor_faces": _SENSOR_FACES[face][edge0],
+            "pose": np.array([*sim.position[row].tolist(), heading_deg]),
+            "dead_reckoned_pose": np.array([*sim.dr_position[row].tolist(), math.degrees(sim.dr_heading[row])]),
+            "true_range_cm": sim.true_range[row].copy(),
+            "wall_distance_cm": float(sim.wall_distance[row]),
+            "blocked": bool(self.last_blocked[row]),
+        }
+        for key, value in zip(self._reward_keys, self._rewards[row].tolist(), strict=True):
+            info[key] = value
+        info["episode_metrics"] = self._episode_metrics(row)
+        return info
+
     def _random_plan(self) -> FloorPlan:
         for _ in range(100):
             plan = random_room(self.np_random)
@@ -231,81 +305,39 @@ class BuckybotEnv(gym.Env):
                 return plan
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 
-    def _sense(self, normals: np.ndarray | None = None) -> None:
-        if normals is None:
-            normals = self.np_random.standard_normal((1, 6))
-        self.sim.sense(normals)
-
-    # The last readings of the (single) robot: views of the simulator's buffers, never handed out directly.
-    @property
-    def last_reading(self) -> np.ndarray:
-        return self.sim.reading[0]
-
-    @property
-    def last_too_close(self) -> np.ndarray:
-        return self.sim.too_close[0]
-
-    @property
-    def last_no_return(self) -> np.ndarray:
-        return self.sim.no_return[0]
-
-    def _record_path(self) -> None:
-        self.true_path.append(self.sim.position[0].tolist())
-        self.dead_reckoned_path.append(self.sim.dr_position[0].tolist())
-
-    def _get_observation(self) -> np.ndarray:
-        obs = self._observation
-        sim = self.sim
-        obs[0:6] = sim.normalised[0]
-        obs[6:12] = sim.too_close[0]
-        obs[12:18] = sim.no_return[0]
-        obs[18] = self.last_blocked
-        if obs.size > _N_SENSOR_OBS:
-            obs[_N_SENSOR_OBS:] = self._task_observation()
-        return obs.copy()
-
-    def _get_info(self, reward_terms: dict[str, float]) -> dict[str, Any]:
-        sim = self.sim
-        heading_deg = math.degrees(sim.heading[0])
-        face, edge0 = int(sim.face[0]), int(sim.edge0[0])
-        info = {
-            "action_mask": sim.tip_allowed[0].astype(np.int8),
-            "face": face + 1,
-            "heading_deg": heading_deg,
-            "tip_directions_deg": np.array([heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0]),
-            "actuators": _ACTUATOR_NAMES[face][edge0],
-            "sensor_faces": _SENSOR_FACES[face][edge0],
-            "pose": np.array([*sim.position[0].tolist(), heading_deg]),
-            "dead_reckoned_pose": np.array([*sim.dr_position[0].tolist(), math.degrees(sim.dr_heading[0])]),
-            "true_range_cm": sim.true_range[0].copy(),
-            "wall_distance_cm": float(sim.wall_distance[0]),
-            "blocked": self.last_blocked,
-        }
-        for name, value in reward_terms.items():
-            info[self._reward_keys[name]] = float(value)
-        info["episode_metrics"] = self._episode_metrics()
-        return info
-
-    def _reward_names(self) -> tuple[str, ...]:
-        raise NotImplementedError
-
     def _task_option_names(self) -> tuple[str, ...]:
         return ()
 
-    # --- task hooks -------------------------------------------------------------------------------------------
-    def _task_reset(self, options: dict) -> None:
-        """Set up the task after the robot is placed and has sensed once."""
+    # --- task hooks (batched over rows) -----------------------------------------------------------------------
+    def _task_reset(self, rows: np.ndarray, options: dict) -> None:
+        """Set up the task in ``rows`` after the robots are placed and have sensed once."""
 
-    def _task_step(self, action: int, blocked: bool) -> dict[str, float]:
-        """Reward terms (named, summing to the reward) for the step just taken."""
+    def _task_step(self, actions: np.ndarray, blocked: np.ndarray, active: np.ndarray) -> None:
+        """Write this step's reward terms into ``self._rewards`` (rows x reward_names); 0 where not active."""
         raise NotImplementedError
 
     def _task_observation(self) -> np.ndarray:
-        return np.zeros(0)
+        """(rows, task observation size) entries appended to the sensor observation."""
+        return np.zeros((self._batch_size, 0))
 
-    def _task_terminated(self) -> bool:
-        return False
+    def _task_terminated(self) -> np.ndarray:
+        return np.zeros(self._batch_size, dtype=bool)
 
-    def _episode_metrics(self) -> dict[str, float]:
-        """The episode's task metrics so far (at the last step: the episode's)."""
-        return {"blocked_tips": self.blocked_tips, "oscillation_events": self.oscillation_events}
+    def _episode_metrics(self, row: int) -> dict[str, float]:
+        """Row ``row``'s task metrics so far (at an episode's last step: that episode's)."""
+        return {"blocked_tips": int(self.blocked_tips[row]), "oscillation_events": int(self.oscillation_events[row])}
+
+
+@njit(cache=True)
+def _update_records(actions, blocked, active, steps, blocked_tips, oscillation_events, last_tip_moved, last_blocked):
+    for b in range(actions.shape[0]):
+        active[b] = actions[b] >= 0
+        if not active[b]:
+            continue
+        steps[b] += 1
+        if blocked[b]:
+            blocked_tips[b] += 1
+        elif actions[b] == 0 and last_tip_moved[b]:
+            oscillation_events[b] += 1  # undid the previous tip: the robot alternates between two faces
+        last_tip_moved[b] = not blocked[b]
+        last_blocked[b] = blocked[b]

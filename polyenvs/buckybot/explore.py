@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from polyenvs.buckybot.env import BuckybotEnv
-from polyenvs.buckybot.mapping import OccupancyGrid, placement_error
+from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams, placement_gaps
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_positive
 
 __all__ = ["BuckybotExploreEnv"]
@@ -50,53 +53,85 @@ class BuckybotExploreEnv(BuckybotEnv):
     * v0: initial version.
     """
 
+    reward_names = ("coverage", "blocked")
+
     def __init__(self, *, floor_plan="office", coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
         self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.0, 1.0)
         self.cell_cm = check_positive("cell_cm", cell_cm)
         if self.cell_cm > 50.0:
             raise ValueError(f"cell_cm must be <= 50 cm to resolve the robot's surroundings, got {cell_cm!r}")
         super().__init__(floor_plan=floor_plan, **kwargs)
-
-    def _reward_names(self):
-        return ("coverage", "blocked")
-
-    def _task_reset(self, options):
-        g = self.plan.grid(self.cell_cm)
-        self._free = g.region == g.main_region  # the free area coverage is measured against
-        self._free_total = max(int(self._free.sum()), 1)
-        self.map = OccupancyGrid(g.origin, g.shape, g.cell_cm)
-        self._seen_count = 0
-        self._map_error_sum = 0.0
-        self._map_points = 0
-        self._observe()
-
-    def _observe(self) -> int:
-        sim = self.sim
-        reading = self.last_reading
-        fresh = self.map.observe(
-            sim.position[0], sim.heading[0], reading, self.last_too_close, self.last_no_return, count_in=self._free
-        )
-        self._seen_count += fresh
-        # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
-        x, y = sim.position[0].tolist()
-        xd, yd = sim.dr_position[0].tolist()
-        total, count = placement_error((x, y, sim.heading[0]), (xd, yd, sim.dr_heading[0]), reading)
-        self._map_error_sum += total
-        self._map_points += count
-        return fresh
+        n = self._batch_size
+        self._seen = np.zeros(n, dtype=np.int64)  # free cells of the main region observed so far
+        self._map_error_sum = np.zeros(n)
+        self._map_points = np.zeros(n, dtype=np.int64)
+        self._grid_plan = None
 
     @property
-    def coverage(self) -> float:
-        return self._seen_count / self._free_total
+    def map(self) -> OccupancyGrid:
+        """Row 0's occupancy grid, built from the true pose."""
+        return OccupancyGrid(self._grid.origin, self._grid.shape, self._grid.cell_cm, cells=self._cells[0])
 
-    def _task_step(self, action, blocked):
-        fresh = self._observe()
-        return {"coverage": 100.0 * fresh / self._free_total, "blocked": -1.0 if blocked else 0.0}
+    @property
+    def coverage(self) -> np.ndarray:
+        """Fraction of the free area observed, per row."""
+        return self._seen / self._free_total
+
+    def _task_reset(self, rows, options):
+        if self._grid_plan is not self.plan:
+            g = self._grid = self.plan.grid(self.cell_cm)
+            self._free = g.region == g.main_region  # the free area coverage is measured against
+            self._free_total = max(int(self._free.sum()), 1)
+            self._cells = np.zeros((self._batch_size, *g.shape), dtype=np.int8)
+            self._grid_plan = self.plan
+        self._cells[rows] = OccupancyGrid.UNKNOWN
+        self._seen[rows] = 0
+        self._map_error_sum[rows] = 0.0
+        self._map_points[rows] = 0
+        active = np.zeros(self._batch_size, dtype=bool)
+        active[rows] = True
+        nothing_blocked = np.zeros(self._batch_size, dtype=bool)
+        self._task_step(None, nothing_blocked, active)  # what the robot sees before its first tip counts too
+
+    def _task_step(self, actions, blocked, active):
+        sim, g = self.sim, self._grid
+        _explore_step(
+            active, blocked, self._cells, g.origin[0], g.origin[1], g.cell_cm, sim.position, sim.heading,
+            sim.dr_position, sim.dr_heading, sim.reading, sim.too_close, sim.no_return, self._free,
+            float(self._free_total), self._seen, self._map_error_sum, self._map_points, self._rewards,
+        )  # fmt: skip
 
     def _task_terminated(self):
         return self.coverage >= self.coverage_goal
 
-    def _episode_metrics(self):
-        metrics = super()._episode_metrics()
-        metrics.update(coverage=self.coverage, map_error_cm=self._map_error_sum / max(self._map_points, 1))
+    def _episode_metrics(self, row):
+        metrics = super()._episode_metrics(row)
+        metrics.update(
+            coverage=int(self._seen[row]) / self._free_total,
+            map_error_cm=float(self._map_error_sum[row]) / max(int(self._map_points[row]), 1),
+        )
         return metrics
+
+
+@njit(cache=True)
+def _explore_step(
+    active, blocked, cells, ox, oy, cell, position, heading, dr_position, dr_heading, reading, too_close, no_return,
+    free, free_total, seen, map_error_sum, map_points, rewards,
+):  # fmt: skip
+    for b in range(active.shape[0]):
+        if not active[b]:
+            rewards[b, :] = 0.0
+            continue
+        fresh = mark_beams(
+            cells[b], ox, oy, cell, position[b, 0], position[b, 1], heading[b], reading[b], too_close[b],
+            no_return[b], free,
+        )  # fmt: skip
+        seen[b] += fresh
+        rewards[b, 0] = 100.0 * fresh / free_total  # percent of the free area newly observed
+        rewards[b, 1] = -1.0 if blocked[b] else 0.0
+        # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
+        total, count = placement_gaps(
+            position[b, 0], position[b, 1], heading[b], dr_position[b, 0], dr_position[b, 1], dr_heading[b], reading[b]
+        )
+        map_error_sum[b] += total
+        map_points[b] += count

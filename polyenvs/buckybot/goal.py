@@ -8,6 +8,7 @@ import numpy as np
 
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_positive
 
 __all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
@@ -58,6 +59,7 @@ class BuckybotGoalEnv(BuckybotEnv):
     * v0: initial version.
     """
 
+    reward_names = ("progress", "goal", "blocked")
     task_observation_sizes = {"goal": 3}
     task_observation_low = (-1.0, -1.0, 0.0)
     task_observation_high = (1.0, 1.0, 1.0)
@@ -72,71 +74,102 @@ class BuckybotGoalEnv(BuckybotEnv):
             raise ValueError(f"goal_distance_cm must satisfy 0 <= min <= max, got {goal_distance_cm!r}")
         self.goal_distance_cm = (low, high)
         super().__init__(floor_plan=floor_plan, **kwargs)
-        self.goal = np.zeros(2)
+        n = self._batch_size
+        self._goal = np.zeros((n, 2))
+        self._distance = np.zeros(n)  # true distance to the goal after the last step
+        self._success = np.zeros(n, dtype=bool)
+        self._goal_observation = np.zeros((n, 3))
 
-    def _reward_names(self):
-        return ("progress", "goal", "blocked")
+    @property
+    def goal(self) -> np.ndarray:
+        """Row 0's goal (cm)."""
+        return self._goal[0]
 
     def _task_option_names(self):
         return ("goal",)
 
-    def _task_reset(self, options):
+    def _task_reset(self, rows, options):
         clearance = self.goal_radius_cm + self.body_radius_cm
-        if "goal" in options:
-            try:
-                goal = np.array([float(v) for v in options["goal"]])
-            except (TypeError, ValueError):
-                raise ValueError("reset option 'goal' must be (x_cm, y_cm)") from None
-            if (
-                goal.shape != (2,)
-                or not np.isfinite(goal).all()
-                or float(self.plan.clearance(goal)) < self.body_radius_cm
-                or not self.plan.in_main_region(goal)
-            ):
-                raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
-        else:
-            goal = self._sample_goal(clearance)
-        self.goal = goal
-        self._goal_xy = goal.tolist()
-        self._distance = self._true_distance()
-        self._success = False
+        for row in rows.tolist():
+            self._goal[row] = self._option_goal(options) if "goal" in options else self._sample_goal(row, clearance)
+        position = self.sim.position[rows]
+        self._distance[rows] = np.hypot(self._goal[rows, 0] - position[:, 0], self._goal[rows, 1] - position[:, 1])
+        self._success[rows] = False
 
-    def _sample_goal(self, clearance: float) -> np.ndarray:
+    def _option_goal(self, options) -> np.ndarray:
+        try:
+            goal = np.array([float(v) for v in options["goal"]])
+        except (TypeError, ValueError):
+            raise ValueError("reset option 'goal' must be (x_cm, y_cm)") from None
+        if (
+            goal.shape != (2,)
+            or not np.isfinite(goal).all()
+            or float(self.plan.clearance(goal)) < self.body_radius_cm
+            or not self.plan.in_main_region(goal)
+        ):
+            raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
+        return goal
+
+    def _sample_goal(self, row: int, clearance: float) -> np.ndarray:
         g = self.plan.grid()
         centres = g.centres()[(g.region == g.main_region) & (g.clearance >= clearance + g.cell_cm)]
-        distance = np.hypot(*(centres - self.position).T)
+        distance = np.hypot(*(centres - self.sim.position[row]).T)
         low, high = self.goal_distance_cm
         pool = centres[(distance >= low) & (distance <= high)]
         if pool.size == 0:  # a small room: take the farthest reachable cells instead
             pool = centres[distance >= np.quantile(distance, 0.75)]
         return pool[self.np_random.integers(len(pool))] + self.np_random.uniform(-0.5, 0.5, 2) * g.cell_cm
 
-    def _true_distance(self) -> float:
-        x, y = self.sim.position[0].tolist()
-        return math.hypot(self._goal_xy[0] - x, self._goal_xy[1] - y)
-
     def _task_observation(self):
-        x, y = self.sim.dr_position[0].tolist()
-        dx, dy = self._goal_xy[0] - x, self._goal_xy[1] - y
-        bearing = math.atan2(dy, dx) - self.sim.dr_heading[0]
-        return (math.cos(bearing), math.sin(bearing), math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM))
+        sim = self.sim
+        _goal_bearing(sim.dr_position, sim.dr_heading, self._goal, self._goal_observation)
+        return self._goal_observation
 
-    def _task_step(self, action, blocked):
-        distance = self._true_distance()
-        progress = (self._distance - distance) / STEP_LENGTH_CM
-        self._distance = distance
-        self._success = distance <= self.goal_radius_cm
-        return {"progress": progress, "goal": 10.0 if self._success else 0.0, "blocked": -1.0 if blocked else 0.0}
+    def _task_step(self, actions, blocked, active):
+        _goal_step(
+            active,
+            blocked,
+            self.sim.position,
+            self._goal,
+            self.goal_radius_cm,
+            self._distance,
+            self._success,
+            self._rewards,
+        )
 
     def _task_terminated(self):
         return self._success
 
-    def _episode_metrics(self):
-        metrics = super()._episode_metrics()
-        metrics.update(success=float(self._success), final_distance_cm=self._distance)
+    def _episode_metrics(self, row):
+        metrics = super()._episode_metrics(row)
+        metrics.update(success=float(self._success[row]), final_distance_cm=float(self._distance[row]))
         return metrics
 
-    def _get_info(self, reward_terms):
-        info = super()._get_info(reward_terms)
-        info["goal"] = self.goal.copy()
+    def _get_info(self, row):
+        info = super()._get_info(row)
+        info["goal"] = self._goal[row].copy()
         return info
+
+
+@njit(cache=True)
+def _goal_bearing(dr_position, dr_heading, goal, out):
+    """The goal as the robot believes it: bearing (cos, sin) in the motion frame and tanh(distance / 200 cm)."""
+    for b in range(goal.shape[0]):
+        dx, dy = goal[b, 0] - dr_position[b, 0], goal[b, 1] - dr_position[b, 1]
+        bearing = math.atan2(dy, dx) - dr_heading[b]
+        out[b, 0], out[b, 1] = math.cos(bearing), math.sin(bearing)
+        out[b, 2] = math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM)
+
+
+@njit(cache=True)
+def _goal_step(active, blocked, position, goal, radius, distance, success, rewards):
+    for b in range(active.shape[0]):
+        if not active[b]:
+            rewards[b, :] = 0.0
+            continue
+        d = math.hypot(goal[b, 0] - position[b, 0], goal[b, 1] - position[b, 1])
+        rewards[b, 0] = (distance[b] - d) / STEP_LENGTH_CM  # progress towards the goal, in lattice steps
+        distance[b] = d
+        success[b] = d <= radius
+        rewards[b, 1] = 10.0 if success[b] else 0.0
+        rewards[b, 2] = -1.0 if blocked[b] else 0.0

@@ -20,7 +20,7 @@ from polyenvs.buckybot.geometry import (
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range
 from polyenvs.core.jit import njit
 
-__all__ = ["OccupancyGrid", "obstacle_points", "placement_error"]
+__all__ = ["OccupancyGrid", "mark_beams", "obstacle_points", "placement_error", "placement_gaps"]
 
 _COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
 _MAX_BEAM_CM = RANGE_MAX_CM * _COS_ELEVATION  # horizontal reach of a beam from its sensor
@@ -39,13 +39,18 @@ def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]
 
     Poses are ``(x, y, heading_rad)``.
     """
-    return _placement_error(
-        *(float(v) for v in true_pose), *(float(v) for v in dead_reckoned_pose), reading, SENSOR_AZIMUTHS_RAD
+    return placement_gaps(
+        *(float(v) for v in true_pose), *(float(v) for v in dead_reckoned_pose), np.asarray(reading, dtype=np.float64)
     )
 
 
+_SENSOR_AZIMUTHS = SENSOR_AZIMUTHS_RAD.copy()  # module-level arrays are frozen into the compiled code
+
+
 @njit(cache=True)
-def _placement_error(xt, yt, ht, xd, yd, hd, reading, azimuths):
+def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
+    """Compiled core of :func:`placement_error` for one pose pair."""
+    azimuths = _SENSOR_AZIMUTHS
     total, count = 0.0, 0
     for i in range(reading.shape[0]):
         if math.isnan(reading[i]):
@@ -69,10 +74,10 @@ class OccupancyGrid:
 
     UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
-    def __init__(self, origin, shape: tuple[int, int], cell_cm: float = 10.0):
+    def __init__(self, origin, shape: tuple[int, int], cell_cm: float = 10.0, cells: np.ndarray | None = None):
         self.origin = np.asarray(origin, dtype=np.float64)
         self.cell_cm = float(cell_cm)
-        self.cells = np.zeros(shape, dtype=np.int8)
+        self.cells = np.zeros(shape, dtype=np.int8) if cells is None else cells  # ``cells``: share a buffer
         self._everywhere = np.ones(shape, dtype=np.bool_)
 
     def observe(self, position, heading: float, reading, too_close, no_return, count_in=None) -> int:
@@ -83,18 +88,18 @@ class OccupancyGrid:
         frees its whole reach; a sensor that did not settle (too close) tells nothing about where.
         """
         x, y = (float(v) for v in position)
-        return _observe(
-            self.cells, self.origin[0], self.origin[1], self.cell_cm, x, y, float(heading), SENSOR_AZIMUTHS_RAD,
-            SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, _MAX_BEAM_CM, np.asarray(reading, dtype=np.float64),
-            np.asarray(too_close), np.asarray(no_return), self._everywhere if count_in is None else count_in,
+        return mark_beams(
+            self.cells, self.origin[0], self.origin[1], self.cell_cm, x, y, float(heading),
+            np.asarray(reading, dtype=np.float64), np.asarray(too_close), np.asarray(no_return),
+            self._everywhere if count_in is None else count_in,
         )  # fmt: skip
 
 
 @njit(cache=True)
-def _observe(
-    cells, ox, oy, cell, x, y, heading, azimuths, sensor_offset, cos_elevation, max_beam, reading, too_close,
-    no_return, count_in,
-):  # fmt: skip
+def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return, count_in):
+    """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
+    azimuths, sensor_offset = _SENSOR_AZIMUTHS, SENSOR_HORIZONTAL_OFFSET_CM
+    cos_elevation, max_beam = _COS_ELEVATION, _MAX_BEAM_CM
     rows, cols = cells.shape
     step = 0.5 * cell  # sample each beam at half a cell so no crossed cell is skipped
     fresh = 0

@@ -89,6 +89,8 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     * v0: initial version.
     """
 
+    reward_names = ("progress", "distance", "blocked")
+
     def __init__(
         self,
         *,
@@ -101,83 +103,106 @@ class BuckybotWallFollowEnv(BuckybotEnv):
         self.x_s_cm = check_positive("x_s_cm", x_s_cm)
         self.follow_tolerance_cm = check_positive("follow_tolerance_cm", follow_tolerance_cm)
         super().__init__(**kwargs)
+        n = self._batch_size
         self._distance_norm = 2.0 * self.x_s_cm * STEP_LENGTH_CM
         self._follow_reach = self.d_star_cm + self.follow_tolerance_cm
+        # Per row: pose terms after the last step (x, y, wall normal x, y, angle about the room's centre) and sums.
+        self._previous = np.zeros((n, 5))
+        self._distance_error_sum = np.zeros(n)
+        self._progress_cm = np.zeros(n)
+        self._winding = np.zeros(n)
+        self._followed_length = np.zeros(n)
+        self._bins_plan = None
 
-    def _reward_names(self):
-        return ("progress", "distance", "blocked")
-
-    def _task_reset(self, options):
+    def _prepare_bins(self) -> None:
+        """Cut every wall into ~10 cm bins, stored segment by segment so a step looks at one segment's run."""
         plan = self.plan
-        if getattr(self, "_bins_plan", None) is not plan:
-            # Each wall is cut into ~10 cm bins; bins are stored segment by segment so a step looks at one slice.
-            self._bins_plan = plan
-            seg = plan.segments
-            length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-            counts = np.maximum(1, np.ceil(length / _PERIMETER_BIN_CM).astype(int))
-            owner = np.repeat(np.arange(len(seg)), counts)
-            frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
-            self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
-            self._bin_length = (length / counts)[owner]
-            bounds = np.concatenate([[0], np.cumsum(counts)]).tolist()
-            self._segment_bins = list(zip(bounds[:-1], bounds[1:], strict=True))
-            self._wall_length = float(length.sum())
-            g = plan.grid()
-            self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0).tolist()
-        self._followed = np.zeros(len(self._bin_centre), dtype=bool)
-        self._followed_length = 0.0
-        self._distance_error_sum = 0.0
-        self._progress_cm = 0.0
-        self._winding = 0.0
-        self._previous = self._pose_terms()
+        seg = plan.segments
+        length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+        counts = np.maximum(1, np.ceil(length / _PERIMETER_BIN_CM).astype(np.int64))
+        owner = np.repeat(np.arange(len(seg)), counts)
+        frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
+        self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
+        self._bin_length = (length / counts)[owner]
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        self._segment_first, self._segment_stop = bounds[:-1].copy(), bounds[1:].copy()
+        self._wall_length = float(length.sum())
+        g = plan.grid()
+        self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0)
+        self._followed = np.zeros((self._batch_size, len(self._bin_centre)), dtype=bool)
+        self._bins_plan = plan
 
-    def _pose_terms(self) -> tuple[float, float, float, float, float]:
-        """(x, y, wall normal x, wall normal y, angle about the room's centre) at the current pose."""
-        x, y = self.sim.position[0].tolist()
-        fx, fy = self.sim.wall_foot[0].tolist()
-        gap = max(math.hypot(fx - x, fy - y), 1e-9)
-        cx, cy = self._lap_centre
-        return x, y, (fx - x) / gap, (fy - y) / gap, math.atan2(y - cy, x - cx)
+    def _task_reset(self, rows, options):
+        if self._bins_plan is not self.plan:
+            self._prepare_bins()
+        self._followed[rows] = False
+        for record in (self._distance_error_sum, self._progress_cm, self._winding, self._followed_length):
+            record[rows] = 0.0
+        _pose_terms(rows, self.sim.position, self.sim.wall_foot, self._lap_centre, self._previous)
 
-    def _task_step(self, action, blocked):
-        d = float(self.sim.wall_distance[0])
-        x0, y0, nx, ny, angle0 = self._previous
-        x, y, *_, angle = current = self._pose_terms()
-        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
-        progress = (x - x0) * -ny + (y - y0) * nx
-        self._progress_cm += progress
-        error = d - self.d_star_cm
-        self._distance_error_sum += abs(error)
-        if abs(error) <= self.follow_tolerance_cm:
-            first, stop = self._segment_bins[int(self.sim.wall_segment[0])]
-            self._followed_length += _mark_bins(
-                self._bin_centre, self._bin_length, self._followed, first, stop, x, y, self._follow_reach
-            )
-        self._winding += (angle - angle0 + math.pi) % (2 * math.pi) - math.pi
-        self._previous = current
-        return {
-            "progress": progress / STEP_LENGTH_CM,
-            "distance": -(error * error) / self._distance_norm,
-            "blocked": -1.0 if blocked else 0.0,
-        }
+    def _task_step(self, actions, blocked, active):
+        sim = self.sim
+        _wall_follow_step(
+            active, blocked, sim.position, sim.wall_foot, sim.wall_distance, sim.wall_segment, self._lap_centre,
+            self._previous, self.d_star_cm, self.follow_tolerance_cm, self._follow_reach, self._distance_norm,
+            self._bin_centre, self._bin_length, self._segment_first, self._segment_stop, self._followed,
+            self._followed_length, self._distance_error_sum, self._progress_cm, self._winding, self._rewards,
+        )  # fmt: skip
 
-    def _episode_metrics(self):
-        metrics = super()._episode_metrics()
+    def _episode_metrics(self, row):
+        metrics = super()._episode_metrics(row)
         metrics.update(
-            wall_distance_error_cm=self._distance_error_sum / max(self.steps, 1),
-            perimeter_fraction=self._followed_length / self._wall_length,
-            laps=int(max(self._winding, 0.0) // (2 * math.pi)),
-            progress_cm=self._progress_cm,
+            wall_distance_error_cm=float(self._distance_error_sum[row]) / max(int(self.steps[row]), 1),
+            perimeter_fraction=float(self._followed_length[row]) / self._wall_length,
+            laps=int(max(float(self._winding[row]), 0.0) // (2 * math.pi)),
+            progress_cm=float(self._progress_cm[row]),
         )
         return metrics
 
 
 @njit(cache=True)
-def _mark_bins(centre, length, followed, first, stop, x, y, reach):
-    """Mark the bins first..stop-1 within ``reach`` of (x, y) as followed; returns the wall length newly followed."""
-    added = 0.0
-    for i in range(first, stop):
-        if not followed[i] and math.hypot(centre[i, 0] - x, centre[i, 1] - y) <= reach:
-            followed[i] = True
-            added += length[i]
-    return added
+def _pose_terms(rows, position, wall_foot, lap_centre, out):
+    """(x, y, unit normal towards the nearest wall, angle about the room's centre) of each row, into ``out``."""
+    for n in range(rows.shape[0]):
+        b = rows[n]
+        x, y = position[b, 0], position[b, 1]
+        fx, fy = wall_foot[b, 0], wall_foot[b, 1]
+        gap = max(math.hypot(fx - x, fy - y), 1e-9)
+        out[b, 0], out[b, 1] = x, y
+        out[b, 2], out[b, 3] = (fx - x) / gap, (fy - y) / gap
+        out[b, 4] = math.atan2(y - lap_centre[1], x - lap_centre[0])
+
+
+@njit(cache=True)
+def _wall_follow_step(
+    active, blocked, position, wall_foot, wall_distance, wall_segment, lap_centre, previous, d_star, tolerance,
+    reach, distance_norm, bin_centre, bin_length, segment_first, segment_stop, followed, followed_length,
+    distance_error_sum, progress_sum, winding, rewards,
+):  # fmt: skip
+    for b in range(active.shape[0]):
+        if not active[b]:
+            rewards[b, :] = 0.0
+            continue
+        x0, y0, nx, ny, angle0 = previous[b, 0], previous[b, 1], previous[b, 2], previous[b, 3], previous[b, 4]
+        x, y = position[b, 0], position[b, 1]
+        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
+        progress = (x - x0) * -ny + (y - y0) * nx
+        progress_sum[b] += progress
+        error = wall_distance[b] - d_star
+        distance_error_sum[b] += abs(error)
+        if abs(error) <= tolerance:  # following: mark the nearest wall's bins within reach
+            k = wall_segment[b]
+            for i in range(segment_first[k], segment_stop[k]):
+                if not followed[b, i] and math.hypot(bin_centre[i, 0] - x, bin_centre[i, 1] - y) <= reach:
+                    followed[b, i] = True
+                    followed_length[b] += bin_length[i]
+        fx, fy = wall_foot[b, 0], wall_foot[b, 1]
+        gap = max(math.hypot(fx - x, fy - y), 1e-9)
+        angle = math.atan2(y - lap_centre[1], x - lap_centre[0])
+        winding[b] += (angle - angle0 + math.pi) % (2 * math.pi) - math.pi
+        previous[b, 0], previous[b, 1], previous[b, 2], previous[b, 3], previous[b, 4] = (
+            x, y, (fx - x) / gap, (fy - y) / gap, angle,
+        )  # fmt: skip
+        rewards[b, 0] = progress / STEP_LENGTH_CM
+        rewards[b, 1] = -(error * error) / distance_norm
+        rewards[b, 2] = -1.0 if blocked[b] else 0.0
