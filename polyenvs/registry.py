@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 
-__all__ = ["ENV_IDS", "EnvEntry", "REGISTRY", "register_all"]
+__all__ = ["ENV_IDS", "EnvEntry", "REGISTRY", "VECTOR_BENCHMARKS", "register_all"]
 
 
 @dataclass(frozen=True)
@@ -21,12 +21,15 @@ class EnvEntry:
     family: str
     description: str
     kwargs: dict = field(default_factory=dict)
+    #: A native vector env (``gym.make_vec(id, num_envs=N)``), where the family has one.
+    vector_entry_point: str | None = None
 
 
 REGISTRY: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotWallFollow-v0",
         entry_point="polyenvs.buckybot.wall_follow:BuckybotWallFollowEnv",
+        vector_entry_point="polyenvs.buckybot.vector:BuckybotWallFollowVectorEnv",
         max_episode_steps=500,
         family="buckybot",
         description="Buckybot follows the nearest wall counter-clockwise at distance d* with six range finders",
@@ -34,6 +37,7 @@ REGISTRY: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotExplore-v0",
         entry_point="polyenvs.buckybot.explore:BuckybotExploreEnv",
+        vector_entry_point="polyenvs.buckybot.vector:BuckybotExploreVectorEnv",
         max_episode_steps=1000,
         family="buckybot",
         description="Buckybot sweeps an unknown office with its range finders; dead-reckoned map error reported",
@@ -41,6 +45,7 @@ REGISTRY: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotGoal-v0",
         entry_point="polyenvs.buckybot.goal:BuckybotGoalEnv",
+        vector_entry_point="polyenvs.buckybot.vector:BuckybotGoalVectorEnv",
         max_episode_steps=300,
         family="buckybot",
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
@@ -50,6 +55,17 @@ REGISTRY: tuple[EnvEntry, ...] = (
 ENV_IDS: list[str] = [entry.id for entry in REGISTRY]
 
 
+def _make_native_vector(env_id: str):
+    def make(num_envs: int):
+        return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
+
+    return make
+
+
+#: Native vector envs measured by ``benchmarks/throughput.py``: id -> make(num_envs).
+VECTOR_BENCHMARKS = {entry.id: _make_native_vector(entry.id) for entry in REGISTRY if entry.vector_entry_point}
+
+
 def register_all() -> None:
     """Register every id with Gymnasium (idempotent: re-importing does not warn about overrides)."""
     for entry in REGISTRY:
@@ -57,6 +73,7 @@ def register_all() -> None:
             gym.register(
                 id=entry.id,
                 entry_point=entry.entry_point,
+                vector_entry_point=entry.vector_entry_point,
                 max_episode_steps=entry.max_episode_steps,
                 kwargs=dict(entry.kwargs),
             )

@@ -211,10 +211,14 @@ class BuckybotEnv(gym.Env):
             self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
             self.sim.set_walls(self.plan.table)
         rng = self.np_random
-        for row in rows.tolist():
-            position, heading = self._start_pose(options)
-            face = self._start_face(options)
-            self.sim.place(row, position, face, heading)
+        k = len(rows)
+        if "pose" in options:
+            positions, headings = self._option_pose(options)
+        else:
+            positions = self.plan.sample_start(rng, self.start_clearance_cm, size=k)
+            headings = rng.uniform(0.0, 2 * np.pi, size=k)
+        faces = self._option_face(options) if "face" in options else rng.integers(geo.N_FACES, size=k)
+        self.sim.place(rows, positions, faces, headings)
         for record in (self.steps, self.blocked_tips, self.oscillation_events):
             record[rows] = 0
         self.last_blocked[rows] = False
@@ -224,11 +228,7 @@ class BuckybotEnv(gym.Env):
         self._rewards[rows] = 0.0
         self._terminated = self._task_terminated()
 
-    def _start_pose(self, options: dict) -> tuple[np.ndarray, float]:
-        if "pose" not in options:
-            return self.plan.sample_start(self.np_random, self.start_clearance_cm), self.np_random.uniform(
-                0.0, 2 * np.pi
-            )
+    def _option_pose(self, options: dict) -> tuple[np.ndarray, float]:
         try:
             x, y, heading_deg = (float(v) for v in options["pose"])
         except (TypeError, ValueError):
@@ -246,17 +246,19 @@ class BuckybotEnv(gym.Env):
             raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
         return position, np.radians(heading_deg)
 
-    def _start_face(self, options: dict) -> int:
-        if "face" not in options:
-            return int(self.np_random.integers(geo.N_FACES))
+    @staticmethod
+    def _option_face(options: dict) -> int:
         face = options["face"]
         if isinstance(face, bool) or not isinstance(face, (int, np.integer)) or not 1 <= face <= geo.N_FACES:
             raise ValueError(f"reset option 'face' must be an integer 1..20, got {face!r}")
         return int(face) - 1
 
-    def _advance(self, actions: np.ndarray, normals: np.ndarray) -> None:
-        """Tip and sense every row whose action is >= 0 (rows with -1 are being reset), then score the step."""
-        blocked = self.sim.step(actions, normals)
+    def _advance(self, actions: np.ndarray, normals: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """Tip and sense every row whose action is >= 0 (``rows``, if given, lists them), then score the step.
+
+        Rows with action -1 were just reset by a vector env: they neither move nor score this step.
+        """
+        blocked = self.sim.step(actions, normals, rows)
         active = self._active
         _update_records(
             actions, blocked, active, self.steps, self.blocked_tips, self.oscillation_events, self._last_tip_moved,

@@ -89,9 +89,7 @@ class BuckybotGoalEnv(BuckybotEnv):
         return ("goal",)
 
     def _task_reset(self, rows, options):
-        clearance = self.goal_radius_cm + self.body_radius_cm
-        for row in rows.tolist():
-            self._goal[row] = self._option_goal(options) if "goal" in options else self._sample_goal(row, clearance)
+        self._goal[rows] = self._option_goal(options) if "goal" in options else self._sample_goals(rows)
         position = self.sim.position[rows]
         self._distance[rows] = np.hypot(self._goal[rows, 0] - position[:, 0], self._goal[rows, 1] - position[:, 1])
         self._success[rows] = False
@@ -110,15 +108,22 @@ class BuckybotGoalEnv(BuckybotEnv):
             raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
         return goal
 
-    def _sample_goal(self, row: int, clearance: float) -> np.ndarray:
+    def _sample_goals(self, rows: np.ndarray) -> np.ndarray:
+        """A goal per row: a uniform point of the room ``goal_distance_cm`` from the robot (or, in a room too
+        small for that, from the farthest quarter of it), clear of the walls by the goal radius plus the body."""
         g = self.plan.grid()
+        clearance = self.goal_radius_cm + self.body_radius_cm
         centres = g.centres()[(g.region == g.main_region) & (g.clearance >= clearance + g.cell_cm)]
-        distance = np.hypot(*(centres - self.sim.position[row]).T)
+        position = self.sim.position[rows]
+        distance = np.hypot(centres[None, :, 0] - position[:, None, 0], centres[None, :, 1] - position[:, None, 1])
         low, high = self.goal_distance_cm
-        pool = centres[(distance >= low) & (distance <= high)]
-        if pool.size == 0:  # a small room: take the farthest reachable cells instead
-            pool = centres[distance >= np.quantile(distance, 0.75)]
-        return pool[self.np_random.integers(len(pool))] + self.np_random.uniform(-0.5, 0.5, 2) * g.cell_cm
+        pool = (distance >= low) & (distance <= high)
+        empty = ~pool.any(axis=1)
+        if empty.any():
+            pool[empty] = distance[empty] >= np.quantile(distance[empty], 0.75, axis=1, keepdims=True)
+        pick = self.np_random.integers(pool.sum(axis=1))  # the pick-th candidate of each row's pool
+        index = np.argmax(np.cumsum(pool, axis=1) > pick[:, None], axis=1)
+        return centres[index] + self.np_random.uniform(-0.5, 0.5, (len(rows), 2)) * g.cell_cm
 
     def _task_observation(self):
         sim = self.sim

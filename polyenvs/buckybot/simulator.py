@@ -157,13 +157,15 @@ class BuckybotSimulator:
         _sense(np.ascontiguousarray(normals), rows, *self._sense_args())
         return self.reading, self.too_close, self.no_return, self.normalised
 
-    def step(self, action: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    def step(self, action: np.ndarray, normals: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
         """``tip`` then ``sense`` in one compiled call; ``normals`` (B, 9): three for the tip, six for the sensors.
 
+        ``rows`` limits the sensing (robots with action -1 that were just reset keep their first readings).
         Returns the (B,) blocked flags; the readings are in the simulator's buffers.
         """
         blocked = np.empty(self.batch_size, dtype=np.bool_)
-        _step(action, normals, blocked, self._all_rows, self._tip_args(), self._sense_args())
+        rows = self._all_rows if rows is None else rows
+        _step(action, normals, blocked, rows, self._tip_args(), self._sense_args())
         return blocked
 
     def _tip_args(self) -> tuple:
@@ -187,7 +189,7 @@ class BuckybotSimulator:
 @njit(cache=True)
 def _step(action, normals, blocked, rows, tip_args, sense_args):
     _tip(action, normals[:, :3], *tip_args, blocked)
-    _sense(normals[:, 3:], rows, *sense_args)
+    _sense(normals[rows, 3:], rows, *sense_args)
 
 
 @njit(cache=True)
