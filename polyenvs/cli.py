@@ -27,6 +27,16 @@ def _json_arg(text: str, name: str) -> dict:
     return value
 
 
+def _describe_space(space) -> str:
+    """A one-line summary: ``Discrete(3)``, or ``Box(22,) float32 in [-1, 1]`` instead of every bound."""
+    import numpy as np
+    from gymnasium import spaces
+
+    if isinstance(space, spaces.Box):
+        return f"Box{space.shape} {space.dtype} in [{np.min(space.low):g}, {np.max(space.high):g}]"
+    return str(space)
+
+
 def _cmd_list(args) -> int:
     import gymnasium as gym
 
@@ -36,7 +46,9 @@ def _cmd_list(args) -> int:
     rows = []
     for entry in REGISTRY:
         env = gym.make(entry.id)
-        rows.append((entry.id, str(env.action_space), str(env.observation_space), entry.description))
+        rows.append(
+            (entry.id, _describe_space(env.action_space), _describe_space(env.observation_space), entry.description)
+        )
         env.close()
     if args.json:
         print(
