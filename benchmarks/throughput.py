@@ -485,6 +485,62 @@ def run(
     return rows + ours, registry.notes + notes
 
 
+# ------------------------------------------------------------------------------------------ training speed
+
+#: Training rows measured against PPO on CartPole-v1 in the same run (performance spec): id -> minimum ratio.
+TRAINING_TARGETS = {"polyenvs/BuckybotWallFollow-v0": 0.8}
+
+
+def measure_ppo(env_id: str, *, timesteps: int, seed: int = 0) -> Measurement:
+    """Stable-Baselines3 PPO (MlpPolicy, one env, one torch thread) timesteps per second on ``env_id``.
+
+    The rollout and the gradient epochs are both timed, as a user training on the environment pays both.
+    """
+    import torch
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)  # two threads on these 2-core machines are intermittently 10-100x slower
+    env = gym.make(env_id)
+    model = PPO("MlpPolicy", env, n_steps=512, batch_size=64, n_epochs=4, seed=seed, device="cpu", verbose=0)
+    model.learn(total_timesteps=512)  # warm-up: first rollout, compilation, torch's lazy set-up
+    start = time.perf_counter()
+    model.learn(total_timesteps=timesteps, reset_num_timesteps=False)
+    rate = timesteps / (time.perf_counter() - start)
+    env.close()
+    return Measurement(env_id, "SB3 PPO MlpPolicy, 1 env, n_steps 512, 4 epochs (timesteps/s)", rate, 1e6 / rate, None)
+
+
+def measure_training(env_ids: Sequence[str], *, timesteps: int, seed: int = 0) -> tuple[list[Measurement], list[str]]:
+    """PPO on CartPole-v1 and on each id of ``env_ids`` that has a training target; notes say what was skipped."""
+    if _missing("stable_baselines3") or _missing("torch"):
+        return [], ['training speed skipped: stable-baselines3 / torch not installed (pip install "polyenvs[train]")']
+    rows = []
+    for env_id in [CARTPOLE, *[e for e in env_ids if e in TRAINING_TARGETS]]:
+        _progress(f"PPO on {env_id} ...")
+        try:
+            rows.append(measure_ppo(env_id, timesteps=timesteps, seed=seed))
+        except Exception as exc:  # a failing row is reported, not fatal
+            rows.append(not_measured(env_id, "SB3 PPO", f"error: {_one_line(exc)}"))
+    return rows, []
+
+
+def format_training_table(rows: Sequence[Measurement]) -> str:
+    """PPO timesteps/s per environment and the ratio to PPO on CartPole-v1 in the same run."""
+    cartpole = _reference(rows, CARTPOLE, vector=False)
+    lines = [
+        "| name | setting | timesteps/s | vs PPO on CartPole | target | meets target |",
+        "| --- | --- | ---: | ---: | --- | --- |",
+    ]
+    for row in rows:
+        ratio = _ratio(row, cartpole)
+        target = TRAINING_TARGETS.get(row.name)
+        meets = "" if target is None or ratio is None else ("yes" if ratio >= target else "no")
+        cells = [row.name, row.setting, _fmt_rate(row.steps_per_second), _fmt_ratio(ratio)]
+        cells += ["" if target is None else f">= {target:g}x PPO on CartPole", meets]
+        lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------------------------- formatting
 
 
@@ -605,6 +661,7 @@ def format_report(
     quick: bool,
     command: str,
     date: datetime | None = None,
+    training: Sequence[Measurement] = (),
 ) -> str:
     """The whole THROUGHPUT.md: how the numbers were made, the machine, the table and the notes."""
     date = date or datetime.now(UTC)
@@ -635,6 +692,12 @@ Machine: {platform.platform()}, {_cpu_model()}, {os.cpu_count()} CPUs; Python {p
 
 """
     text = preamble + format_table(rows) + "\n"
+    if training:
+        text += (
+            "\n## Training speed\n\nPPO timesteps per second (rollouts and gradient epochs, after a 512-step warm-up),"
+            " against PPO on CartPole-v1 in the same run: the environment should never be the bottleneck.\n\n"
+        )
+        text += format_training_table(training) + "\n"
     if notes:
         text += "\nNotes:\n\n" + format_notes(notes) + "\n"
     return text
@@ -667,6 +730,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--only", metavar="SUBSTRING", help="only our envs whose id contains SUBSTRING (peers always)")
     parser.add_argument("--no-write", action="store_true", help="print the table without writing the report")
     parser.add_argument("--output", type=Path, default=DEFAULT_OUTPUT, help=f"report path (default: {DEFAULT_OUTPUT})")
+    parser.add_argument("--no-training", action="store_true", help="skip the PPO training-speed rows")
     return parser
 
 
@@ -676,18 +740,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     min_seconds, repeats = (0.3, 1) if args.quick else (2.0, 3)
     try:
         rows, notes = run(min_seconds=min_seconds, repeats=repeats, only=args.only)
+        training: list[Measurement] = []
+        if not args.no_training:
+            env_ids = [r.name for r in rows if r.name.startswith("polyenvs/") and not r.vector]
+            training, training_notes = measure_training(env_ids, timesteps=1024 if args.quick else 4096)
+            notes = list(notes) + training_notes
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
 
     print(format_table(rows))
+    if training:
+        print()
+        print(format_training_table(training))
     if notes:
         print()
         print(format_notes(notes))
 
     if not args.no_write:
         command = " ".join(["python -m benchmarks.throughput", *(sys.argv[1:] if argv is None else argv)])
-        report = format_report(rows, notes, min_seconds=min_seconds, repeats=repeats, quick=args.quick, command=command)
+        report = format_report(
+            rows, notes, min_seconds=min_seconds, repeats=repeats, quick=args.quick, command=command, training=training
+        )
         try:
             write_atomically(args.output, report)
         except OSError as exc:

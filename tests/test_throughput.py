@@ -17,5 +17,14 @@ def test_measure_env_steps_on_cartpole_gives_a_positive_finite_rate() -> None:
 
 
 def test_quick_main_prints_a_table_with_the_cartpole_peer(capsys) -> None:
-    assert throughput.main(["--quick", "--no-write", "--only", "nothing-matches"]) == 0
+    assert throughput.main(["--quick", "--no-write", "--no-training", "--only", "nothing-matches"]) == 0
     assert "CartPole-v1" in capsys.readouterr().out
+
+
+def test_training_table_compares_with_ppo_on_cartpole() -> None:
+    rows = [
+        throughput.Measurement("CartPole-v1", "SB3 PPO", 1000.0, 1000.0, None),
+        throughput.Measurement("polyenvs/BuckybotWallFollow-v0", "SB3 PPO", 700.0, 1e6 / 700.0, None),
+    ]
+    table = throughput.format_training_table(rows)
+    assert "| polyenvs/BuckybotWallFollow-v0 |" in table and "0.70x" in table and "| no |" in table
