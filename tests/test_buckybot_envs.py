@@ -205,3 +205,17 @@ def test_info_maps_the_face_frame_to_the_world():
         corner_az = np.degrees(np.arctan2(corners[:, 1], corners[:, 0]))
         np.testing.assert_allclose((corner_az - info["tip_directions_deg"] - 180 + 180) % 360 - 180, 0.0, atol=1e-6)
         *_, info = env.step(env.action_space.sample())
+
+
+def test_human_render_mode_opens_a_window(monkeypatch):
+    """'human' mode draws into a pygame window (SDL's dummy video driver stands in for a display)."""
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pygame = pytest.importorskip("pygame")
+    env = gym.make(IDS[0], render_mode="human")
+    env.reset(seed=0)
+    assert env.render() is None
+    env.step(0)  # human mode renders on every step
+    surface = pygame.display.get_surface()
+    assert surface is not None and surface.get_size()[0] == 480
+    env.close()
+    assert pygame.display.get_surface() is None
