@@ -44,20 +44,22 @@ def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]
     )
 
 
-_SENSOR_AZIMUTHS = SENSOR_AZIMUTHS_RAD.copy()  # module-level arrays are frozen into the compiled code
+# Module-level arrays are frozen into the compiled code.
+_SENSOR_COS, _SENSOR_SIN = np.cos(SENSOR_AZIMUTHS_RAD), np.sin(SENSOR_AZIMUTHS_RAD)
 
 
 @njit(cache=True)
 def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
     """Compiled core of :func:`placement_error` for one pose pair."""
-    azimuths = _SENSOR_AZIMUTHS
+    ca, sa = _SENSOR_COS, _SENSOR_SIN
+    cht, sht, chd, shd = math.cos(ht), math.sin(ht), math.cos(hd), math.sin(hd)  # rotate, don't re-evaluate trig
     total, count = 0.0, 0
     for i in range(reading.shape[0]):
         if math.isnan(reading[i]):
             continue
         r = (reading[i] + HEXAGON_INRADIUS_CM) * _COS_ELEVATION  # horizontal distance from the centre
-        dx = xt + r * math.cos(ht + azimuths[i]) - xd - r * math.cos(hd + azimuths[i])
-        dy = yt + r * math.sin(ht + azimuths[i]) - yd - r * math.sin(hd + azimuths[i])
+        dx = xt - xd + r * ((cht * ca[i] - sht * sa[i]) - (chd * ca[i] - shd * sa[i]))
+        dy = yt - yd + r * ((sht * ca[i] + cht * sa[i]) - (shd * ca[i] + chd * sa[i]))
         total += math.hypot(dx, dy)
         count += 1
     return total, count
@@ -98,15 +100,16 @@ class OccupancyGrid:
 @njit(cache=True)
 def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return, count_in):
     """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
-    azimuths, sensor_offset = _SENSOR_AZIMUTHS, SENSOR_HORIZONTAL_OFFSET_CM
+    ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
     cos_elevation, max_beam = _COS_ELEVATION, _MAX_BEAM_CM
     rows, cols = cells.shape
     step = 0.5 * cell  # sample each beam at half a cell so no crossed cell is skipped
+    ch, sh = math.cos(heading), math.sin(heading)
     fresh = 0
     for i in range(6):
         if too_close[i]:
             continue
-        dx, dy = math.cos(heading + azimuths[i]), math.sin(heading + azimuths[i])
+        dx, dy = ch * ca[i] - sh * sa[i], sh * ca[i] + ch * sa[i]
         sx, sy = x + sensor_offset * dx, y + sensor_offset * dy
         length = max_beam if no_return[i] else reading[i] * cos_elevation
         # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
