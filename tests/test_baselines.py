@@ -29,10 +29,15 @@ def test_wall_follower_laps_a_rectangular_room_counter_clockwise():
 
 
 def test_corner_oscillation_is_observable_and_reduced_by_the_rules():
-    """Paper: at 90° corners the follower alternates between faces; larger x_s and no backtracking help."""
-    plain = _summary(WALL, "wall_follower", "corner")["summary"]["oscillation_events"]
-    larger_xs = _summary(WALL, "wall_follower", "corner", x_s_cm=40.0)["summary"]["oscillation_events"]
-    no_backtrack = _summary(WALL, "wall_follower", "corner", no_backtrack=True)["summary"]["oscillation_events"]
+    """Paper: at 90° corners the follower alternates between faces; larger x_s and no backtracking help.
+
+    Oscillation varies a lot between episodes (x_s = 40: 0 to 179 per episode), so the means take 20 episodes
+    (they were 145, 54 and 0 when this was written)."""
+    plain = _summary(WALL, "wall_follower", "corner", episodes=20)["summary"]["oscillation_events"]
+    larger_xs = _summary(WALL, "wall_follower", "corner", episodes=20, x_s_cm=40.0)["summary"]["oscillation_events"]
+    no_backtrack = _summary(WALL, "wall_follower", "corner", episodes=20, no_backtrack=True)["summary"][
+        "oscillation_events"
+    ]
     assert plain > 50  # back-and-forth tips per 500 steps
     assert larger_xs < 0.6 * plain
     assert no_backtrack < 5

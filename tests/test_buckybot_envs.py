@@ -144,13 +144,20 @@ def test_random_rooms_follow_the_seed():
 
 
 def test_dead_reckoning_drifts_with_noise_and_not_without():
-    for scale, drifts in ((0.0, False), (1.0, True)):
-        env = gym.make(IDS[0], noise_scale=scale)
-        env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0)})
-        for a in [1, 2] * 40:  # 80 tips back and forth across the middle of the room
-            _, _, _, _, info = env.step(a if a == 1 else 0)
-        gap = np.hypot(*(info["pose"][:2] - info["dead_reckoned_pose"][:2]))
-        assert (gap > 0.5) == drifts
+    def gaps(scale):
+        out = []
+        for seed in range(8):
+            env = gym.make(IDS[0], noise_scale=scale)
+            env.reset(seed=seed, options={"pose": (200.0, 150.0, 0.0)})
+            for a in [1, 0] * 40:  # 80 tips back and forth across the middle of the room
+                *_, info = env.step(a)
+            out.append(np.hypot(*(info["pose"][:2] - info["dead_reckoned_pose"][:2])))
+        return np.array(out)
+
+    assert (gaps(0.0) < 1e-9).all()
+    # With the paper's noise the gap random-walks: about 1.3 cm after 80 tips (median over seeds), never 0.
+    noisy = gaps(1.0)
+    assert (noisy > 0.05).all() and np.median(noisy) > 0.5
 
 
 def test_explore_map_error_grows_with_distance():

@@ -22,41 +22,75 @@ def test_make_vec_defaults_to_the_native_vector_env(env_id):
     envs.close()
 
 
+def _assert_same(a, b, where=""):
+    """Recursive bit-for-bit equality of vector-env outputs (arrays, object arrays, nested info dicts)."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), f"{where}: keys differ: {set(a) ^ set(b)}"
+        for key in a:
+            _assert_same(a[key], b[key], f"{where}/{key}")
+    elif isinstance(a, tuple):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _assert_same(x, y, f"{where}[{i}]")
+    elif isinstance(a, np.ndarray) and a.dtype == object:
+        assert a.tolist() == b.tolist(), where
+    else:
+        a, b = np.asarray(a), np.asarray(b)
+        assert a.dtype == b.dtype and a.shape == b.shape, f"{where}: {a.dtype}{a.shape} vs {b.dtype}{b.shape}"
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where
+
+
+@pytest.mark.parametrize("floor_plan", [None, "random"])
 @pytest.mark.parametrize("env_id", IDS)
-def test_one_robot_vector_env_matches_the_single_env(env_id):
-    """Parity: the same seed and actions give the single env's first episode bit for bit."""
-    single = gym.make(env_id)
-    vector = gym.make_vec(env_id, num_envs=1, vectorization_mode="vector_entry_point")
-    obs_s, _ = single.reset(seed=11)
-    obs_v, _ = vector.reset(seed=11)
-    assert np.array_equal(obs_s, obs_v[0])
+def test_native_vector_env_matches_sync_vector_env(env_id, floor_plan):
+    """Sub-env i reset with seed s is gym.make(id) reset with seed s + i, bit for bit, through autoresets."""
+    kwargs = {} if floor_plan is None else {"floor_plan": floor_plan}
+    make = {"num_envs": 4, "max_episode_steps": 30, **kwargs}
+    native = gym.make_vec(env_id, vectorization_mode="vector_entry_point", **make)
+    sync = gym.make_vec(env_id, vectorization_mode="sync", **make)
+    _assert_same(native.reset(seed=11), sync.reset(seed=11), "reset")
     rng = np.random.default_rng(0)
-    for _ in range(gym.spec(env_id).max_episode_steps):
-        action = int(rng.integers(3))
-        obs_s, reward_s, term_s, trunc_s, info_s = single.step(action)
-        obs_v, reward_v, term_v, trunc_v, info_v = vector.step(np.array([action]))
-        assert np.array_equal(obs_s, obs_v[0])
-        assert reward_s == reward_v[0] and term_s == term_v[0] and trunc_s == trunc_v[0]
-        assert np.array_equal(info_s["action_mask"], info_v["action_mask"][0])
-        if term_s or trunc_s:
-            for name, value in info_s["episode_metrics"].items():
-                assert info_v["episode_metrics"][name][0] == pytest.approx(value)
-            break
+    ended = 0
+    for t in range(75):
+        actions = rng.integers(3, size=4)
+        result = native.step(actions)
+        _assert_same(result, sync.step(actions), f"step {t}")
+        ended += int((result[2] | result[3]).sum())
+    assert ended >= 8  # every row went through at least two autoresets
+    # A second seeded reset, with a list of seeds as SyncVectorEnv takes them.
+    _assert_same(native.reset(seed=[3, None, 5, 6]), sync.reset(seed=[3, None, 5, 6]), "list reset")
+    native.close()
+    sync.close()
 
 
-def test_autoreset_next_step():
-    envs = gym.make_vec(IDS[0], num_envs=4, max_episode_steps=5)
-    envs.reset(seed=1)
-    for _ in range(4):
-        _, _, _, truncated, info = envs.step(np.zeros(4, dtype=np.int64))
-        assert not truncated.any() and "episode_metrics" not in info
-    _, _, terminated, truncated, info = envs.step(np.ones(4, dtype=np.int64))
-    assert truncated.all() and not terminated.any()
-    assert info["_episode_metrics"].all() and np.isfinite(info["episode_metrics"]["wall_distance_error_cm"]).all()
-    obs, rewards, terminated, truncated, _ = envs.step(np.ones(4, dtype=np.int64))
-    assert (rewards == 0).all() and not (terminated | truncated).any()  # this step only reset them
-    assert envs.observation_space.contains(obs)
-    assert (envs.unwrapped._core.steps == 0).all()
+def test_vector_env_rows_match_single_envs_seeded_s_plus_i():
+    vector = gym.make_vec(IDS[2], num_envs=3, vectorization_mode="vector_entry_point")
+    obs_v, info_v = vector.reset(seed=20)
+    for i in range(3):
+        obs, info = gym.make(IDS[2]).reset(seed=20 + i)
+        assert np.array_equal(obs, obs_v[i]) and np.array_equal(info["goal"], info_v["goal"][i])
+
+
+def test_vector_env_refuses_use_after_close():
+    envs = gym.make_vec(IDS[0], num_envs=2)
+    envs.reset(seed=0)
+    envs.close()
+    with pytest.raises(gym.error.ClosedEnvironmentError):
+        envs.step(np.zeros(2, dtype=np.int64))
+    with pytest.raises(gym.error.ClosedEnvironmentError):
+        envs.reset(seed=0)
+
+
+def test_vector_env_renders_sub_environment_0():
+    envs = gym.make_vec(IDS[0], num_envs=3, render_mode="rgb_array", floor_plan="random")
+    single = gym.make(IDS[0], render_mode="rgb_array", floor_plan="random")
+    envs.reset(seed=4)
+    single.reset(seed=4)
+    assert np.array_equal(envs.render(), single.render())
+    for action in (1, 2, 1):
+        envs.step(np.array([action, 0, 0]))
+        single.step(action)
+    assert np.array_equal(envs.render(), single.render())
 
 
 def test_vector_env_is_deterministic_and_stays_in_its_space():
@@ -77,7 +111,13 @@ def test_vector_env_is_deterministic_and_stays_in_its_space():
 
 @pytest.mark.parametrize(
     "kwargs, name",
-    [({"num_envs": 0}, "num_envs"), ({"floor_plan": "random"}, "random"), ({"noise_scale": -1}, "noise_scale")],
+    [
+        ({"num_envs": 0}, "num_envs"),
+        ({"num_envs": True}, "num_envs"),
+        ({"max_episode_steps": 0}, "max_episode_steps"),
+        ({"render_mode": "human"}, "render_mode"),
+        ({"noise_scale": -1}, "noise_scale"),
+    ],
 )
 def test_bad_vector_arguments(kwargs, name):
     with pytest.raises(ValueError, match=name):

@@ -1,29 +1,58 @@
-"""The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, sensing, info, rendering.
+"""The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, info, rendering.
 
 Everything inside works on a batch of robots ("rows"), like the simulator: a Gymnasium ``BuckybotEnv`` is a batch
 of one, and :class:`polyenvs.buckybot.vector.BuckybotVectorEnv` runs the same class with many rows, so the task
-equations exist once. A task subclasses :class:`BuckybotEnv` and fills in the batched hooks (``_task_reset``,
-``_task_step``, ``_task_observation``, ``_task_terminated``) and ``_episode_metrics(row)``; the physics lives in
-:mod:`polyenvs.buckybot.simulator`, the sensors in :mod:`polyenvs.buckybot.sensors`.
+equations exist once, in compiled kernels. A task subclasses :class:`BuckybotEnv` and provides
+
+- ``reward_names`` and ``metric_names`` (the columns its kernels write into ``self._out``),
+- ``_step_kernel`` and ``_reset_kernel``: compiled loops over rows that call the simulator's row kernels, score
+  the task and write observation rows, all in one call (see :mod:`polyenvs.buckybot.wall_follow`),
+- ``_task_arrays()``: the task's own arrays, passed to both kernels after the shared ones,
+- optional hooks for per-plan tables (``_task_install_plan``) and per-episode choices (``_task_sample`` /
+  ``_task_commit``).
+
+A reset is a transaction: every random choice is drawn and every option validated on a copy of the generator
+before anything is written, so a call that raises leaves the environment exactly as it was.
 """
 
 from __future__ import annotations
 
+import copy
+import enum
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import seeding
 
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.floor_plans import make_floor_plan, random_room
+from polyenvs.buckybot import simulator as S
+from polyenvs.buckybot.floor_plans import MAX_RANDOM_SEGMENTS, RANDOM_ROOM_BOUNDS, make_floor_plan, random_room
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.floor_plan import FloorPlan
-from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_action, check_in_range, check_positive
+from polyenvs.core.geometry2d import pack_segments
+from polyenvs.core.validation import check_action, check_in_range, show
 
-__all__ = ["BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE"]
+__all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
+
+
+class BuckybotAction(enum.IntEnum):
+    """The three tips, in the resting face's frame (azimuths counter-clockwise from above).
+
+    | value | name | frame azimuth | meaning |
+    |-------|------|---------------|---------|
+    | 0 | BACK | 0° | over the edge the robot last tipped over: undoes the previous tip |
+    | 1 | FORWARD_RIGHT | 120° | 60° to the right of straight ahead (ahead = 180°, away from the last tip) |
+    | 2 | FORWARD_LEFT | 240° | 60° to the left of straight ahead |
+    """
+
+    BACK = 0
+    FORWARD_RIGHT = 1
+    FORWARD_LEFT = 2
+
 
 #: Layout of the sensor part of every Buckybot observation: name -> (start, stop) indices.
 SENSOR_OBSERVATION_STRUCTURE = {
@@ -32,7 +61,6 @@ SENSOR_OBSERVATION_STRUCTURE = {
     "no_return": (12, 18),  # 1 where nothing was seen within 182.88 cm
     "tip_failed": (18, 19),  # 1 if the last tip was blocked (the accelerometer reports the same face)
 }
-_N_SENSOR_OBS = 19
 #: Actuator letters each action extends, by (face, edge at frame direction 0).
 _ACTUATOR_NAMES = [
     ["".join(geo.ACTUATOR_LETTERS[geo.FACE_CORNER_ACTUATOR[f, (e0 + j) % 3]] for j in range(3)) for e0 in range(3)]
@@ -45,6 +73,61 @@ _SENSOR_FACES = [
     for f in range(geo.N_FACES)
 ]
 _INT_TYPES = (int, np.int64, np.int32, np.intp)
+#: Points of the true and dead-reckoned paths kept for rendering (older points are dropped).
+TRAIL_POINTS = 2000
+
+#: Physical parameters: (low, high) plausible range. Outside it a parameter is refused at construction.
+PARAMETER_RANGES = {
+    "noise_scale": (0.0, 1.0),
+    "range_noise_scale": (0.0, 5.0),
+    "step_forward_cm": (5.0, 15.0),
+    "step_forward_sd_cm": (0.0, 2.0),
+    "step_lateral_cm": (-3.0, 3.0),
+    "step_lateral_sd_cm": (0.0, 2.0),
+    "heading_change_deg": (-10.0, 10.0),
+    "heading_sd_deg": (0.0, 10.0),
+    "body_radius_cm": (6.5, 26.0),
+}
+
+
+class PathTrail:
+    """The last ``TRAIL_POINTS`` true and dead-reckoned positions of one robot, for rendering (bounded memory)."""
+
+    def __init__(self):
+        self._points = np.zeros((TRAIL_POINTS, 4))
+        self._count = 0
+
+    def clear(self) -> None:
+        self._count = 0
+
+    def append(self, true_xy, dead_reckoned_xy) -> None:
+        self._points[self._count % TRAIL_POINTS] = (*true_xy, *dead_reckoned_xy)
+        self._count += 1
+
+    def paths(self) -> tuple[np.ndarray, np.ndarray]:
+        """(true, dead-reckoned) ``(n, 2)`` paths, oldest first."""
+        n = min(self._count, TRAIL_POINTS)
+        points = self._points[np.arange(self._count - n, self._count) % TRAIL_POINTS]
+        return points[:, :2], points[:, 2:]
+
+
+@dataclass
+class _RowReset:
+    """Everything a row's reset decided, drawn and validated before any state changes."""
+
+    row: int
+    rng: np.random.Generator
+    plan: FloorPlan
+    position: np.ndarray
+    heading: float
+    face: int
+    task: Any
+    block: np.ndarray
+
+
+def copy_generator(rng: np.random.Generator) -> np.random.Generator:
+    """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises)."""
+    return copy.deepcopy(rng)
 
 
 class BuckybotEnv(gym.Env):
@@ -56,8 +139,11 @@ class BuckybotEnv(gym.Env):
     #: Bounds of the task's extra observation entries, in order.
     task_observation_low: tuple[float, ...] = ()
     task_observation_high: tuple[float, ...] = ()
-    #: Names of the reward terms, in the order of the task's reward columns.
+    #: Names of the reward terms and of the task metrics, in the order of the kernels' ``_out`` columns.
     reward_names: tuple[str, ...] = ()
+    metric_names: tuple[str, ...] = ()
+    #: Reset options a task adds to "pose" and "face".
+    task_option_names: tuple[str, ...] = ()
     #: Rows (robots) this instance simulates; a vector env builds the class with more (see ``vector.py``).
     _batch_size = 1
 
@@ -76,18 +162,24 @@ class BuckybotEnv(gym.Env):
         body_radius_cm: float = geo.BODY_RADIUS_CM,
         render_mode: str | None = None,
     ):
-        self.noise_scale = check_in_range("noise_scale", noise_scale, 0.0, 1.0)
-        self.range_noise_scale = check_positive("range_noise_scale", range_noise_scale, allow_zero=True)
-        self.body_radius_cm = check_positive("body_radius_cm", body_radius_cm)
-        if self.body_radius_cm >= 2 * geo.STEP_LENGTH_CM + 40:
-            raise ValueError(f"body_radius_cm={body_radius_cm} is too large for the lattice robot")
+        given = dict(
+            noise_scale=noise_scale, range_noise_scale=range_noise_scale, step_forward_cm=step_forward_cm,
+            step_forward_sd_cm=step_forward_sd_cm, step_lateral_cm=step_lateral_cm,
+            step_lateral_sd_cm=step_lateral_sd_cm, heading_change_deg=heading_change_deg,
+            heading_sd_deg=heading_sd_deg, body_radius_cm=body_radius_cm,
+        )  # fmt: skip
+        p = {name: check_in_range(name, value, *PARAMETER_RANGES[name]) for name, value in given.items()}
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.noise_scale, self.range_noise_scale = p["noise_scale"], p["range_noise_scale"]
+        self.body_radius_cm = p["body_radius_cm"]
         model = TipModel(
-            forward_mean_cm=check_positive("step_forward_cm", step_forward_cm),
-            forward_sd_cm=check_positive("step_forward_sd_cm", step_forward_sd_cm, allow_zero=True),
-            lateral_mean_cm=check_in_range("step_lateral_cm", step_lateral_cm, -5.0, 5.0),
-            lateral_sd_cm=check_positive("step_lateral_sd_cm", step_lateral_sd_cm, allow_zero=True),
-            heading_mean_deg=check_in_range("heading_change_deg", heading_change_deg, -30.0, 30.0),
-            heading_sd_deg=check_positive("heading_sd_deg", heading_sd_deg, allow_zero=True),
+            forward_mean_cm=p["step_forward_cm"],
+            forward_sd_cm=p["step_forward_sd_cm"],
+            lateral_mean_cm=p["step_lateral_cm"],
+            lateral_sd_cm=p["step_lateral_sd_cm"],
+            heading_mean_deg=p["heading_change_deg"],
+            heading_sd_deg=p["heading_sd_deg"],
         )
         self.tip_model = model.scaled(self.noise_scale)
         # A start this far from every wall leaves all three tips free: each lands one step away, the body needs
@@ -96,74 +188,109 @@ class BuckybotEnv(gym.Env):
         self.floor_plan = make_floor_plan(floor_plan)  # None: a random room at every reset
         if self.floor_plan is not None:
             self._check_plan(self.floor_plan, "floor_plan")
-        elif self._batch_size > 1:
-            raise ValueError("floor_plan='random' draws a room per episode; a vector env needs one fixed plan")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
 
         n = self._batch_size
         self.sim = BuckybotSimulator(n, self.tip_model, self.range_noise_scale, self.body_radius_cm)
         self.action_space = spaces.Discrete(3)
-        low = np.concatenate([np.zeros(_N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
-        high = np.concatenate([np.ones(_N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
+        low = np.concatenate([np.zeros(S.N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
+        high = np.concatenate([np.ones(S.N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.observation_structure = dict(SENSOR_OBSERVATION_STRUCTURE)
-        start = _N_SENSOR_OBS
+        start = S.N_SENSOR_OBS
         for name, size in self.task_observation_sizes.items():
             self.observation_structure[name] = (start, start + size)
             start += size
 
-        self.plan: FloorPlan | None = None
+        # Plan slots: one plan shared by every row, or (random rooms in a vector env) one per row.
+        self._n_slots = 1 if self.floor_plan is not None else n
+        self._slot_plans: list[FloorPlan | None] = [None] * self._n_slots
+        n_walls = len(self.floor_plan.segments) if self.floor_plan is not None else MAX_RANDOM_SEGMENTS
+        self.sim.set_walls(np.zeros((self._n_slots, n_walls, 6)))
+        #: The frame covers this box for the whole life of the instance (one frame size, whatever the room).
+        self.view_bounds = self.floor_plan.bounds if self.floor_plan is not None else RANDOM_ROOM_BOUNDS
+
+        # Kernel outputs: observation rows, and per row the reward terms, the metrics, the reward, terminated.
         self._observations = np.zeros((n, *self.observation_space.shape), dtype=np.float32)
-        self._rewards = np.zeros((n, len(self.reward_names)))
-        self._reward_keys = [f"reward_{name}" for name in self.reward_names]
-        self._actions = np.zeros(n, dtype=np.int64)
-        self._active = np.zeros(n, dtype=bool)
+        k, m = len(self.reward_names), len(self.all_metric_names)
+        self._out = np.zeros((n, k + m + 2))
+        self._reward_column, self._terminated_column = k + m, k + m + 1
+        self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._row0 = np.zeros(1, dtype=np.int64)
-        # Per-row episode records.
-        self.steps = np.zeros(n, dtype=np.int64)
-        self.blocked_tips = np.zeros(n, dtype=np.int64)
-        self.oscillation_events = np.zeros(n, dtype=np.int64)
-        self.last_blocked = np.zeros(n, dtype=bool)
-        self._last_tip_moved = np.zeros(n, dtype=bool)
-        self.true_path: list[list[float]] = []  # row 0's (x, y) after every step, for rendering
-        self.dead_reckoned_path: list[list[float]] = []
+        self._actions = np.zeros(n, dtype=np.int64)
+        self._started = False
+        self._trail = PathTrail() if render_mode is not None else None
         self._renderer = None
+        self._task_init()
+        self._kernel_arrays = self._task_arrays()
+
+    # --- task interface ---------------------------------------------------------------------------------------
+    #: Metrics every Buckybot task reports, before the task's own.
+    base_metric_names = ("blocked_tips", "oscillation_events")
+
+    @property
+    def all_metric_names(self) -> tuple[str, ...]:
+        return self.base_metric_names + self.metric_names
+
+    _step_kernel = None  # staticmethod(compiled step loop), set by each task
+    _reset_kernel = None  # staticmethod(compiled reset loop)
+
+    def _task_init(self) -> None:
+        """Allocate the task's arrays (``self._n_slots`` plan slots, ``self._batch_size`` rows)."""
+
+    def _task_arrays(self) -> tuple:
+        """The task's arrays, passed to both kernels after the shared ones."""
+        return ()
+
+    def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
+        """Fill the task's tables for ``plan`` in plan slot ``slot``."""
+
+    def _task_plan_usable(self, plan: FloorPlan) -> bool:
+        """Whether a random room can host the task (rooms that cannot are redrawn)."""
+        return True
+
+    def _task_sample(self, plan: FloorPlan, position: np.ndarray, rng: np.random.Generator, options: dict) -> Any:
+        """Validate the task's options and draw its per-episode choices (nothing may be written here)."""
+        return None
+
+    def _task_commit(self, row: int, sample: Any) -> None:
+        """Store what ``_task_sample`` chose for ``row``."""
+
+    def _vector_task_info(self) -> dict[str, np.ndarray]:
+        """The task's own ``info`` entries for every row, as arrays (the vector env's form of ``_get_info``)."""
+        return {}
 
     # --- helpers ----------------------------------------------------------------------------------------------
     def _check_plan(self, plan: FloorPlan, name: str) -> None:
         if not plan.has_room(self.start_clearance_cm):
             raise ValueError(f"{name} leaves no room for the robot ({self.start_clearance_cm:.1f} cm from every wall)")
 
+    def _slot(self, row: int) -> int:
+        return 0 if self._n_slots == 1 else row
+
+    @property
+    def plan(self) -> FloorPlan | None:
+        """Row 0's floor plan (``None`` before the first reset with ``floor_plan="random"``)."""
+        return self._slot_plans[0] if self.floor_plan is None else self.floor_plan
+
     @property
     def position(self) -> np.ndarray:
         """Row 0's true position (cm)."""
-        return self.sim.position[0]
-
-    # Row 0's last readings: views of the simulator's buffers, never handed out as observations.
-    @property
-    def last_reading(self) -> np.ndarray:
-        return self.sim.reading[0]
-
-    @property
-    def last_too_close(self) -> np.ndarray:
-        return self.sim.too_close[0]
-
-    @property
-    def last_no_return(self) -> np.ndarray:
-        return self.sim.no_return[0]
+        return self.sim.position[0].copy()
 
     # --- Gymnasium API ----------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        self._reset_rows(self._row0, dict(options or {}))
-        self.true_path = [self.sim.position[0].tolist()]
-        self.dead_reckoned_path = [self.sim.dr_position[0].tolist()]
-        return self._get_observations()[0].copy(), self._get_info(0)
+        options = self._check_options(options)
+        if seed is not None:
+            rng, used_seed = seeding.np_random(seed)
+        else:
+            rng, used_seed = copy_generator(self.np_random), self._np_random_seed
+        self._commit_rows([self._prepare_row(0, rng, options)])
+        self._np_random, self._np_random_seed = rng, used_seed
+        return self._observations[0].copy(), self._get_info(0)
 
     def step(self, action):
-        if self.plan is None:
+        if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
         if type(action) in _INT_TYPES and 0 <= action < 3:
             a = int(action)  # the common case, checked without the space's slower generic test
@@ -171,23 +298,30 @@ class BuckybotEnv(gym.Env):
             check_action(self.action_space, action)
             a = int(action)
         self._actions[0] = a
-        self._advance(self._actions, self.np_random.standard_normal((1, 9)))  # 3 for the tip, 6 for the sensors
-        self.true_path.append(self.sim.position[0].tolist())
-        self.dead_reckoned_path.append(self.sim.dr_position[0].tolist())
-        reward = float(sum(self._rewards[0].tolist()))
-        terminated = bool(self._terminated[0])
-        if self.render_mode == "human":
-            self.render()
-        return self._get_observations()[0].copy(), reward, terminated, False, self._get_info(0)
+        self._advance(self._actions)
+        out = self._out[0]
+        if self._trail is not None:
+            self._trail.append(self.sim.state[0, S.X : S.Y + 1], self.sim.state[0, S.DR_X : S.DR_Y + 1])
+            if self.render_mode == "human":
+                self.render()
+        return (
+            self._observations[0].copy(),
+            float(out[self._reward_column]),
+            bool(out[self._terminated_column]),
+            False,
+            self._get_info(0),
+        )
 
     def render(self):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before render()")
         from polyenvs.buckybot.rendering import BuckybotRenderer
 
         if self._renderer is None:
-            self._renderer = BuckybotRenderer(self.render_mode, self.metadata["render_fps"])
+            self._renderer = BuckybotRenderer(self.render_mode, self.metadata["render_fps"], self.view_bounds)
         return self._renderer.render(self)
 
     def close(self):
@@ -197,149 +331,124 @@ class BuckybotEnv(gym.Env):
 
     def action_masks(self) -> np.ndarray:
         """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""
-        return self.sim.tip_allowed[0].copy()
+        return self.sim.state[0, S.ALLOWED : S.ALLOWED + 3] > 0.5
+
+    def get_keys_to_action(self) -> dict[tuple[int, ...], int]:
+        """Keys for ``gymnasium.utils.play``: s = back, d = forward right, a = forward left."""
+        return {(ord("s"),): BuckybotAction.BACK, (ord("d"),): BuckybotAction.FORWARD_RIGHT,
+                (ord("a"),): BuckybotAction.FORWARD_LEFT}  # fmt: skip
 
     # --- the batched core (shared with the vector env) --------------------------------------------------------
-    def _reset_rows(self, rows: np.ndarray, options: dict) -> None:
-        """Start new episodes in ``rows``: place the robots, sense once, set up the task."""
-        allowed = {"pose", "face", *self._task_option_names()}
+    def _check_options(self, options) -> dict:
+        if options is None:
+            return {}
+        if not isinstance(options, dict):
+            raise ValueError(f"options must be a dict or None, got {show(options)}")
+        allowed = {"pose", "face", *self.task_option_names}
         if set(options) - allowed:
             raise ValueError(
                 f"unknown reset option(s) {sorted(set(options) - allowed)}; expected some of {sorted(allowed)}"
             )
-        if self.floor_plan is None or self.plan is None:
-            self.plan = self.floor_plan if self.floor_plan is not None else self._random_plan()
-            self.sim.set_walls(self.plan.table)
-        rng = self.np_random
-        k = len(rows)
-        if "pose" in options:
-            positions, headings = self._option_pose(options)
-        else:
-            positions = self.plan.sample_start(rng, self.start_clearance_cm, size=k)
-            headings = rng.uniform(0.0, 2 * np.pi, size=k)
-        faces = self._option_face(options) if "face" in options else rng.integers(geo.N_FACES, size=k)
-        self.sim.place(rows, positions, faces, headings)
-        for record in (self.steps, self.blocked_tips, self.oscillation_events):
-            record[rows] = 0
-        self.last_blocked[rows] = False
-        self._last_tip_moved[rows] = False
-        self.sim.sense(rng.standard_normal((len(rows), 6)), rows)
-        self._task_reset(rows, options)
-        self._rewards[rows] = 0.0
-        self._terminated = self._task_terminated()
+        return options
 
-    def _option_pose(self, options: dict) -> tuple[np.ndarray, float]:
+    def _prepare_row(self, row: int, rng: np.random.Generator, options: dict) -> _RowReset:
+        """Draw and validate a new episode for ``row`` on ``rng``; writes nothing."""
+        plan = self.floor_plan if self.floor_plan is not None else self._random_plan(rng)
+        if "pose" in options:
+            position, heading = self._option_pose(plan, options["pose"])
+        else:
+            position = plan.sample_start(rng, self.start_clearance_cm)
+            heading = rng.uniform(0.0, 2 * np.pi)
+        face = self._option_face(options["face"]) if "face" in options else int(rng.integers(geo.N_FACES))
+        task = self._task_sample(plan, position, rng, options)
+        return _RowReset(row, rng, plan, position, heading, face, task, self.sim.streams.draw_block(rng))
+
+    def _commit_rows(self, resets: list[_RowReset]) -> None:
+        """Install prepared episodes (nothing here raises), then sense and set up the task in one compiled call."""
+        sim = self.sim
+        for r in resets:
+            slot = self._slot(r.row)
+            if self._slot_plans[slot] is not r.plan:
+                self._install_plan(slot, r.plan)
+            sim.place(r.row, r.position, r.face, r.heading)
+            sim.streams.restart(r.row, r.rng, r.block)
+            self._task_commit(r.row, r.task)
+        rows = self._row0 if len(resets) == 1 and resets[0].row == 0 else np.array([r.row for r in resets])
+        self._reset_kernel(
+            rows, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
+            self._out, *self._kernel_arrays,
+        )  # fmt: skip
+        self._started = True
+        if self._trail is not None and 0 in rows:
+            self._trail.clear()
+            self._trail.append(sim.state[0, S.X : S.Y + 1], sim.state[0, S.DR_X : S.DR_Y + 1])
+
+    def _install_plan(self, slot: int, plan: FloorPlan) -> None:
+        walls = self.sim.walls
+        walls[slot] = pack_segments(plan.segments, walls.shape[1])
+        self._task_install_plan(slot, plan)
+        self._slot_plans[slot] = plan
+
+    def _advance(self, actions: np.ndarray) -> None:
+        """Step every row whose action is >= 0 (rows with -1 were just reset: they neither move nor score)."""
+        sim = self.sim
+        sim.streams.refill()
+        self._step_kernel(
+            actions, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
+            self._out, *self._kernel_arrays,
+        )  # fmt: skip
+
+    def _option_pose(self, plan: FloorPlan, pose) -> tuple[np.ndarray, float]:
         try:
-            x, y, heading_deg = (float(v) for v in options["pose"])
+            x, y, heading_deg = (float(v) for v in pose)
         except (TypeError, ValueError):
-            raise ValueError("reset option 'pose' must be (x_cm, y_cm, heading_deg)") from None
+            raise ValueError(f"reset option 'pose' must be (x_cm, y_cm, heading_deg), got {show(pose)}") from None
         position = np.array([x, y])
         if not np.isfinite(position).all() or not np.isfinite(heading_deg):
-            raise ValueError(f"reset option 'pose' must be finite, got {options['pose']!r}")
-        clearance = float(self.plan.clearance(position))
+            raise ValueError(f"reset option 'pose' must be finite, got {show(pose)}")
+        clearance = float(plan.clearance(position))
         if clearance < self.body_radius_cm:
             raise ValueError(
                 f"reset option 'pose' puts the robot {clearance:.1f} cm from a wall "
-                f"(inside or touching it; the body radius is {self.body_radius_cm} cm)"
+                f"(inside or touching it; the body radius is {self.body_radius_cm:g} cm)"
             )
-        if not self.plan.in_main_region(position):
-            raise ValueError(f"reset option 'pose' {options['pose']!r} is outside the plan's free space")
-        return position, np.radians(heading_deg)
+        if not plan.in_main_region(position):
+            raise ValueError(f"reset option 'pose' ({x:g}, {y:g}) is outside the plan's free space")
+        return position, math.radians(heading_deg)
 
     @staticmethod
-    def _option_face(options: dict) -> int:
-        face = options["face"]
+    def _option_face(face) -> int:
         if isinstance(face, bool) or not isinstance(face, (int, np.integer)) or not 1 <= face <= geo.N_FACES:
-            raise ValueError(f"reset option 'face' must be an integer 1..20, got {face!r}")
+            raise ValueError(f"reset option 'face' must be an integer 1..20, got {show(face)}")
         return int(face) - 1
 
-    def _advance(self, actions: np.ndarray, normals: np.ndarray, rows: np.ndarray | None = None) -> None:
-        """Tip and sense every row whose action is >= 0 (``rows``, if given, lists them), then score the step.
-
-        Rows with action -1 were just reset by a vector env: they neither move nor score this step.
-        """
-        blocked = self.sim.step(actions, normals, rows)
-        active = self._active
-        _update_records(
-            actions, blocked, active, self.steps, self.blocked_tips, self.oscillation_events, self._last_tip_moved,
-            self.last_blocked,
-        )  # fmt: skip
-        self._task_step(actions, blocked, active)
-        self._terminated = self._task_terminated()
-
-    def _get_observations(self) -> np.ndarray:
-        """(rows, D) observations, in a buffer the caller must copy before handing out."""
-        obs, sim = self._observations, self.sim
-        obs[:, 0:6] = sim.normalised
-        obs[:, 6:12] = sim.too_close
-        obs[:, 12:18] = sim.no_return
-        obs[:, 18] = self.last_blocked
-        if obs.shape[1] > _N_SENSOR_OBS:
-            obs[:, _N_SENSOR_OBS:] = self._task_observation()
-        return obs
+    def _random_plan(self, rng: np.random.Generator) -> FloorPlan:
+        for _ in range(100):
+            plan = random_room(rng)
+            if plan.has_room(self.start_clearance_cm) and self._task_plan_usable(plan):
+                return plan
+        raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 
     def _get_info(self, row: int) -> dict[str, Any]:
-        sim = self.sim
-        heading_deg = math.degrees(sim.heading[row])
-        face, edge0 = int(sim.face[row]), int(sim.edge0[row])
+        state = self.sim.state[row]
+        x, y, heading, face, edge0, dr_x, dr_y, dr_heading = state[:8].tolist()
+        face, edge0 = int(face), int(edge0)
+        heading_deg = math.degrees(heading)
+        out = self._out[row].tolist()
+        k = len(self._reward_keys)
         info = {
-            "action_mask": sim.tip_allowed[row].astype(np.int8),
+            "action_mask": state[S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
             "face": face + 1,
             "heading_deg": heading_deg,
             "tip_directions_deg": np.array([heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0]),
             "actuators": _ACTUATOR_NAMES[face][edge0],
             "sensor_faces": _SENSOR_FACES[face][edge0],
-            "pose": np.array([*sim.position[row].tolist(), heading_deg]),
-            "dead_reckoned_pose": np.array([*sim.dr_position[row].tolist(), math.degrees(sim.dr_heading[row])]),
-            "true_range_cm": sim.true_range[row].copy(),
-            "wall_distance_cm": float(sim.wall_distance[row]),
-            "blocked": bool(self.last_blocked[row]),
+            "pose": np.array([x, y, heading_deg]),
+            "dead_reckoned_pose": np.array([dr_x, dr_y, math.degrees(dr_heading)]),
+            "true_range_cm": state[S.TRUE_RANGE : S.TRUE_RANGE + 6].copy(),
+            "wall_distance_cm": float(state[S.WALL_DISTANCE]),
+            "blocked": bool(state[S.BLOCKED]),
+            **dict(zip(self._reward_keys, out[:k], strict=True)),
+            "episode_metrics": dict(zip(self.all_metric_names, out[k : self._reward_column], strict=True)),
         }
-        for key, value in zip(self._reward_keys, self._rewards[row].tolist(), strict=True):
-            info[key] = value
-        info["episode_metrics"] = self._episode_metrics(row)
         return info
-
-    def _random_plan(self) -> FloorPlan:
-        for _ in range(100):
-            plan = random_room(self.np_random)
-            if plan.has_room(self.start_clearance_cm):
-                return plan
-        raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
-
-    def _task_option_names(self) -> tuple[str, ...]:
-        return ()
-
-    # --- task hooks (batched over rows) -----------------------------------------------------------------------
-    def _task_reset(self, rows: np.ndarray, options: dict) -> None:
-        """Set up the task in ``rows`` after the robots are placed and have sensed once."""
-
-    def _task_step(self, actions: np.ndarray, blocked: np.ndarray, active: np.ndarray) -> None:
-        """Write this step's reward terms into ``self._rewards`` (rows x reward_names); 0 where not active."""
-        raise NotImplementedError
-
-    def _task_observation(self) -> np.ndarray:
-        """(rows, task observation size) entries appended to the sensor observation."""
-        return np.zeros((self._batch_size, 0))
-
-    def _task_terminated(self) -> np.ndarray:
-        return np.zeros(self._batch_size, dtype=bool)
-
-    def _episode_metrics(self, row: int) -> dict[str, float]:
-        """Row ``row``'s task metrics so far (at an episode's last step: that episode's)."""
-        return {"blocked_tips": int(self.blocked_tips[row]), "oscillation_events": int(self.oscillation_events[row])}
-
-
-@njit(cache=True)
-def _update_records(actions, blocked, active, steps, blocked_tips, oscillation_events, last_tip_moved, last_blocked):
-    for b in range(actions.shape[0]):
-        active[b] = actions[b] >= 0
-        if not active[b]:
-            continue
-        steps[b] += 1
-        if blocked[b]:
-            blocked_tips[b] += 1
-        elif actions[b] == 0 and last_tip_moved[b]:
-            oscillation_events[b] += 1  # undid the previous tip: the robot alternates between two faces
-        last_tip_moved[b] = not blocked[b]
-        last_blocked[b] = blocked[b]

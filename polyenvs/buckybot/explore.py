@@ -4,12 +4,78 @@ from __future__ import annotations
 
 import numpy as np
 
+from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams, placement_gaps
+from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_in_range, check_positive
+from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotExploreEnv"]
+
+# Columns of the task state: free cells of the main region observed so far, the map-error sum and its count.
+_SEEN, _ERROR_SUM, _POINTS = range(3)
+# Per plan slot: grid origin x, y and the number of free cells coverage is measured against.
+_ORIGIN_X, _ORIGIN_Y, _FREE_TOTAL = range(3)
+_CELL, _GOAL = range(2)
+
+
+@njit(cache=True)
+def _observe(b, state, task, cells, free, grid, tp):
+    """Mark row ``b``'s beams on its grid; returns the fraction of the free area newly observed."""
+    fresh = mark_beams(
+        cells[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING],
+        state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
+        state[b, S.NO_RETURN : S.NO_RETURN + 6], free,
+    )  # fmt: skip
+    task[b, _SEEN] += fresh
+    # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
+    total, count = placement_gaps(
+        state[b, S.X], state[b, S.Y], state[b, S.HEADING], state[b, S.DR_X], state[b, S.DR_Y],
+        state[b, S.DR_HEADING], state[b, S.READING : S.READING + 6],
+    )  # fmt: skip
+    task[b, _ERROR_SUM] += total
+    task[b, _POINTS] += count
+    return fresh / grid[_FREE_TOTAL]
+
+
+@njit(cache=True)
+def _write_out(b, state, task, grid, tp, out):
+    write_base_metrics(b, state, out, 2)
+    coverage = task[b, _SEEN] / grid[_FREE_TOTAL]
+    out[b, 4] = coverage
+    out[b, 5] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
+    out[b, 6] = out[b, 0] + out[b, 1]
+    out[b, 7] = 1.0 if coverage >= tp[_GOAL] else 0.0
+
+
+@njit(cache=True)
+def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, cells, free, grids, tp):
+    shared = walls.shape[0] == 1
+    for n in range(rows.shape[0]):
+        b = rows[n]
+        w = 0 if shared else b
+        first_sense_row(b, state, walls[w], params, normals, cursor, obs)
+        cells[b, :, :] = 0  # unknown
+        task[b, :] = 0.0
+        _observe(b, state, task, cells, free[w], grids[w], tp)  # what the robot sees before its first tip counts
+        out[b, :] = 0.0
+        _write_out(b, state, task, grids[w], tp, out)
+
+
+@njit(cache=True)
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, cells, free, grids, tp):
+    shared = walls.shape[0] == 1
+    for b in range(actions.shape[0]):
+        if actions[b] < 0:
+            continue
+        w = 0 if shared else b
+        blocked = advance_row(b, actions[b], state, walls[w], params, normals, cursor, obs)
+        out[b, 0] = 100.0 * _observe(b, state, task, cells, free[w], grids[w], tp)  # percent newly observed
+        out[b, 1] = -1.0 if blocked else 0.0
+        _write_out(b, state, task, grids[w], tp, out)
 
 
 class BuckybotExploreEnv(BuckybotEnv):
@@ -23,7 +89,8 @@ class BuckybotExploreEnv(BuckybotEnv):
     same points placed from the true pose. Baseline: ``baselines.buckybot.WallFollowExplorer``.
 
     ## Action Space
-    ``Discrete(3)``, tip directions in the resting face's frame (see BuckybotWallFollow-v0).
+    ``Discrete(3)`` (:class:`~polyenvs.buckybot.env.BuckybotAction`), tip directions in the resting face's frame
+    (see BuckybotWallFollow-v0).
 
     ## Observation Space
     ``Box(0, 1, (19,), float32)``: the six range readings, too-close and no-return flags and the tip-failed flag,
@@ -45,8 +112,8 @@ class BuckybotExploreEnv(BuckybotEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "office" | as BuckybotWallFollow-v0 |
-    | coverage_goal | 0.95 | coverage that ends the episode |
-    | cell_cm | 10.0 | occupancy-grid cell size |
+    | coverage_goal | 0.95 | coverage that ends the episode, in [0.01, 1] |
+    | cell_cm | 10.0 | occupancy-grid cell size, in [2, 50]; the grid over the plan may hold at most 1,000,000 cells |
     | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
 
     ## Version History
@@ -54,84 +121,48 @@ class BuckybotExploreEnv(BuckybotEnv):
     """
 
     reward_names = ("coverage", "blocked")
+    metric_names = ("coverage", "map_error_cm")
 
     def __init__(self, *, floor_plan="office", coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
-        self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.0, 1.0)
-        self.cell_cm = check_positive("cell_cm", cell_cm)
-        if self.cell_cm > 50.0:
-            raise ValueError(f"cell_cm must be <= 50 cm to resolve the robot's surroundings, got {cell_cm!r}")
+        self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.01, 1.0)
+        self.cell_cm = check_in_range("cell_cm", cell_cm, 2.0, 50.0)
         super().__init__(floor_plan=floor_plan, **kwargs)
-        n = self._batch_size
-        self._seen = np.zeros(n, dtype=np.int64)  # free cells of the main region observed so far
-        self._map_error_sum = np.zeros(n)
-        self._map_points = np.zeros(n, dtype=np.int64)
-        self._grid_plan = None
+
+    def _task_init(self):
+        if self.floor_plan is not None:
+            self.floor_plan.check_grid(self.cell_cm)
+            shape = self.floor_plan.grid(self.cell_cm).shape
+        else:
+            shape = grid_shape(RANDOM_ROOM_BOUNDS, self.cell_cm)[1]  # every random room's grid fits in this one
+        n, slots = self._batch_size, self._n_slots
+        self._task_state = np.zeros((n, 3))
+        self._cells = np.zeros((n, *shape), dtype=np.int8)
+        self._free = np.zeros((slots, *shape), dtype=np.bool_)  # the free area coverage is measured against
+        self._grids = np.zeros((slots, 3))
+        self._task_params = np.array([self.cell_cm, self.coverage_goal])
+
+    def _task_arrays(self):
+        return (self._task_state, self._cells, self._free, self._grids, self._task_params)
+
+    def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
+        g = plan.grid(self.cell_cm)
+        h, w = g.shape
+        self._free[slot] = False
+        self._free[slot, :h, :w] = g.region == g.main_region
+        self._grids[slot] = (*g.origin, max(int(self._free[slot].sum()), 1))
 
     @property
     def map(self) -> OccupancyGrid:
         """Row 0's occupancy grid, built from the true pose."""
-        return OccupancyGrid(self._grid.origin, self._grid.shape, self._grid.cell_cm, cells=self._cells[0])
+        g = self.plan.grid(self.cell_cm)
+        h, w = g.shape
+        return OccupancyGrid(g.origin, g.shape, self.cell_cm, cells=self._cells[0, :h, :w])
 
     @property
     def coverage(self) -> np.ndarray:
         """Fraction of the free area observed, per row."""
-        return self._seen / self._free_total
+        slots = self._grids[:, _FREE_TOTAL] if self._n_slots > 1 else self._grids[0, _FREE_TOTAL]
+        return self._task_state[:, _SEEN] / slots
 
-    def _task_reset(self, rows, options):
-        if self._grid_plan is not self.plan:
-            g = self._grid = self.plan.grid(self.cell_cm)
-            self._free = g.region == g.main_region  # the free area coverage is measured against
-            self._free_total = max(int(self._free.sum()), 1)
-            self._cells = np.zeros((self._batch_size, *g.shape), dtype=np.int8)
-            self._grid_plan = self.plan
-        self._cells[rows] = OccupancyGrid.UNKNOWN
-        self._seen[rows] = 0
-        self._map_error_sum[rows] = 0.0
-        self._map_points[rows] = 0
-        active = np.zeros(self._batch_size, dtype=bool)
-        active[rows] = True
-        nothing_blocked = np.zeros(self._batch_size, dtype=bool)
-        self._task_step(None, nothing_blocked, active)  # what the robot sees before its first tip counts too
-
-    def _task_step(self, actions, blocked, active):
-        sim, g = self.sim, self._grid
-        _explore_step(
-            active, blocked, self._cells, g.origin[0], g.origin[1], g.cell_cm, sim.position, sim.heading,
-            sim.dr_position, sim.dr_heading, sim.reading, sim.too_close, sim.no_return, self._free,
-            float(self._free_total), self._seen, self._map_error_sum, self._map_points, self._rewards,
-        )  # fmt: skip
-
-    def _task_terminated(self):
-        return self.coverage >= self.coverage_goal
-
-    def _episode_metrics(self, row):
-        metrics = super()._episode_metrics(row)
-        metrics.update(
-            coverage=int(self._seen[row]) / self._free_total,
-            map_error_cm=float(self._map_error_sum[row]) / max(int(self._map_points[row]), 1),
-        )
-        return metrics
-
-
-@njit(cache=True)
-def _explore_step(
-    active, blocked, cells, ox, oy, cell, position, heading, dr_position, dr_heading, reading, too_close, no_return,
-    free, free_total, seen, map_error_sum, map_points, rewards,
-):  # fmt: skip
-    for b in range(active.shape[0]):
-        if not active[b]:
-            rewards[b, :] = 0.0
-            continue
-        fresh = mark_beams(
-            cells[b], ox, oy, cell, position[b, 0], position[b, 1], heading[b], reading[b], too_close[b],
-            no_return[b], free,
-        )  # fmt: skip
-        seen[b] += fresh
-        rewards[b, 0] = 100.0 * fresh / free_total  # percent of the free area newly observed
-        rewards[b, 1] = -1.0 if blocked[b] else 0.0
-        # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
-        total, count = placement_gaps(
-            position[b, 0], position[b, 1], heading[b], dr_position[b, 0], dr_position[b, 1], dr_heading[b], reading[b]
-        )
-        map_error_sum[b] += total
-        map_points[b] += count
+    _step_kernel = staticmethod(_step_kernel)
+    _reset_kernel = staticmethod(_reset_kernel)

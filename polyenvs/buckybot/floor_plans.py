@@ -10,7 +10,12 @@ import numpy as np
 
 from polyenvs.core.floor_plan import FloorPlan, polygon_walls, rectangle_walls
 
-__all__ = ["BUILTIN_PLANS", "make_floor_plan", "random_room"]
+__all__ = ["BUILTIN_PLANS", "MAX_RANDOM_SEGMENTS", "RANDOM_ROOM_BOUNDS", "make_floor_plan", "random_room"]
+
+#: Every random room lies inside this box (xmin, ymin, xmax, ymax), so frames and grids can be sized once.
+RANDOM_ROOM_BOUNDS = (0.0, 0.0, 700.0, 550.0)
+#: The most walls a random room has: 12 for an outline with four notched corners, 4 for each of 3 pillars.
+MAX_RANDOM_SEGMENTS = 24
 
 
 def _office() -> list:
@@ -42,7 +47,7 @@ BUILTIN_PLANS: dict[str, list] = {
 
 def random_room(rng: np.random.Generator) -> FloorPlan:
     """A seeded random room: a rectangle with up to two corner notches (L or U shapes) and up to three pillars."""
-    width, height = rng.uniform(300, 700), rng.uniform(250, 550)
+    width, height = rng.uniform(300, RANDOM_ROOM_BOUNDS[2]), rng.uniform(250, RANDOM_ROOM_BOUNDS[3])
     corners = [(0.0, 0.0), (width, 0.0), (width, height), (0.0, height)]
     # Cut rectangular notches out of some corners, walking the polygon counter-clockwise.
     outline = []

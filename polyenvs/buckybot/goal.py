@@ -6,15 +6,72 @@ import math
 
 import numpy as np
 
+from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_positive
+from polyenvs.core.validation import check_finite, check_in_range, show
 
 __all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
 
 #: The goal distance is observed as tanh(distance / 200 cm): bounded, and most sensitive where steps matter.
 GOAL_DISTANCE_SCALE_CM = 200.0
+#: The farthest start-to-goal distance accepted (the widest plan is 50 m).
+MAX_GOAL_DISTANCE_CM = 5000.0
+# Columns of the task state: the goal, the true distance to it after the last step, success.
+_GOAL_X, _GOAL_Y, _DISTANCE, _SUCCESS = range(4)
+_RADIUS = 0
+
+
+@njit(cache=True)
+def _goal_observation(b, state, task, obs):
+    """The goal as the robot believes it: bearing (cos, sin) in the motion frame and tanh(distance / 200 cm)."""
+    dx, dy = task[b, _GOAL_X] - state[b, S.DR_X], task[b, _GOAL_Y] - state[b, S.DR_Y]
+    bearing = math.atan2(dy, dx) - state[b, S.DR_HEADING]
+    obs[b, S.N_SENSOR_OBS] = math.cos(bearing)
+    obs[b, S.N_SENSOR_OBS + 1] = math.sin(bearing)
+    obs[b, S.N_SENSOR_OBS + 2] = math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM)
+
+
+@njit(cache=True)
+def _write_out(b, state, task, out):
+    write_base_metrics(b, state, out, 3)
+    out[b, 5] = task[b, _SUCCESS]
+    out[b, 6] = task[b, _DISTANCE]
+    out[b, 7] = out[b, 0] + out[b, 1] + out[b, 2]
+    out[b, 8] = task[b, _SUCCESS]
+
+
+@njit(cache=True)
+def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, tp):
+    shared = walls.shape[0] == 1
+    for n in range(rows.shape[0]):
+        b = rows[n]
+        first_sense_row(b, state, walls[0 if shared else b], params, normals, cursor, obs)
+        task[b, _DISTANCE] = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
+        task[b, _SUCCESS] = 0.0
+        _goal_observation(b, state, task, obs)
+        out[b, :] = 0.0
+        _write_out(b, state, task, out)
+
+
+@njit(cache=True)
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, tp):
+    shared = walls.shape[0] == 1
+    for b in range(actions.shape[0]):
+        if actions[b] < 0:
+            continue
+        blocked = advance_row(b, actions[b], state, walls[0 if shared else b], params, normals, cursor, obs)
+        d = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
+        out[b, 0] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in lattice steps
+        task[b, _DISTANCE] = d
+        task[b, _SUCCESS] = 1.0 if d <= tp[_RADIUS] else 0.0
+        out[b, 1] = 10.0 * task[b, _SUCCESS]
+        out[b, 2] = -1.0 if blocked else 0.0
+        _goal_observation(b, state, task, obs)
+        _write_out(b, state, task, out)
 
 
 class BuckybotGoalEnv(BuckybotEnv):
@@ -27,7 +84,8 @@ class BuckybotGoalEnv(BuckybotEnv):
     position. Baseline: ``baselines.buckybot.GoalSeeker``.
 
     ## Action Space
-    ``Discrete(3)``, tip directions in the resting face's frame (see BuckybotWallFollow-v0).
+    ``Discrete(3)`` (:class:`~polyenvs.buckybot.env.BuckybotAction`), tip directions in the resting face's frame
+    (see BuckybotWallFollow-v0).
 
     ## Observation Space
     ``Box((22,), float32)``: the 19 sensor entries of BuckybotWallFollow-v0, then ``goal`` (indices 19-21): the
@@ -51,8 +109,8 @@ class BuckybotGoalEnv(BuckybotEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "l_room" | as BuckybotWallFollow-v0 |
-    | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm) |
-    | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances |
+    | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm), in [5, 50]; the plan must have room for a goal this size |
+    | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances, 0 <= min <= max <= 5000 |
     | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
 
     ## Version History
@@ -60,121 +118,97 @@ class BuckybotGoalEnv(BuckybotEnv):
     """
 
     reward_names = ("progress", "goal", "blocked")
+    metric_names = ("success", "final_distance_cm")
+    task_option_names = ("goal",)
     task_observation_sizes = {"goal": 3}
     task_observation_low = (-1.0, -1.0, 0.0)
     task_observation_high = (1.0, 1.0, 1.0)
 
     def __init__(self, *, floor_plan="l_room", goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs):
-        self.goal_radius_cm = check_positive("goal_radius_cm", goal_radius_cm)
-        try:
-            low, high = (float(v) for v in goal_distance_cm)
-        except (TypeError, ValueError):
-            raise ValueError(f"goal_distance_cm must be a (min, max) pair in cm, got {goal_distance_cm!r}") from None
-        if not 0 <= low <= high or not np.isfinite(high):
-            raise ValueError(f"goal_distance_cm must satisfy 0 <= min <= max, got {goal_distance_cm!r}")
+        self.goal_radius_cm = check_in_range("goal_radius_cm", goal_radius_cm, 5.0, 50.0)
+        if isinstance(goal_distance_cm, str) or not hasattr(goal_distance_cm, "__len__") or len(goal_distance_cm) != 2:
+            raise ValueError(f"goal_distance_cm must be a (min, max) pair in cm, got {show(goal_distance_cm)}")
+        low, high = (check_finite("goal_distance_cm", v) for v in goal_distance_cm)
+        if not 0 <= low <= high <= MAX_GOAL_DISTANCE_CM:
+            raise ValueError(
+                f"goal_distance_cm must satisfy 0 <= min <= max <= {MAX_GOAL_DISTANCE_CM:g}, got ({low:g}, {high:g})"
+            )
         self.goal_distance_cm = (low, high)
         super().__init__(floor_plan=floor_plan, **kwargs)
-        n = self._batch_size
-        self._goal = np.zeros((n, 2))
-        self._distance = np.zeros(n)  # true distance to the goal after the last step
-        self._success = np.zeros(n, dtype=bool)
-        self._goal_observation = np.zeros((n, 3))
+        if self.floor_plan is not None and not self._task_plan_usable(self.floor_plan):
+            raise ValueError(
+                f"goal_radius_cm={self.goal_radius_cm:g} leaves no room for a goal in this floor_plan (a goal needs "
+                f"{self._goal_clearance():g} cm from every wall); use a smaller radius or a larger plan"
+            )
+
+    def _task_init(self):
+        self._task_state = np.zeros((self._batch_size, 4))
+        self._task_params = np.array([self.goal_radius_cm])
+
+    def _task_arrays(self):
+        return (self._task_state, self._task_params)
 
     @property
     def goal(self) -> np.ndarray:
         """Row 0's goal (cm)."""
-        return self._goal[0]
+        return self._task_state[0, _GOAL_X : _GOAL_Y + 1].copy()
 
-    def _task_option_names(self):
-        return ("goal",)
+    def _goal_clearance(self) -> float:
+        return self.goal_radius_cm + self.body_radius_cm
 
-    def _task_reset(self, rows, options):
-        self._goal[rows] = self._option_goal(options) if "goal" in options else self._sample_goals(rows)
-        position = self.sim.position[rows]
-        self._distance[rows] = np.hypot(self._goal[rows, 0] - position[:, 0], self._goal[rows, 1] - position[:, 1])
-        self._success[rows] = False
+    def _goal_candidates(self, plan: FloorPlan) -> np.ndarray:
+        """Centres of the plan's grid cells a goal may be drawn around (cached per plan)."""
+        key = ("goal_candidates", self._goal_clearance())
+        if key not in plan._cache:
+            g = plan.grid()
+            eligible = (g.region == g.main_region) & (g.clearance >= self._goal_clearance() + g.cell_cm)
+            plan._cache[key] = g.centres()[eligible]
+        return plan._cache[key]
 
-    def _option_goal(self, options) -> np.ndarray:
+    def _task_plan_usable(self, plan: FloorPlan) -> bool:
+        return len(self._goal_candidates(plan)) > 0
+
+    def _task_sample(self, plan, position, rng, options):
+        if "goal" in options:
+            return self._option_goal(plan, options["goal"])
+        return self._sample_goal(plan, position, rng)
+
+    def _task_commit(self, row, goal):
+        self._task_state[row, _GOAL_X : _GOAL_Y + 1] = goal
+
+    def _option_goal(self, plan: FloorPlan, value) -> np.ndarray:
         try:
-            goal = np.array([float(v) for v in options["goal"]])
+            goal = np.array([float(v) for v in value])
         except (TypeError, ValueError):
-            raise ValueError("reset option 'goal' must be (x_cm, y_cm)") from None
+            raise ValueError(f"reset option 'goal' must be (x_cm, y_cm), got {show(value)}") from None
         if (
             goal.shape != (2,)
             or not np.isfinite(goal).all()
-            or float(self.plan.clearance(goal)) < self.body_radius_cm
-            or not self.plan.in_main_region(goal)
+            or float(plan.clearance(goal)) < self.body_radius_cm
+            or not plan.in_main_region(goal)
         ):
-            raise ValueError(f"reset option 'goal' {options['goal']!r} is not a free point of the plan")
+            raise ValueError(f"reset option 'goal' {show(value)} is not a free point of the plan")
         return goal
 
-    def _sample_goals(self, rows: np.ndarray) -> np.ndarray:
-        """A goal per row: a uniform point of the room ``goal_distance_cm`` from the robot (or, in a room too
-        small for that, from the farthest quarter of it), clear of the walls by the goal radius plus the body."""
-        g = self.plan.grid()
-        clearance = self.goal_radius_cm + self.body_radius_cm
-        centres = g.centres()[(g.region == g.main_region) & (g.clearance >= clearance + g.cell_cm)]
-        position = self.sim.position[rows]
-        distance = np.hypot(centres[None, :, 0] - position[:, None, 0], centres[None, :, 1] - position[:, None, 1])
+    def _sample_goal(self, plan: FloorPlan, position: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """A uniform point of the room ``goal_distance_cm`` from the robot (or, in a room too small for that, from
+        the farthest quarter of it), clear of the walls by the goal radius plus the body."""
+        centres = self._goal_candidates(plan)
+        distance = np.hypot(centres[:, 0] - position[0], centres[:, 1] - position[1])
         low, high = self.goal_distance_cm
-        pool = (distance >= low) & (distance <= high)
-        empty = ~pool.any(axis=1)
-        if empty.any():
-            pool[empty] = distance[empty] >= np.quantile(distance[empty], 0.75, axis=1, keepdims=True)
-        pick = self.np_random.integers(pool.sum(axis=1))  # the pick-th candidate of each row's pool
-        index = np.argmax(np.cumsum(pool, axis=1) > pick[:, None], axis=1)
-        return centres[index] + self.np_random.uniform(-0.5, 0.5, (len(rows), 2)) * g.cell_cm
-
-    def _task_observation(self):
-        sim = self.sim
-        _goal_bearing(sim.dr_position, sim.dr_heading, self._goal, self._goal_observation)
-        return self._goal_observation
-
-    def _task_step(self, actions, blocked, active):
-        _goal_step(
-            active,
-            blocked,
-            self.sim.position,
-            self._goal,
-            self.goal_radius_cm,
-            self._distance,
-            self._success,
-            self._rewards,
-        )
-
-    def _task_terminated(self):
-        return self._success
-
-    def _episode_metrics(self, row):
-        metrics = super()._episode_metrics(row)
-        metrics.update(success=float(self._success[row]), final_distance_cm=float(self._distance[row]))
-        return metrics
+        pool = np.flatnonzero((distance >= low) & (distance <= high))
+        if pool.size == 0:
+            pool = np.flatnonzero(distance >= np.quantile(distance, 0.75))
+        centre = centres[pool[rng.integers(pool.size)]]
+        return centre + rng.uniform(-0.5, 0.5, 2) * plan.grid().cell_cm
 
     def _get_info(self, row):
         info = super()._get_info(row)
-        info["goal"] = self._goal[row].copy()
+        info["goal"] = self._task_state[row, _GOAL_X : _GOAL_Y + 1].copy()
         return info
 
+    def _vector_task_info(self):
+        return {"goal": self._task_state[:, _GOAL_X : _GOAL_Y + 1].copy()}
 
-@njit(cache=True)
-def _goal_bearing(dr_position, dr_heading, goal, out):
-    """The goal as the robot believes it: bearing (cos, sin) in the motion frame and tanh(distance / 200 cm)."""
-    for b in range(goal.shape[0]):
-        dx, dy = goal[b, 0] - dr_position[b, 0], goal[b, 1] - dr_position[b, 1]
-        bearing = math.atan2(dy, dx) - dr_heading[b]
-        out[b, 0], out[b, 1] = math.cos(bearing), math.sin(bearing)
-        out[b, 2] = math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM)
-
-
-@njit(cache=True)
-def _goal_step(active, blocked, position, goal, radius, distance, success, rewards):
-    for b in range(active.shape[0]):
-        if not active[b]:
-            rewards[b, :] = 0.0
-            continue
-        d = math.hypot(goal[b, 0] - position[b, 0], goal[b, 1] - position[b, 1])
-        rewards[b, 0] = (distance[b] - d) / STEP_LENGTH_CM  # progress towards the goal, in lattice steps
-        distance[b] = d
-        success[b] = d <= radius
-        rewards[b, 1] = 10.0 if success[b] else 0.0
-        rewards[b, 2] = -1.0 if blocked[b] else 0.0
+    _step_kernel = staticmethod(_step_kernel)
+    _reset_kernel = staticmethod(_reset_kernel)

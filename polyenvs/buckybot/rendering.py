@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
 from polyenvs.core.raster import Canvas
@@ -30,29 +31,31 @@ _HEXAGON_ANGLES = np.radians(np.arange(6) * 60.0 + 30.0)
 
 
 class BuckybotRenderer:
-    """Renders a :class:`~polyenvs.buckybot.env.BuckybotEnv`; ``human`` mode opens a pygame window lazily."""
+    """Renders row 0 of a :class:`~polyenvs.buckybot.env.BuckybotEnv`; ``human`` mode opens a pygame window lazily.
 
-    def __init__(self, render_mode: str, fps: int):
+    Every frame covers ``view_bounds`` (the plan's, or the box every random room fits in), so one renderer makes
+    frames of one size whatever the room, and pixel-observation wrappers stay inside their space.
+    """
+
+    def __init__(self, render_mode: str, fps: int, view_bounds):
         self.render_mode = render_mode
         self.fps = fps
+        self.view_bounds = tuple(float(v) for v in view_bounds)
         self._window = None
         self._clock = None
 
-    def _base(self, env) -> Canvas:
-        canvas = Canvas(env.plan.bounds, width=FRAME_WIDTH_PX)
+    def frame(self, env) -> np.ndarray:
+        canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
         seg = env.plan.segments
         canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
-        return canvas
-
-    def frame(self, env) -> np.ndarray:
-        canvas = self._base(env)
-        sim = env.sim
-        pos, heading = sim.position[0], sim.heading[0]
-        # Dead-reckoned and true paths.
-        if len(env.dead_reckoned_path) > 1:
-            canvas.polyline(np.asarray(env.dead_reckoned_path), DEAD_RECKONED_PATH, width_px=1.5)
-        if len(env.true_path) > 1:
-            canvas.polyline(np.asarray(env.true_path), TRUE_PATH, width_px=1.5)
+        state = env.sim.state[0]
+        pos, heading, face = state[S.X : S.Y + 1], state[S.HEADING], int(state[S.FACE])
+        # Dead-reckoned and true paths (the last few thousand points).
+        if env._trail is not None:
+            true_path, dead_reckoned_path = env._trail.paths()
+            if len(true_path) > 1:
+                canvas.polyline(dead_reckoned_path, DEAD_RECKONED_PATH, width_px=1.5)
+                canvas.polyline(true_path, TRUE_PATH, width_px=1.5)
         goal = getattr(env, "goal", None)
         if goal is not None:
             canvas.disc(goal, getattr(env, "goal_radius_cm", 10.0), GOAL)
@@ -60,20 +63,20 @@ class BuckybotRenderer:
         az = heading + SENSOR_AZIMUTHS_RAD
         direction = np.stack([np.cos(az), np.sin(az)], axis=-1)
         start = pos + SENSOR_HORIZONTAL_OFFSET_CM * direction
-        reading = env.last_reading
+        reading = state[S.READING : S.READING + 6]
+        too_close = state[S.TOO_CLOSE : S.TOO_CLOSE + 6] > 0.5
+        no_return = state[S.NO_RETURN : S.NO_RETURN + 6] > 0.5
         length = (
             np.where(
-                env.last_no_return,
+                no_return,
                 horizontal_range(182.88),
-                np.where(env.last_too_close, 15.0, horizontal_range(np.nan_to_num(reading))),
+                np.where(too_close, 15.0, horizontal_range(np.nan_to_num(reading))),
             )
             - SENSOR_HORIZONTAL_OFFSET_CM
         )
-        colours = np.where(
-            env.last_no_return[:, None], BEAM_NONE, np.where(env.last_too_close[:, None], BEAM_TOO_CLOSE, BEAM_VALID)
-        )
+        colours = np.where(no_return[:, None], BEAM_NONE, np.where(too_close[:, None], BEAM_TOO_CLOSE, BEAM_VALID))
         canvas.lines(start, start + length[:, None] * direction, colours, width_px=1.5)
-        valid = ~(env.last_no_return | env.last_too_close)
+        valid = ~(no_return | too_close)
         if valid.any():
             canvas.points((start + length[:, None] * direction)[valid], BEAM_VALID, radius_px=3.0)
         # Body: the 13 cm footprint, the hexagonal resting face (side 5.27 cm), ticks for the three tip
@@ -87,7 +90,7 @@ class BuckybotRenderer:
         unit = np.stack([np.cos(tips), np.sin(tips)], -1)
         canvas.lines(pos + 7.5 * unit, pos + env.body_radius_cm * unit, [TIP, BODY_EDGE, BODY_EDGE], 2.0)
         label_at = pos + 1.6 * env.body_radius_cm * np.array([1.0, 1.0])  # beside the body: it is too small
-        canvas.text(label_at, str(int(sim.face[0]) + 1), TIP, scale=2)
+        canvas.text(label_at, str(face + 1), TIP, scale=2)
         return canvas.image
 
     def render(self, env):

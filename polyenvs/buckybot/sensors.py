@@ -8,6 +8,8 @@ filtering. Readings below 30.48 cm do not settle ("too close": the robot is near
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from polyenvs.buckybot.geometry import HEXAGON_INRADIUS_CM, SENSOR_AZIMUTHS_RAD, SENSOR_ELEVATION_RAD
@@ -21,6 +23,7 @@ __all__ = [
     "horizontal_range",
     "measure_ranges",
     "measure_into",
+    "measure_one",
     "measure_ranges_normalised",
     "wall_from_pair",
     "walls_from_readings",
@@ -75,20 +78,28 @@ def measure_ranges_normalised(true_range: np.ndarray, normals: np.ndarray, noise
 
 
 @njit(cache=True)
+def measure_one(d, normal, noise_scale):
+    """One reading from the true slant range ``d`` (cm) and a standard normal draw.
+
+    Returns ``(reading, too_close, no_return, normalised)``: the quantised reading (nan where invalid), the two
+    invalid cases, and the observation's value (reading / 182.88 cm, 0 when too close, 1 when no return).
+    """
+    noisy = d + (NOISE_SLOPE * d + NOISE_OFFSET_CM) * (noise_scale * normal)
+    r = np.round(noisy / RANGE_QUANTUM_CM) * RANGE_QUANTUM_CM  # the sensor reports whole inches
+    too_close = r < RANGE_MIN_CM - 1e-9
+    no_return = not (r <= RANGE_MAX_CM + 1e-9)  # also true for inf and nan
+    if too_close:
+        return math.nan, True, False, 0.0
+    if no_return:
+        return math.nan, False, True, 1.0
+    return r, False, False, r / RANGE_MAX_CM
+
+
+@njit(cache=True)
 def measure_into(true_range, normals, noise_scale, reading, too_close, no_return, normalised):
     """Compiled core of :func:`measure_ranges_normalised` on 1-D arrays, writing into the output arrays."""
     for i in range(true_range.shape[0]):
-        d = true_range[i]
-        noisy = d + (NOISE_SLOPE * d + NOISE_OFFSET_CM) * (noise_scale * normals[i])
-        r = np.round(noisy / RANGE_QUANTUM_CM) * RANGE_QUANTUM_CM  # the sensor reports whole inches
-        too_close[i] = r < RANGE_MIN_CM - 1e-9
-        no_return[i] = not (r <= RANGE_MAX_CM + 1e-9)  # also true for inf and nan
-        if too_close[i] or no_return[i]:
-            reading[i] = np.nan
-            normalised[i] = 0.0 if too_close[i] else 1.0
-        else:
-            reading[i] = r
-            normalised[i] = r / RANGE_MAX_CM
+        reading[i], too_close[i], no_return[i], normalised[i] = measure_one(true_range[i], normals[i], noise_scale)
 
 
 def horizontal_range(reading: np.ndarray) -> np.ndarray:

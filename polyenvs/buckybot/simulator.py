@@ -10,6 +10,16 @@ tipping 0 goes back where it came from; after a reset it is the edge opposite th
 Tip ``j`` rotates the frame by ``120° j + 180°`` (plus the heading noise), whatever the faces involved, so a policy
 that remembers anything can carry it from one frame to the next. ``info`` publishes the frame's world heading, the
 resting face and the actuator each action extends.
+
+Packed state. Everything a step reads or writes about a robot is one row of ``BuckybotSimulator.state``
+(float64, columns named by the constants below), so a compiled step takes a handful of arrays instead of twenty.
+The row kernels (``advance_row``, ``sense_row``) are called from each task's own compiled step loop, which then
+scores the task and writes the observation in the same call.
+
+Walls. A tip is allowed when its mean landing point keeps the body ``body_radius_cm`` off every wall and the
+straight motion there crosses no wall (the action mask is exactly this test). The noisy landing is used when its
+own motion crosses no wall and leaves the centre at least half the body radius from every wall; otherwise the
+body's contact stops it at the mean landing point. So no accepted parameter lets the centre pass through a wall.
 """
 
 from __future__ import annotations
@@ -20,16 +30,47 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.sensors import measure_into
-from polyenvs.core.geometry2d import SegmentTable, nearest_point, ray_distance
+from polyenvs.buckybot.sensors import measure_one
+from polyenvs.core.geometry2d import SegmentTable, nearest_point, ray_distance, segment_crosses
 from polyenvs.core.jit import njit
+from polyenvs.core.streams import RowStreams
 
-__all__ = ["TipModel", "BuckybotSimulator", "TIP_ANGLES_RAD"]
+__all__ = ["TipModel", "BuckybotSimulator", "TIP_ANGLES_RAD", "NORMALS_PER_STEP"]
 
 #: Frame azimuths of the three tip directions.
 TIP_ANGLES_RAD = np.radians([0.0, 120.0, 240.0])
+#: Standard normals a robot consumes per step: 3 for the tip (forward, lateral, heading), 6 for the sensors.
+NORMALS_PER_STEP = 9
 _TWO_PI = 2.0 * np.pi
 _COS_ELEVATION = float(np.cos(geo.SENSOR_ELEVATION_RAD))
+_SENSOR_OFFSET = float(geo.SENSOR_HORIZONTAL_OFFSET_CM)
+_BEAM_COS = np.cos(geo.SENSOR_AZIMUTHS_RAD)
+_BEAM_SIN = np.sin(geo.SENSOR_AZIMUTHS_RAD)
+_TIP_COS = np.cos(TIP_ANGLES_RAD)
+_TIP_SIN = np.sin(TIP_ANGLES_RAD)
+_NEIGHBOR = np.ascontiguousarray(geo.NEIGHBOR, dtype=np.int64)
+_BACK_EDGE = np.ascontiguousarray(geo.BACK_EDGE, dtype=np.int64)
+
+# Columns of ``BuckybotSimulator.state``.
+X, Y, HEADING, FACE, EDGE0, DR_X, DR_Y, DR_HEADING = range(8)
+TRUE_RANGE = 8  # 6 columns: slant range along each upper beam to the first wall (inf if none)
+READING = 14  # 6: the sensor's reading in cm, nan where invalid
+TOO_CLOSE = 20  # 6: 1 where the reading did not settle
+NO_RETURN = 26  # 6: 1 where nothing was seen within range
+ALLOWED = 32  # 3: 1 where a tip would not hit a wall
+WALL_DISTANCE, FOOT_X, FOOT_Y, WALL_SEGMENT = 35, 36, 37, 38
+BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 39, 40, 41, 42, 43
+STATE_COLUMNS = 44
+
+# Entries of ``BuckybotSimulator.params``.
+P_FORWARD, P_FORWARD_SD, P_LATERAL, P_LATERAL_SD, P_TURN_SD, P_BODY_RADIUS, P_RANGE_NOISE = range(7)
+P_MEAN_OFFSETS = 7  # 6: (3, 2) mean displacement of each tip in the motion frame
+P_FRAME_TURN = 13  # 3: frame rotation of each tip (rad)
+N_PARAMS = 16
+
+# The sensor part of every Buckybot observation (the first 19 entries).
+OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = 0, 6, 12, 18
+N_SENSOR_OBS = 19
 
 
 @dataclass(frozen=True)
@@ -66,12 +107,24 @@ class TipModel:
 
     def mean_offsets(self) -> np.ndarray:
         """(3, 2) mean displacement of each of the three tips in the motion frame."""
-        c, s = np.cos(TIP_ANGLES_RAD), np.sin(TIP_ANGLES_RAD)
+        c, s = _TIP_COS, _TIP_SIN
         # Forward along (c, s); "right" of the tip direction is (s, -c).
         return np.stack(
             [self.forward_mean_cm * c + self.lateral_mean_cm * s, self.forward_mean_cm * s - self.lateral_mean_cm * c],
             axis=-1,
         )
+
+
+def pack_params(tip_model: TipModel, range_noise_scale: float, body_radius_cm: float) -> np.ndarray:
+    """The simulator's parameter vector (entries ``P_*``)."""
+    params = np.zeros(N_PARAMS)
+    params[P_FORWARD], params[P_FORWARD_SD] = tip_model.forward_mean_cm, tip_model.forward_sd_cm
+    params[P_LATERAL], params[P_LATERAL_SD] = tip_model.lateral_mean_cm, tip_model.lateral_sd_cm
+    params[P_TURN_SD] = np.radians(tip_model.heading_sd_deg)
+    params[P_BODY_RADIUS], params[P_RANGE_NOISE] = body_radius_cm, range_noise_scale
+    params[P_MEAN_OFFSETS : P_MEAN_OFFSETS + 6] = tip_model.mean_offsets().ravel()
+    params[P_FRAME_TURN : P_FRAME_TURN + 3] = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
+    return params
 
 
 class BuckybotSimulator:
@@ -81,171 +134,185 @@ class BuckybotSimulator:
         batch_size: number of robots.
         tip_model: the per-tip motion model (already scaled by the environment's ``noise_scale``).
         range_noise_scale: multiplies the range finders' eq. 6 standard deviation.
-        body_radius_cm: a tip whose mean landing point is closer than this to a wall is blocked.
+        body_radius_cm: the body's contact radius.
+
+    Attributes:
+        state: ``(batch_size, STATE_COLUMNS)`` packed robot state (see the column constants).
+        walls: ``(W, S, 6)`` packed walls (:mod:`polyenvs.core.geometry2d`), W = 1 (shared) or ``batch_size``.
+        streams: each row's random stream (:class:`polyenvs.core.streams.RowStreams`).
+        observation: ``(batch_size, 19)`` float32, the sensor part of the observation after the last sense.
     """
 
     def __init__(self, batch_size: int, tip_model: TipModel, range_noise_scale: float, body_radius_cm: float):
-        self.batch_size = int(batch_size)
+        self.batch_size = b = int(batch_size)
         self.tip_model = tip_model
-        self.range_noise_scale = float(range_noise_scale)
         self.body_radius_cm = float(body_radius_cm)
-        self._mean_offsets = tip_model.mean_offsets()  # (3, 2)
-        self._frame_turn = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
-        self._heading_sd = np.radians(tip_model.heading_sd_deg)
-        beams = np.stack([np.cos(geo.SENSOR_AZIMUTHS_RAD), np.sin(geo.SENSOR_AZIMUTHS_RAD)], axis=-1)
-        self._local_vectors = np.concatenate([beams, self._mean_offsets])
-        b = self.batch_size
-        self.position = np.zeros((b, 2))
-        self.heading = np.zeros(b)  # world azimuth of motion-frame direction 0 (rad)
-        self.face = np.zeros(b, dtype=np.int64)
-        self.edge0 = np.zeros(b, dtype=np.int64)  # physical edge of the resting face at frame direction 0
-        self.dr_position = np.zeros((b, 2))
-        self.dr_heading = np.zeros(b)
-        self.walls: SegmentTable | None = None
-        # Refreshed by sense(): what the sensors and the contact geometry say about the current pose.
-        self.true_range = np.full((b, 6), np.inf)
-        self.wall_distance = np.zeros(b)
-        self.wall_foot = np.zeros((b, 2))
-        self.wall_segment = np.zeros(b, dtype=np.int64)
-        self.tip_allowed = np.ones((b, 3), dtype=bool)
-        # What the sensors reported at the last sense(): reading (cm, nan if invalid), the two invalid cases, and
-        # the observation's normalised range.
-        self.reading = np.full((b, 6), np.nan)
-        self.too_close = np.zeros((b, 6), dtype=bool)
-        self.no_return = np.zeros((b, 6), dtype=bool)
-        self.normalised = np.zeros((b, 6), dtype=np.float32)
-        self._all_rows = np.arange(b, dtype=np.int64)
+        self.params = pack_params(tip_model, float(range_noise_scale), self.body_radius_cm)
+        self.state = np.zeros((b, STATE_COLUMNS))
+        self.state[:, TRUE_RANGE : TRUE_RANGE + 6] = np.inf
+        self.state[:, READING : READING + 6] = np.nan
+        self.state[:, ALLOWED : ALLOWED + 3] = 1.0
+        self.walls = np.zeros((1, 1, 6))
+        self.streams = RowStreams(b, NORMALS_PER_STEP)
+        self.observation = np.zeros((b, N_SENSOR_OBS), dtype=np.float32)
+
+    # Named views of the packed state (writable where that makes sense).
+    position = property(lambda self: self.state[:, X : Y + 1])
+    heading = property(lambda self: self.state[:, HEADING])
+    dr_position = property(lambda self: self.state[:, DR_X : DR_Y + 1])
+    dr_heading = property(lambda self: self.state[:, DR_HEADING])
+    face = property(lambda self: self.state[:, FACE].astype(np.int64))
+    edge0 = property(lambda self: self.state[:, EDGE0].astype(np.int64))
+    tip_allowed = property(lambda self: self.state[:, ALLOWED : ALLOWED + 3])
+    true_range = property(lambda self: self.state[:, TRUE_RANGE : TRUE_RANGE + 6])
+    reading = property(lambda self: self.state[:, READING : READING + 6])
+    too_close = property(lambda self: self.state[:, TOO_CLOSE : TOO_CLOSE + 6] > 0.5)
+    no_return = property(lambda self: self.state[:, NO_RETURN : NO_RETURN + 6] > 0.5)
 
     # --- state ------------------------------------------------------------------------------------------------
-    def set_walls(self, walls: SegmentTable) -> None:
-        if walls.batch_size not in (1, self.batch_size):
-            raise ValueError(f"walls batch {walls.batch_size} does not match the simulator batch {self.batch_size}")
-        self.walls = walls
+    def set_walls(self, walls: SegmentTable | np.ndarray) -> None:
+        """Install walls: a ``SegmentTable`` or a packed ``(W, S, 6)`` array, W = 1 or the batch size."""
+        packed = walls.packed if isinstance(walls, SegmentTable) else np.asarray(walls, dtype=np.float64)
+        if packed.ndim != 3 or packed.shape[0] not in (1, self.batch_size) or packed.shape[2] != 6:
+            raise ValueError(f"walls of shape {packed.shape} do not fit a batch of {self.batch_size}")
+        self.walls = np.ascontiguousarray(packed)
 
     def place(self, index, position, face, heading) -> None:
-        """Put robots ``index`` at a pose (true and dead-reckoned pose agree at the start)."""
-        self.position[index] = position
-        self.dr_position[index] = position
-        self.face[index] = face
-        self.edge0[index] = 0
-        self.heading[index] = np.mod(heading, _TWO_PI)
-        self.dr_heading[index] = self.heading[index]
+        """Put robots ``index`` at a pose (true and dead-reckoned pose agree at the start) and clear their records."""
+        state = self.state
+        state[index, X : Y + 1] = position
+        state[index, DR_X : DR_Y + 1] = position
+        state[index, FACE] = face
+        state[index, EDGE0] = 0
+        state[index, HEADING] = np.mod(heading, _TWO_PI)
+        state[index, DR_HEADING] = state[index, HEADING]
+        state[index, BLOCKED : LAST_TIP_MOVED + 1] = 0.0
 
-    # --- dynamics ---------------------------------------------------------------------------------------------
+    # --- dynamics with explicit draws (analysis and tests) ----------------------------------------------------
     def tip(self, action: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """Tip every robot in direction ``action`` (B,) ints in {0, 1, 2}; ``normals`` (B, 3) standard normals.
 
-        A tip onto a wall (by the mean landing point, i.e. ``tip_allowed``) is blocked: the robot stays put and
-        knows it (its accelerometer still reports the same face). An action of -1 leaves that robot alone (a
-        vector env resetting it). Returns the (B,) blocked flags.
+        A tip the action mask forbids is blocked: the robot stays put and knows it (its accelerometer still
+        reports the same face). An action of -1 leaves that robot alone. Returns the (B,) blocked flags.
         """
-        blocked = np.empty(self.batch_size, dtype=np.bool_)
-        _tip(np.asarray(action, dtype=np.int64), np.ascontiguousarray(normals), *self._tip_args(), blocked)
-        return blocked
+        action = np.ascontiguousarray(action, dtype=np.int64)
+        draws = np.zeros((self.batch_size, NORMALS_PER_STEP))
+        draws[:, :3] = normals
+        _tip_rows(action, draws, self.state, self.walls, self.params)
+        return self.state[:, BLOCKED] > 0.5
 
-    def sense(self, normals: np.ndarray, rows: np.ndarray | None = None):
-        """Range readings at the current pose; also refreshes the contact geometry.
-
-        Args:
-            normals: ``(len(rows), 6)`` standard normals.
-            rows: the robots to sense (default: all).
-
-        Returns the simulator's ``(reading, too_close, no_return, normalised)`` buffers (B, 6), as
-        :func:`polyenvs.buckybot.sensors.measure_ranges_normalised` would compute them.
-        """
-        rows = self._all_rows if rows is None else np.asarray(rows, dtype=np.int64)
-        _sense(np.ascontiguousarray(normals), rows, *self._sense_args())
-        return self.reading, self.too_close, self.no_return, self.normalised
-
-    def step(self, action: np.ndarray, normals: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
-        """``tip`` then ``sense`` in one compiled call; ``normals`` (B, 9): three for the tip, six for the sensors.
-
-        ``rows`` limits the sensing (robots with action -1 that were just reset keep their first readings).
-        Returns the (B,) blocked flags; the readings are in the simulator's buffers.
-        """
-        blocked = np.empty(self.batch_size, dtype=np.bool_)
-        rows = self._all_rows if rows is None else rows
-        _step(action, normals, blocked, rows, self._tip_args(), self._sense_args())
-        return blocked
-
-    def _tip_args(self) -> tuple:
-        m = self.tip_model
-        return (
-            self.tip_allowed, self.position, self.heading, self.face, self.edge0, self.dr_position,
-            self.dr_heading, self._mean_offsets, self._frame_turn, m.forward_mean_cm, m.forward_sd_cm,
-            m.lateral_mean_cm, m.lateral_sd_cm, self._heading_sd, geo.NEIGHBOR, geo.BACK_EDGE,
-        )  # fmt: skip
-
-    def _sense_args(self) -> tuple:
-        w = self.walls
-        return (
-            self.position, self.heading, w.start, w.vector, w.inv_length_sq, w.is_real, self._local_vectors,
-            geo.SENSOR_HORIZONTAL_OFFSET_CM, _COS_ELEVATION, self.body_radius_cm, self.range_noise_scale,
-            self.true_range, self.wall_distance, self.wall_foot, self.wall_segment, self.tip_allowed,
-            self.reading, self.too_close, self.no_return, self.normalised,
-        )  # fmt: skip
+    def sense(self, normals: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """Range readings at the current pose for ``rows`` (default all), with ``normals`` ``(len(rows), 6)``."""
+        rows = np.arange(self.batch_size) if rows is None else np.asarray(rows, dtype=np.int64)
+        draws = np.zeros((len(rows), NORMALS_PER_STEP))
+        draws[:, 3:] = normals
+        _sense_rows(rows, draws, self.state, self.walls, self.params, self.observation)
 
 
 @njit(cache=True)
-def _step(action, normals, blocked, rows, tip_args, sense_args):
-    _tip(action, normals[:, :3], *tip_args, blocked)
-    _sense(normals[rows, 3:], rows, *sense_args)
+def tip_row(b, a, state, walls, params, z):
+    """Tip robot ``b`` in frame direction ``a`` with draws ``z[0:3]``; returns whether it was blocked."""
+    blocked = state[b, ALLOWED + a] < 0.5
+    if blocked:
+        state[b, BLOCKED] = 1.0
+        return True
+    x, y, heading = state[b, X], state[b, Y], state[b, HEADING]
+    angle = heading + TIP_ANGLES_RAD[a]
+    c, s = math.cos(angle), math.sin(angle)
+    forward = params[P_FORWARD] + params[P_FORWARD_SD] * z[0]
+    lateral = params[P_LATERAL] + params[P_LATERAL_SD] * z[1]  # +lateral is to the right of the tip direction
+    nx, ny = x + forward * c + lateral * s, y + forward * s - lateral * c
+    hc, hs = math.cos(heading), math.sin(heading)
+    mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
+    if segment_crosses(x, y, nx, ny, walls) or nearest_point(nx, ny, walls)[0] < 0.5 * params[P_BODY_RADIUS]:
+        nx, ny = x + hc * mx - hs * my, y + hs * mx + hc * my  # contact stops the body at the checked landing
+    state[b, X], state[b, Y] = nx, ny
+    state[b, HEADING] = (heading + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2]) % _TWO_PI
+    # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
+    dh = state[b, DR_HEADING]
+    dc, ds = math.cos(dh), math.sin(dh)
+    state[b, DR_X] += dc * mx - ds * my
+    state[b, DR_Y] += ds * mx + dc * my
+    state[b, DR_HEADING] = (dh + params[P_FRAME_TURN + a]) % _TWO_PI
+    old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
+    state[b, FACE] = _NEIGHBOR[old, edge]
+    state[b, EDGE0] = _BACK_EDGE[old, edge]
+    state[b, BLOCKED] = 0.0
+    return False
 
 
 @njit(cache=True)
-def _tip(
-    action, normals, tip_allowed, position, heading, face, edge0, dr_position, dr_heading, mean_offsets, frame_turn,
-    forward_mean, forward_sd, lateral_mean, lateral_sd, heading_sd, neighbor, back_edge, blocked,
-):  # fmt: skip
+def sense_row(b, state, walls, params, z, obs):
+    """Range readings (draws ``z[3:9]``), the action mask and the nearest wall at robot ``b``'s pose; writes the
+    sensor part of observation row ``obs[b]``."""
+    px, py = state[b, X], state[b, Y]
+    c, s = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+    scale = params[P_RANGE_NOISE]
+    for i in range(6):  # beams: slant range along the tilted beam = horizontal distance / cos(19.47°)
+        dx, dy = c * _BEAM_COS[i] - s * _BEAM_SIN[i], s * _BEAM_COS[i] + c * _BEAM_SIN[i]
+        h = ray_distance(px + _SENSOR_OFFSET * dx, py + _SENSOR_OFFSET * dy, dx, dy, walls)
+        d = h / _COS_ELEVATION
+        reading, too_close, no_return, normalised = measure_one(d, z[3 + i], scale)
+        state[b, TRUE_RANGE + i], state[b, READING + i] = d, reading
+        close, none = 1.0 if too_close else 0.0, 1.0 if no_return else 0.0
+        state[b, TOO_CLOSE + i], state[b, NO_RETURN + i] = close, none
+        obs[b, OBS_RANGE + i] = normalised
+        obs[b, OBS_TOO_CLOSE + i] = close
+        obs[b, OBS_NO_RETURN + i] = none
+    obs[b, OBS_TIP_FAILED] = state[b, BLOCKED]
+    radius = params[P_BODY_RADIUS]
+    for j in range(3):  # the action mask: the mean landing keeps the body off the walls and the motion crosses none
+        mx, my = params[P_MEAN_OFFSETS + 2 * j], params[P_MEAN_OFFSETS + 2 * j + 1]
+        lx, ly = px + c * mx - s * my, py + s * mx + c * my
+        clear = nearest_point(lx, ly, walls)[0] >= radius and not segment_crosses(px, py, lx, ly, walls)
+        state[b, ALLOWED + j] = 1.0 if clear else 0.0
+    d, fx, fy, k = nearest_point(px, py, walls)
+    state[b, WALL_DISTANCE], state[b, FOOT_X], state[b, FOOT_Y], state[b, WALL_SEGMENT] = d, fx, fy, k
+
+
+@njit(cache=True)
+def advance_row(b, a, state, walls, params, normals, cursor, obs):
+    """One step of robot ``b``: tip in direction ``a``, update its records, sense. Consumes one draw row of its
+    block. Returns whether the tip was blocked."""
+    z = normals[b, cursor[b]]
+    cursor[b] += 1
+    blocked = tip_row(b, a, state, walls, params, z)
+    state[b, STEPS] += 1.0
+    if blocked:
+        state[b, BLOCKED_TIPS] += 1.0
+    elif a == 0 and state[b, LAST_TIP_MOVED] > 0.5:
+        state[b, OSCILLATIONS] += 1.0  # undid the previous tip: the robot alternates between two faces
+    state[b, LAST_TIP_MOVED] = 0.0 if blocked else 1.0
+    sense_row(b, state, walls, params, z, obs)
+    return blocked
+
+
+@njit(cache=True)
+def first_sense_row(b, state, walls, params, normals, cursor, obs):
+    """First readings of freshly placed robot ``b`` (one draw row of its block)."""
+    z = normals[b, cursor[b]]
+    cursor[b] += 1
+    sense_row(b, state, walls, params, z, obs)
+
+
+@njit(cache=True)
+def write_base_metrics(b, state, out, column):
+    """The metrics every task reports, into ``out[b, column:column + 2]``: blocked tips, oscillation events."""
+    out[b, column] = state[b, BLOCKED_TIPS]
+    out[b, column + 1] = state[b, OSCILLATIONS]
+
+
+@njit(cache=True)
+def _tip_rows(action, draws, state, walls, params):
+    shared = walls.shape[0] == 1
     for b in range(action.shape[0]):
-        a = action[b]
-        if a < 0:
-            blocked[b] = False
-            continue
-        blocked[b] = not tip_allowed[b, a]
-        if blocked[b]:
-            continue
-        angle = heading[b] + TIP_ANGLES_RAD[a]
-        c, s = math.cos(angle), math.sin(angle)
-        forward = forward_mean + forward_sd * normals[b, 0]
-        lateral = lateral_mean + lateral_sd * normals[b, 1]  # +lateral is to the right of the tip direction
-        position[b, 0] += forward * c + lateral * s
-        position[b, 1] += forward * s - lateral * c
-        heading[b] = (heading[b] + frame_turn[a] + heading_sd * normals[b, 2]) % _TWO_PI
-        # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
-        dc, ds = math.cos(dr_heading[b]), math.sin(dr_heading[b])
-        dr_position[b, 0] += dc * mean_offsets[a, 0] - ds * mean_offsets[a, 1]
-        dr_position[b, 1] += ds * mean_offsets[a, 0] + dc * mean_offsets[a, 1]
-        dr_heading[b] = (dr_heading[b] + frame_turn[a]) % _TWO_PI
-        edge = (edge0[b] + a) % 3
-        old = face[b]
-        face[b] = neighbor[old, edge]
-        edge0[b] = back_edge[old, edge]
+        if action[b] >= 0:
+            tip_row(b, action[b], state, walls[0 if shared else b], params, draws[b])
 
 
 @njit(cache=True)
-def _sense(
-    normals, rows, position, heading, start, vector, inv_length_sq, is_real, local, sensor_offset, cos_elevation,
-    body_radius, range_noise_scale, true_range, wall_distance, wall_foot, wall_segment, tip_allowed, reading,
-    too_close, no_return, normalised,
-):  # fmt: skip
-    shared = start.shape[0] == 1
+def _sense_rows(rows, draws, state, walls, params, obs):
+    shared = walls.shape[0] == 1
     for n in range(rows.shape[0]):
         b = rows[n]
-        w = 0 if shared else b
-        px, py = position[b, 0], position[b, 1]
-        c, s = math.cos(heading[b]), math.sin(heading[b])
-        for i in range(6):  # beams: slant range along the tilted beam = horizontal distance / cos(19.47°)
-            dx, dy = c * local[i, 0] - s * local[i, 1], s * local[i, 0] + c * local[i, 1]
-            h = ray_distance(px + sensor_offset * dx, py + sensor_offset * dy, dx, dy, start[w], vector[w], is_real[w])
-            true_range[b, i] = h / cos_elevation
-        measure_into(
-            true_range[b], normals[n], range_noise_scale, reading[b], too_close[b], no_return[b], normalised[b]
-        )
-        for j in range(3):  # a tip is allowed when its mean landing point keeps the body off the walls
-            lx = px + c * local[6 + j, 0] - s * local[6 + j, 1]
-            ly = py + s * local[6 + j, 0] + c * local[6 + j, 1]
-            d = nearest_point(lx, ly, start[w], vector[w], inv_length_sq[w], is_real[w])[0]
-            tip_allowed[b, j] = d >= body_radius
-        d, fx, fy, k = nearest_point(px, py, start[w], vector[w], inv_length_sq[w], is_real[w])
-        wall_distance[b], wall_foot[b, 0], wall_foot[b, 1], wall_segment[b] = d, fx, fy, k
+        sense_row(b, state, walls[0 if shared else b], params, draws[n], obs)

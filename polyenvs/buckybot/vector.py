@@ -2,7 +2,11 @@
 
 ``gym.make_vec("polyenvs/BuckybotWallFollow-v0", num_envs=1024)`` builds one: the task class itself, constructed
 with 1024 rows (see :mod:`polyenvs.buckybot.env`), behind Gymnasium's ``VectorEnv`` API with next-step autoreset.
-With ``num_envs=1`` it reproduces the single environment's first episode bit for bit for the same seed.
+
+It gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit: row ``i`` reset with seed ``s`` draws from
+the generator a single env reset with seed ``s + i`` would have (:mod:`polyenvs.core.streams`), through
+autoresets; ``info`` carries the single env's keys in the vector convention (an array per key, with its ``_key``
+mask; ``episode_metrics`` is a dict of arrays); ``floor_plan="random"`` draws a room per row. Only the speed differs.
 """
 
 from __future__ import annotations
@@ -10,75 +14,114 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium.error import ClosedEnvironmentError, ResetNeeded
+from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot import simulator as S
+from polyenvs.buckybot.env import _ACTUATOR_NAMES, _SENSOR_FACES, BuckybotEnv, copy_generator
 from polyenvs.buckybot.explore import BuckybotExploreEnv
 from polyenvs.buckybot.goal import BuckybotGoalEnv
 from polyenvs.buckybot.wall_follow import BuckybotWallFollowEnv
+from polyenvs.core.validation import check_int, show
 
 __all__ = ["BuckybotExploreVectorEnv", "BuckybotGoalVectorEnv", "BuckybotVectorEnv", "BuckybotWallFollowVectorEnv"]
 
 
+def _object_table(rows: list[list]) -> np.ndarray:
+    table = np.empty((len(rows), len(rows[0])), dtype=object)
+    for i, row in enumerate(rows):
+        for j, value in enumerate(row):
+            table[i, j] = value
+    return table
+
+
+_ACTUATOR_TABLE = _object_table(_ACTUATOR_NAMES)
+_SENSOR_FACE_TABLE = _object_table(_SENSOR_FACES)
+
+
 class BuckybotVectorEnv(VectorEnv):
-    """``num_envs`` robots of one Buckybot task on one fixed floor plan.
+    """``num_envs`` robots of one Buckybot task.
 
     Args:
         num_envs: number of robots (sub-environments).
         max_episode_steps: truncate each robot's episode after this many steps (``None``: never).
-        **kwargs: the task's constructor arguments (``floor_plan`` must not be ``"random"``).
+        render_mode: ``"rgb_array"`` renders sub-environment 0.
+        **kwargs: the task's constructor arguments.
 
-    Observations ``(num_envs, D)``, rewards, terminated and truncated ``(num_envs,)``. ``info`` holds
-    ``action_mask`` ``(num_envs, 3)``, ``blocked`` and the ``reward_*`` terms ``(num_envs,)``, and, for the robots
-    whose episode ended at this step, ``episode_metrics`` (a dict of ``(num_envs,)`` arrays, nan elsewhere) with
-    its mask ``_episode_metrics``. Rendering is per single environment: build one with ``gym.make``.
+    Observations ``(num_envs, D)``, rewards, terminated and truncated ``(num_envs,)``; ``info`` as described above.
     """
 
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4, "autoreset_mode": AutoresetMode.NEXT_STEP}
     #: The single-robot task class whose batched core this vector env drives.
     env_class: type[BuckybotEnv] = BuckybotEnv
 
     def __init__(
         self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **kwargs
     ):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if max_episode_steps is not None and (
-            not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        if render_mode is not None:
-            raise ValueError("render_mode: vector Buckybot envs do not render; render a gym.make(...) env instead")
+        num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+        if max_episode_steps is not None:
+            max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
         # The task class built with num_envs rows: the same validation, spaces and kernels as the single env.
         core = self.env_class.__new__(self.env_class)
-        core._batch_size = int(num_envs)
-        core.__init__(**kwargs)
+        core._batch_size = num_envs
+        core.__init__(render_mode=render_mode, **kwargs)
         self._core = core
-        self.num_envs = int(num_envs)
+        self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
-        self.render_mode = None
+        self.render_mode = render_mode
         self.single_action_space = core.action_space
-        self.action_space = batch_space(core.action_space, self.num_envs)
+        self.action_space = batch_space(core.action_space, num_envs)
         self.single_observation_space = core.observation_space
-        self.observation_space = batch_space(core.observation_space, self.num_envs)
+        self.observation_space = batch_space(core.observation_space, num_envs)
         self.observation_structure = core.observation_structure
-        self._rows = np.arange(self.num_envs, dtype=np.int64)
-        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
-        self._actions = np.zeros(self.num_envs, dtype=np.int64)
+        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self._actions = np.zeros(num_envs, dtype=np.int64)
         self._started = False
+        self._closed = False
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        self._core._np_random = self.np_random  # one generator for every robot, as the single env has one
-        self._core._reset_rows(self._rows, dict(options or {}))
+    def _check_open(self) -> None:
+        if self._closed:
+            raise ClosedEnvironmentError("this vector env is closed")
+
+    def _row_generators(self, seed) -> list[np.random.Generator]:
+        """Row i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i."""
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        elif isinstance(seed, (list, tuple)) and len(seed) == n:
+            seeds = list(seed)
+        else:
+            raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+        generators = []
+        for row, s in enumerate(seeds):
+            current = self._core.sim.streams.generators[row]
+            if s is None:
+                generators.append(copy_generator(current) if current is not None else seeding.np_random(None)[0])
+            else:
+                generators.append(seeding.np_random(s)[0])
+        return generators
+
+    def reset(self, *, seed=None, options: dict[str, Any] | None = None):
+        self._check_open()
+        core = self._core
+        options = core._check_options(options)
+        generators = self._row_generators(seed)
+        prepared = [core._prepare_row(row, rng, options) for row, rng in enumerate(generators)]  # may raise
+        core._commit_rows(prepared)
         self._needs_reset[:] = False
         self._started = True
-        return self._core._get_observations().copy(), self._info(np.zeros(self.num_envs, dtype=bool))
+        return core._observations.copy(), self._info()
 
     def step(self, actions):
+        self._check_open()
         if not self._started:
-            raise RuntimeError("call reset() before step()")
+            raise ResetNeeded("call reset() before step()")
         actions = np.asarray(actions)
         if (
             actions.shape != (self.num_envs,)
@@ -89,39 +132,74 @@ class BuckybotVectorEnv(VectorEnv):
             raise ValueError(f"actions must be {self.num_envs} integers in {{0, 1, 2}}, got {actions!r}")
         core = self._core
         restart = self._needs_reset
-        acting = self._rows
         self._actions[:] = actions
         if restart.any():
-            acting = self._rows[~restart]
-            core._reset_rows(self._rows[restart], {})
+            rows = np.flatnonzero(restart)
+            generators = core.sim.streams.generators
+            core._commit_rows([core._prepare_row(int(row), generators[row], {}) for row in rows])
             self._actions[restart] = -1  # these robots start a new episode: they neither move nor score
-        core._advance(self._actions, core.np_random.standard_normal((self.num_envs, 9)), acting)
-        rewards = core._rewards.sum(axis=1)
-        terminated = core._terminated & ~restart
+        core._advance(self._actions)
+        if core._trail is not None and not restart[0]:
+            core._trail.append(core.sim.state[0, S.X : S.Y + 1], core.sim.state[0, S.DR_X : S.DR_Y + 1])
+        out = core._out
+        rewards = out[:, core._reward_column].copy()
+        terminated = out[:, core._terminated_column] > 0.5
+        terminated &= ~restart
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
-            truncated = (core.steps >= self.max_episode_steps) & ~terminated & ~restart
-        done = terminated | truncated
-        self._needs_reset = done
-        return core._get_observations().copy(), rewards, terminated, truncated, self._info(done)
+            truncated = (core.sim.state[:, S.STEPS] >= self.max_episode_steps) & ~terminated & ~restart
+        self._needs_reset = terminated | truncated
+        return core._observations.copy(), rewards, terminated, truncated, self._info()
 
-    def _info(self, done: np.ndarray) -> dict[str, Any]:
+    def render(self):
+        """Sub-environment 0's frame."""
+        self._check_open()
+        if self.render_mode is None:
+            return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
+        return self._core.render()
+
+    def close(self, **kwargs):
+        if not self._closed:
+            self._core.close()
+            self._closed = True
+
+    def _info(self) -> dict[str, Any]:
+        """The single env's info for every row, in Gymnasium's vector convention."""
         core = self._core
-        info: dict[str, Any] = {
-            "action_mask": core.sim.tip_allowed.astype(np.int8),
-            "blocked": core.last_blocked.copy(),
+        state, out = core.sim.state, core._out
+        n = self.num_envs
+        face, edge0 = state[:, S.FACE].astype(np.intp), state[:, S.EDGE0].astype(np.intp)
+        heading_deg = np.degrees(state[:, S.HEADING])
+        values: dict[str, Any] = {
+            "action_mask": state[:, S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
+            "face": face + 1,
+            "heading_deg": heading_deg,
+            "tip_directions_deg": np.stack(
+                [heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0], 1
+            ),
+            "actuators": _ACTUATOR_TABLE[face, edge0],
+            "sensor_faces": _SENSOR_FACE_TABLE[face, edge0],
+            "pose": np.stack([state[:, S.X], state[:, S.Y], heading_deg], 1),
+            "dead_reckoned_pose": np.stack([state[:, S.DR_X], state[:, S.DR_Y], np.degrees(state[:, S.DR_HEADING])], 1),
+            "true_range_cm": state[:, S.TRUE_RANGE : S.TRUE_RANGE + 6].copy(),
+            "wall_distance_cm": state[:, S.WALL_DISTANCE].copy(),
+            "blocked": state[:, S.BLOCKED] > 0.5,
         }
         for j, key in enumerate(core._reward_keys):
-            info[key] = core._rewards[:, j].copy()
-        if done.any():
-            rows = np.flatnonzero(done)
-            per_row = [core._episode_metrics(int(row)) for row in rows]  # only the few robots that just finished
-            metrics = {name: np.full(self.num_envs, np.nan) for name in per_row[0]}
-            for row, values in zip(rows, per_row, strict=True):
-                for name, value in values.items():
-                    metrics[name][row] = value
-            info["episode_metrics"] = metrics
-            info["_episode_metrics"] = done.copy()
+            values[key] = out[:, j].copy()
+        values.update(core._vector_task_info())
+        k = len(core._reward_keys)
+        metrics: dict[str, Any] = {}
+        for j, name in enumerate(core.all_metric_names):
+            metrics[name] = out[:, k + j].copy()
+            metrics[f"_{name}"] = np.ones(n, dtype=bool)
+        values["episode_metrics"] = metrics
+        info: dict[str, Any] = {}
+        for key, value in values.items():
+            info[key] = value
+            info[f"_{key}"] = np.ones(n, dtype=bool)
         return info
 
 
@@ -138,6 +216,6 @@ class BuckybotExploreVectorEnv(BuckybotVectorEnv):
 
 
 class BuckybotGoalVectorEnv(BuckybotVectorEnv):
-    """Vector form of :class:`~polyenvs.buckybot.goal.BuckybotGoalEnv` (same arguments; no reset options)."""
+    """Vector form of :class:`~polyenvs.buckybot.goal.BuckybotGoalEnv` (same arguments and reset options)."""
 
     env_class = BuckybotGoalEnv

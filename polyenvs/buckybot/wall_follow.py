@@ -6,14 +6,87 @@ import math
 
 import numpy as np
 
+from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
+from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_positive
+from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotWallFollowEnv"]
 
+
 _PERIMETER_BIN_CM = 10.0
+# Columns of the task state: pose terms after the last step (x, y, unit normal towards the nearest wall, angle
+# about the room's centre) and the episode's sums.
+_PX, _PY, _NX, _NY, _ANGLE, _ERROR_SUM, _PROGRESS, _WINDING, _FOLLOWED = range(9)
+_TASK_COLUMNS = 9
+_D_STAR, _TOLERANCE, _REACH, _NORM = range(4)
+
+
+@njit(cache=True)
+def _pose_terms(b, state, slot_info, task):
+    x, y = state[b, S.X], state[b, S.Y]
+    fx, fy = state[b, S.FOOT_X], state[b, S.FOOT_Y]
+    gap = max(math.hypot(fx - x, fy - y), 1e-9)
+    task[b, _PX], task[b, _PY] = x, y
+    task[b, _NX], task[b, _NY] = (fx - x) / gap, (fy - y) / gap
+    task[b, _ANGLE] = math.atan2(y - slot_info[1], x - slot_info[0])
+
+
+@njit(cache=True)
+def _write_out(b, state, task, slot_info, out):
+    write_base_metrics(b, state, out, 3)
+    out[b, 5] = task[b, _ERROR_SUM] / max(state[b, S.STEPS], 1.0)
+    out[b, 6] = task[b, _FOLLOWED] / slot_info[2]
+    out[b, 7] = math.floor(max(task[b, _WINDING], 0.0) / (2 * math.pi))
+    out[b, 8] = task[b, _PROGRESS]
+    out[b, 9] = out[b, 0] + out[b, 1] + out[b, 2]
+    out[b, 10] = 0.0  # never terminates
+
+
+@njit(cache=True)
+def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, followed, bins, seg_bins, slot, tp):
+    shared = walls.shape[0] == 1
+    for n in range(rows.shape[0]):
+        b = rows[n]
+        w = 0 if shared else b
+        first_sense_row(b, state, walls[w], params, normals, cursor, obs)
+        followed[b, :] = False
+        task[b, :] = 0.0
+        _pose_terms(b, state, slot[w], task)
+        out[b, :] = 0.0
+        _write_out(b, state, task, slot[w], out)
+
+
+@njit(cache=True)
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, followed, bins, seg_bins, slot, tp):
+    shared = walls.shape[0] == 1
+    for b in range(actions.shape[0]):
+        if actions[b] < 0:
+            continue
+        w = 0 if shared else b
+        blocked = advance_row(b, actions[b], state, walls[w], params, normals, cursor, obs)
+        x, y = state[b, S.X], state[b, S.Y]
+        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
+        progress = (x - task[b, _PX]) * -task[b, _NY] + (y - task[b, _PY]) * task[b, _NX]
+        task[b, _PROGRESS] += progress
+        error = state[b, S.WALL_DISTANCE] - tp[_D_STAR]
+        task[b, _ERROR_SUM] += abs(error)
+        if abs(error) <= tp[_TOLERANCE]:  # following: mark the nearest wall's bins within reach
+            k = int(state[b, S.WALL_SEGMENT])
+            for i in range(seg_bins[w, k, 0], seg_bins[w, k, 1]):
+                if not followed[b, i] and math.hypot(bins[w, i, 0] - x, bins[w, i, 1] - y) <= tp[_REACH]:
+                    followed[b, i] = True
+                    task[b, _FOLLOWED] += bins[w, i, 2]
+        angle0 = task[b, _ANGLE]
+        _pose_terms(b, state, slot[w], task)
+        task[b, _WINDING] += (task[b, _ANGLE] - angle0 + math.pi) % (2 * math.pi) - math.pi
+        out[b, 0] = progress / STEP_LENGTH_CM
+        out[b, 1] = -(error * error) / tp[_NORM]
+        out[b, 2] = -1.0 if blocked else 0.0
+        _write_out(b, state, task, slot[w], out)
 
 
 class BuckybotWallFollowEnv(BuckybotEnv):
@@ -28,10 +101,12 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     ``baselines.buckybot.WallFollower``, is the baseline; it gets stuck in 90° corners and narrow hallways.
 
     ## Action Space
-    ``Discrete(3)``: tip towards frame direction 0, 1 or 2 (azimuths 0°, 120°, 240° in the resting face's frame,
+    ``Discrete(3)`` (:class:`~polyenvs.buckybot.env.BuckybotAction`: 0 BACK, 1 FORWARD_RIGHT, 2 FORWARD_LEFT):
+    tip towards frame direction 0, 1 or 2 (azimuths 0°, 120°, 240° in the resting face's frame,
     counter-clockwise from above). Direction 0 points back over the edge the robot last tipped over (after a
     reset: the edge opposite the resting face's first-lettered actuator), so action 0 undoes the previous tip.
-    A tip whose landing point would bring the body (radius 13 cm) against a wall is blocked: the robot stays.
+    A tip whose landing point would bring the body (radius 13 cm) against a wall, or whose motion would cross a
+    wall, is blocked: the robot stays. ``gymnasium.utils.play`` keys: s, d, a.
 
     ## Observation Space
     ``Box(0, 1, (19,), float32)``, described by ``env.observation_structure``:
@@ -53,11 +128,16 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     ``env.action_masks()`` for MaskablePPO), the ``reward_*`` terms and ``episode_metrics``.
 
     ## Rewards
-    The paper's per-step cost ``(d - d*)² - x_s · progress``, normalised by ``2 x_s · 9.129 cm`` so a step along
-    the wall earns about 1 (the weight 2 x_s makes the paper's target-tracking rule the greedy minimiser):
-    ``reward_progress = Δs / 9.129`` with Δs the displacement along the nearest wall's counter-clockwise
-    tangent (z × centre-to-wall), ``reward_distance = -(d - d*)² / (2 x_s · 9.129)`` with d the true distance to
-    the nearest wall after the tip, and ``reward_blocked = -1`` for a blocked tip.
+    The paper's per-step cost ``(d - d*)² - 2 x_s · Δs`` (its eq. 5 weighs distance error against progress; the
+    exact weight is garbled in the paper), negated and normalised by ``2 x_s · 9.129 cm`` so a step along the wall
+    earns about 1: ``reward_progress = Δs / 9.129`` with Δs the displacement along the nearest wall's
+    counter-clockwise tangent (z × centre-to-wall), ``reward_distance = -(d - d*)² / (2 x_s · 9.129)`` with d the
+    true distance to the nearest wall after the tip, and ``reward_blocked = -1`` for a blocked tip.
+    Why 2 x_s: for one straight wall, the paper's rule (tip towards the point d* off the wall and x_s along it)
+    minimises the squared distance to that point, ``(d - d*)² - 2 x_s Δs + Δs² + const``: this cost plus Δs².
+    The rule is therefore close to the greedy maximiser of this reward but not the same: the Δs² term favours
+    shorter moves along the wall, and the reward measures d to the nearest of all walls, so the two choose
+    different tips in a small fraction of states (1.4-2.9% of random single-wall states, measured in issue 5).
 
     ## Starting State
     A seeded position at least 23 cm from every wall, uniform heading and resting face; or
@@ -74,22 +154,25 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "rectangle" | a built-in plan ("rectangle", "l_room", "corner", "hallway", "office"), "random", or a list of (x1, y1, x2, y2) wall segments in cm |
-    | d_star_cm | 50.0 | wall-following distance d* (the paper leaves it free) |
-    | x_s_cm | 20.0 | the paper's x_s, weight of progress against distance error |
-    | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed |
-    | noise_scale | 1.0 | tipping noise: 0 = ideal lattice, 1 = the paper's Vicon measurements |
-    | range_noise_scale | 1.0 | multiplies the eq. 6 range noise sd |
-    | step_forward_cm, step_forward_sd_cm | 9.266, 0.105 | forward step per tip (paper, Test Results) |
-    | step_lateral_cm, step_lateral_sd_cm | -0.745, 0.149 | lateral step per tip (paper) |
-    | heading_change_deg, heading_sd_deg | 0.31, 0.44 | heading change per tip (paper) |
-    | body_radius_cm | 13.0 | contact radius (the 26 cm diameter) |
+    | d_star_cm | 50.0 | wall-following distance d* from the centre, in [20, 150] (the paper leaves it free; the sonar sees to 184 cm) |
+    | x_s_cm | 20.0 | the paper's x_s, look-ahead along the wall and weight of progress, in [1, 100] |
+    | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed, in [1, 100] |
+    | noise_scale | 1.0 | tipping noise, in [0, 1]: 0 = ideal lattice, 1 = the paper's Vicon measurements |
+    | range_noise_scale | 1.0 | multiplies the eq. 6 range noise sd, in [0, 5] |
+    | step_forward_cm, step_forward_sd_cm | 9.266, 0.105 | forward step per tip (paper, Test Results), in [5, 15] and [0, 2] |
+    | step_lateral_cm, step_lateral_sd_cm | -0.745, 0.149 | lateral step per tip (paper), in [-3, 3] and [0, 2] |
+    | heading_change_deg, heading_sd_deg | 0.31, 0.44 | heading change per tip (paper), in [-10, 10] and [0, 10] |
+    | body_radius_cm | 13.0 | contact radius (the 26 cm diameter), in [6.5, 26] |
     | render_mode | None | "rgb_array" or "human" |
+
+    Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.
 
     ## Version History
     * v0: initial version.
     """
 
     reward_names = ("progress", "distance", "blocked")
+    metric_names = ("wall_distance_error_cm", "perimeter_fraction", "laps", "progress_cm")
 
     def __init__(
         self,
@@ -99,110 +182,50 @@ class BuckybotWallFollowEnv(BuckybotEnv):
         follow_tolerance_cm: float = 20.0,
         **kwargs,
     ):
-        self.d_star_cm = check_positive("d_star_cm", d_star_cm)
-        self.x_s_cm = check_positive("x_s_cm", x_s_cm)
-        self.follow_tolerance_cm = check_positive("follow_tolerance_cm", follow_tolerance_cm)
+        self.d_star_cm = check_in_range("d_star_cm", d_star_cm, 20.0, 150.0)
+        self.x_s_cm = check_in_range("x_s_cm", x_s_cm, 1.0, 100.0)
+        self.follow_tolerance_cm = check_in_range("follow_tolerance_cm", follow_tolerance_cm, 1.0, 100.0)
         super().__init__(**kwargs)
-        n = self._batch_size
-        self._distance_norm = 2.0 * self.x_s_cm * STEP_LENGTH_CM
-        self._follow_reach = self.d_star_cm + self.follow_tolerance_cm
-        # Per row: pose terms after the last step (x, y, wall normal x, y, angle about the room's centre) and sums.
-        self._previous = np.zeros((n, 5))
-        self._distance_error_sum = np.zeros(n)
-        self._progress_cm = np.zeros(n)
-        self._winding = np.zeros(n)
-        self._followed_length = np.zeros(n)
-        self._bins_plan = None
 
-    def _prepare_bins(self) -> None:
+    def _task_init(self):
+        n, slots, n_walls = self._batch_size, self._n_slots, self.sim.walls.shape[1]
+        # d*, tolerance, reach within which a followed wall's bins count, the reward's normaliser.
+        self._task_params = np.array(
+            [self.d_star_cm, self.follow_tolerance_cm, self.d_star_cm + self.follow_tolerance_cm,
+             2.0 * self.x_s_cm * STEP_LENGTH_CM]
+        )  # fmt: skip
+        self._task_state = np.zeros((n, _TASK_COLUMNS))
+        self._bins = np.zeros((slots, 1, 3))  # per plan slot: ~10 cm wall bins (centre x, y, length)
+        self._segment_bins = np.zeros((slots, n_walls, 2), dtype=np.int64)  # each wall's [first, stop) bins
+        self._slot_info = np.zeros((slots, 3))  # lap centre x, y, total wall length
+        self._followed = np.zeros((n, 1), dtype=np.bool_)
+
+    def _task_arrays(self):
+        return (self._task_state, self._followed, self._bins, self._segment_bins, self._slot_info, self._task_params)
+
+    def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         """Cut every wall into ~10 cm bins, stored segment by segment so a step looks at one segment's run."""
-        plan = self.plan
         seg = plan.segments
         length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
         counts = np.maximum(1, np.ceil(length / _PERIMETER_BIN_CM).astype(np.int64))
         owner = np.repeat(np.arange(len(seg)), counts)
         frac = (np.concatenate([np.arange(n) for n in counts]) + 0.5) / counts[owner]
-        self._bin_centre = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
-        self._bin_length = (length / counts)[owner]
+        if len(owner) > self._bins.shape[1]:  # a larger room than any before: grow the tables (rare)
+            grown = np.zeros((self._bins.shape[0], len(owner), 3))
+            grown[:, : self._bins.shape[1]] = self._bins
+            followed = np.zeros((self._batch_size, len(owner)), dtype=np.bool_)
+            followed[:, : self._followed.shape[1]] = self._followed
+            self._bins, self._followed = grown, followed
+            self._kernel_arrays = self._task_arrays()
+        self._bins[slot] = 0.0
+        self._bins[slot, : len(owner), 0:2] = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
+        self._bins[slot, : len(owner), 2] = (length / counts)[owner]
         bounds = np.concatenate([[0], np.cumsum(counts)])
-        self._segment_first, self._segment_stop = bounds[:-1].copy(), bounds[1:].copy()
-        self._wall_length = float(length.sum())
+        self._segment_bins[slot] = 0
+        self._segment_bins[slot, : len(seg), 0], self._segment_bins[slot, : len(seg), 1] = bounds[:-1], bounds[1:]
         g = plan.grid()
-        self._lap_centre = g.centres()[g.region == g.main_region].mean(axis=0)
-        self._followed = np.zeros((self._batch_size, len(self._bin_centre)), dtype=bool)
-        self._bins_plan = plan
+        self._slot_info[slot, 0:2] = g.centres()[g.region == g.main_region].mean(axis=0)
+        self._slot_info[slot, 2] = float(length.sum())
 
-    def _task_reset(self, rows, options):
-        if self._bins_plan is not self.plan:
-            self._prepare_bins()
-        self._followed[rows] = False
-        for record in (self._distance_error_sum, self._progress_cm, self._winding, self._followed_length):
-            record[rows] = 0.0
-        _pose_terms(rows, self.sim.position, self.sim.wall_foot, self._lap_centre, self._previous)
-
-    def _task_step(self, actions, blocked, active):
-        sim = self.sim
-        _wall_follow_step(
-            active, blocked, sim.position, sim.wall_foot, sim.wall_distance, sim.wall_segment, self._lap_centre,
-            self._previous, self.d_star_cm, self.follow_tolerance_cm, self._follow_reach, self._distance_norm,
-            self._bin_centre, self._bin_length, self._segment_first, self._segment_stop, self._followed,
-            self._followed_length, self._distance_error_sum, self._progress_cm, self._winding, self._rewards,
-        )  # fmt: skip
-
-    def _episode_metrics(self, row):
-        metrics = super()._episode_metrics(row)
-        metrics.update(
-            wall_distance_error_cm=float(self._distance_error_sum[row]) / max(int(self.steps[row]), 1),
-            perimeter_fraction=float(self._followed_length[row]) / self._wall_length,
-            laps=int(max(float(self._winding[row]), 0.0) // (2 * math.pi)),
-            progress_cm=float(self._progress_cm[row]),
-        )
-        return metrics
-
-
-@njit(cache=True)
-def _pose_terms(rows, position, wall_foot, lap_centre, out):
-    """(x, y, unit normal towards the nearest wall, angle about the room's centre) of each row, into ``out``."""
-    for n in range(rows.shape[0]):
-        b = rows[n]
-        x, y = position[b, 0], position[b, 1]
-        fx, fy = wall_foot[b, 0], wall_foot[b, 1]
-        gap = max(math.hypot(fx - x, fy - y), 1e-9)
-        out[b, 0], out[b, 1] = x, y
-        out[b, 2], out[b, 3] = (fx - x) / gap, (fy - y) / gap
-        out[b, 4] = math.atan2(y - lap_centre[1], x - lap_centre[0])
-
-
-@njit(cache=True)
-def _wall_follow_step(
-    active, blocked, position, wall_foot, wall_distance, wall_segment, lap_centre, previous, d_star, tolerance,
-    reach, distance_norm, bin_centre, bin_length, segment_first, segment_stop, followed, followed_length,
-    distance_error_sum, progress_sum, winding, rewards,
-):  # fmt: skip
-    for b in range(active.shape[0]):
-        if not active[b]:
-            rewards[b, :] = 0.0
-            continue
-        x0, y0, nx, ny, angle0 = previous[b, 0], previous[b, 1], previous[b, 2], previous[b, 3], previous[b, 4]
-        x, y = position[b, 0], position[b, 1]
-        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
-        progress = (x - x0) * -ny + (y - y0) * nx
-        progress_sum[b] += progress
-        error = wall_distance[b] - d_star
-        distance_error_sum[b] += abs(error)
-        if abs(error) <= tolerance:  # following: mark the nearest wall's bins within reach
-            k = wall_segment[b]
-            for i in range(segment_first[k], segment_stop[k]):
-                if not followed[b, i] and math.hypot(bin_centre[i, 0] - x, bin_centre[i, 1] - y) <= reach:
-                    followed[b, i] = True
-                    followed_length[b] += bin_length[i]
-        fx, fy = wall_foot[b, 0], wall_foot[b, 1]
-        gap = max(math.hypot(fx - x, fy - y), 1e-9)
-        angle = math.atan2(y - lap_centre[1], x - lap_centre[0])
-        winding[b] += (angle - angle0 + math.pi) % (2 * math.pi) - math.pi
-        previous[b, 0], previous[b, 1], previous[b, 2], previous[b, 3], previous[b, 4] = (
-            x, y, (fx - x) / gap, (fy - y) / gap, angle,
-        )  # fmt: skip
-        rewards[b, 0] = progress / STEP_LENGTH_CM
-        rewards[b, 1] = -(error * error) / distance_norm
-        rewards[b, 2] = -1.0 if blocked[b] else 0.0
+    _step_kernel = staticmethod(_step_kernel)
+    _reset_kernel = staticmethod(_reset_kernel)

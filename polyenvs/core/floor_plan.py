@@ -3,6 +3,13 @@
 A plan is a set of wall segments in centimetres. Beyond the walls themselves it knows a coarse free-space grid:
 each cell's distance to the nearest wall and the connected regions of free cells, from which start poses are
 drawn and against which coverage is measured.
+
+Conventions every family inherits from here:
+
+- Bad plans fail at construction with a ``ValueError`` naming ``floor_plan``: empty, non-finite, degenerate
+  segments, coordinates beyond ``MAX_COORDINATE_CM``, or a plan wider than ``MAX_PLAN_EXTENT_CM``.
+- Nothing derived from a plan can take minutes: a free-space grid larger than ``MAX_GRID_CELLS`` is refused with a
+  ``ValueError`` naming the grid's cell-size parameter, and every grid is built by compiled code in linear time.
 """
 
 from __future__ import annotations
@@ -13,8 +20,25 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polyenvs.core.geometry2d import SegmentTable, nearest_wall_points
+from polyenvs.core.jit import njit
 
-__all__ = ["FloorPlan", "FreeSpaceGrid", "rectangle_walls", "polygon_walls"]
+__all__ = [
+    "MAX_COORDINATE_CM",
+    "MAX_GRID_CELLS",
+    "MAX_PLAN_EXTENT_CM",
+    "FloorPlan",
+    "FreeSpaceGrid",
+    "grid_shape",
+    "polygon_walls",
+    "rectangle_walls",
+]
+
+#: The widest plan accepted (50 m): its 10 cm free-space grid is 250,000 cells.
+MAX_PLAN_EXTENT_CM = 5000.0
+#: Wall coordinates beyond this (10 km) are refused: float64 positions keep sub-micrometre precision below it.
+MAX_COORDINATE_CM = 1e6
+#: The largest free-space grid built (about 0.1 s of compiled work).
+MAX_GRID_CELLS = 1_000_000
 
 
 def polygon_walls(*corners: tuple[float, float]) -> list[tuple[float, float, float, float]]:
@@ -60,21 +84,44 @@ class FreeSpaceGrid:
         return np.clip(idx[..., 1], 0, h - 1), np.clip(idx[..., 0], 0, w - 1)
 
 
-def _label_regions(free: np.ndarray) -> np.ndarray:
-    """4-connected component labels of ``free`` cells (min-label propagation), -1 elsewhere."""
+@njit(cache=True)
+def _label_regions(free):
+    """4-connected component labels of ``free`` cells, -1 elsewhere; a component's label is its lowest flat index.
+
+    A flood fill from each unlabelled cell in raster order: linear in the number of cells.
+    """
     h, w = free.shape
-    big = h * w
-    labels = np.where(free, np.arange(big).reshape(h, w), big)
-    while True:
-        padded = np.pad(labels, 1, constant_values=big)
-        neighbours = np.minimum.reduce(
-            [padded[1:-1, 1:-1], padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:]]
-        )
-        new = np.where(free, neighbours, big)
-        if np.array_equal(new, labels):
-            break
-        labels = new
-    return np.where(free, labels, -1)
+    labels = np.full((h, w), -1, dtype=np.int64)
+    stack = np.empty(h * w, dtype=np.int64)
+    for start in range(h * w):
+        r0, c0 = start // w, start % w
+        if not free[r0, c0] or labels[r0, c0] >= 0:
+            continue
+        labels[r0, c0] = start
+        top = 0
+        stack[top] = start
+        top += 1
+        while top > 0:
+            top -= 1
+            cell = stack[top]
+            r, c = cell // w, cell % w
+            for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                rr, cc = r + dr, c + dc
+                if 0 <= rr < h and 0 <= cc < w and free[rr, cc] and labels[rr, cc] < 0:
+                    labels[rr, cc] = start
+                    stack[top] = rr * w + cc
+                    top += 1
+    return labels
+
+
+def grid_shape(bounds, cell_cm: float) -> tuple[np.ndarray, tuple[int, int]]:
+    """Origin and (rows, cols) of the free-space grid over ``bounds`` (xmin, ymin, xmax, ymax), 2 cells of margin."""
+    xmin, ymin, xmax, ymax = bounds
+    margin = 2 * cell_cm
+    origin = np.array([xmin - margin, ymin - margin])
+    w = int(np.ceil((xmax - xmin + 2 * margin) / cell_cm))
+    h = int(np.ceil((ymax - ymin + 2 * margin) / cell_cm))
+    return origin, (h, w)
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +148,11 @@ class FloorPlan:
             raise ValueError(f"floor_plan segments must have shape (S, 4), got {seg.shape}")
         if not np.isfinite(seg).all():
             raise ValueError("floor_plan segments must be finite numbers")
+        if np.abs(seg).max() > MAX_COORDINATE_CM:
+            raise ValueError(f"floor_plan coordinates must lie within ±{MAX_COORDINATE_CM:g} cm")
+        extent = max(np.ptp(seg[:, [0, 2]]), np.ptp(seg[:, [1, 3]]))
+        if extent > MAX_PLAN_EXTENT_CM:
+            raise ValueError(f"floor_plan spans {extent:g} cm; at most {MAX_PLAN_EXTENT_CM:g} cm (50 m) is supported")
         lengths = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
         if (lengths < 1e-6).any():
             bad = int(np.flatnonzero(lengths < 1e-6)[0])
@@ -129,23 +181,27 @@ class FloorPlan:
         flat = pts.reshape(1, -1, 2)
         return nearest_wall_points(self.table, flat)[0].reshape(pts.shape[:-1])
 
+    def check_grid(self, cell_cm: float, name: str = "cell_cm") -> None:
+        """Raise ``ValueError`` naming ``name`` if the grid at ``cell_cm`` would exceed ``MAX_GRID_CELLS``."""
+        _, (h, w) = grid_shape(self.bounds, cell_cm)
+        if h * w > MAX_GRID_CELLS:
+            raise ValueError(
+                f"{name}={cell_cm:g} makes a {w} x {h} grid over this floor plan ({h * w:,} cells; at most "
+                f"{MAX_GRID_CELLS:,}): use larger cells"
+            )
+
     def grid(self, cell_cm: float = 10.0) -> FreeSpaceGrid:
         """The plan's free-space grid (cached per cell size)."""
         if cell_cm not in self._cache:
+            self.check_grid(cell_cm)
             self._cache[cell_cm] = self._make_grid(cell_cm)
         return self._cache[cell_cm]
 
     def _make_grid(self, cell_cm: float) -> FreeSpaceGrid:
-        xmin, ymin, xmax, ymax = self.bounds
-        margin = 2 * cell_cm
-        origin = np.array([xmin - margin, ymin - margin])
-        w = int(np.ceil((xmax - xmin + 2 * margin) / cell_cm))
-        h = int(np.ceil((ymax - ymin + 2 * margin) / cell_cm))
+        origin, (h, w) = grid_shape(self.bounds, cell_cm)
         ys, xs = np.mgrid[0:h, 0:w]
         centres = origin + (np.stack([xs, ys], axis=-1) + 0.5) * cell_cm
-        clearance = np.concatenate(
-            [self.clearance(chunk) for chunk in np.array_split(centres.reshape(-1, 2), max(1, h * w // 4096))]
-        ).reshape(h, w)
+        clearance = self.clearance(centres)
         free = clearance > cell_cm * 0.75  # a wall passes within the cell's reach: not free
         region = _label_regions(free)
         border = np.unique(np.concatenate([region[0], region[-1], region[:, 0], region[:, -1]]))

@@ -1,19 +1,37 @@
-"""Constructor-argument checks that raise ``ValueError`` naming the parameter (never ``assert``)."""
+"""Argument checks that raise ``ValueError`` naming the parameter (never ``assert``: it vanishes under ``-O``).
+
+Conventions every environment and baseline inherits from here:
+
+- Every physical parameter has a documented plausible range, checked at construction with ``check_in_range``;
+  the range is what keeps rewards and observations finite and the geometry honest, so it is part of the API.
+- A number is a real number: ``bool`` and ``str`` are refused even though ``float(True)`` and ``float("50")``
+  work, and so are NaN and infinities.
+- Messages show values as the user wrote them (``10.0``, not ``np.float64(10.0)``).
+- A call that raises changes nothing: validate everything first, then mutate.
+"""
 
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
-__all__ = ["check_action", "check_finite", "check_in_range", "check_positive", "check_choice"]
+__all__ = ["check_action", "check_choice", "check_finite", "check_in_range", "check_int", "check_positive", "show"]
+
+
+def show(value) -> str:
+    """``value`` for an error message: numpy scalars as plain numbers, everything else as ``repr``."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
 
 
 def check_finite(name: str, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    """A finite real number (``bool`` and ``str`` are not numbers here)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a number, got {show(value)}")
+    value = float(value)
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return value
@@ -28,15 +46,27 @@ def check_positive(name: str, value, *, allow_zero: bool = False) -> float:
 
 
 def check_in_range(name: str, value, low: float, high: float) -> float:
+    """A finite number in the closed range ``[low, high]``."""
     value = check_finite(name, value)
     if not low <= value <= high:
-        raise ValueError(f"{name} must be in [{low}, {high}], got {value!r}")
+        raise ValueError(f"{name} must be in [{low:g}, {high:g}], got {value!r}")
+    return value
+
+
+def check_int(name: str, value, low: int, high: int | None = None) -> int:
+    """An integer (not a bool, not a float) in ``[low, high]``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{name} must be an integer, got {show(value)}")
+    value = int(value)
+    if value < low or (high is not None and value > high):
+        bound = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name} must be {bound}, got {value}")
     return value
 
 
 def check_choice(name: str, value, choices) -> str:
     if value not in choices:
-        raise ValueError(f"{name} must be one of {sorted(choices)}, got {value!r}")
+        raise ValueError(f"{name} must be one of {sorted(choices)}, got {show(value)}")
     return value
 
 
@@ -45,5 +75,5 @@ def check_action(action_space, action):
     if isinstance(action, np.ndarray) and action.dtype.kind == "f" and np.isnan(action).any():
         raise ValueError(f"action contains NaN: {action!r}")
     if not action_space.contains(action):
-        raise ValueError(f"action {action!r} is outside the action space {action_space}")
+        raise ValueError(f"action {show(action)} is outside the action space {action_space}")
     return action
