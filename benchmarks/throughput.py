@@ -17,7 +17,6 @@ From the repo root::
 from __future__ import annotations
 
 import argparse
-import itertools
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -48,9 +47,15 @@ class BenchmarkRun:
 
 
 def alternate(first: Sequence[Case], second: Sequence[Case]) -> list[Case]:
-    """The cases to time, one from each list in turn (the rest of the longer list at the end); skipped ones dropped."""
-    pairs = itertools.zip_longest(first, second)
-    return [case for pair in pairs for case in pair if case is not None and not case.skip]
+    """The cases to time, the two lists merged evenly (skipped cases dropped): ``a1 b1 a2 b2 ...`` for equal lengths,
+    and the shorter list spread through the longer one otherwise (3 peers, 6 of ours: ``a1 b1 b2 a2 b3 b4 a3 ...``).
+    """
+    lists = [[case for case in cases if not case.skip] for cases in (first, second)]
+    # Each case at its fraction of the way through its list; ties go to ``first``.
+    placed = [
+        (index / len(cases), which, case) for which, cases in enumerate(lists) for index, case in enumerate(cases)
+    ]
+    return [case for _, _, case in sorted(placed, key=lambda item: item[:2])]
 
 
 def run(*, min_seconds: float = 2.0, repeats: int = 3, only: str | None = None, seed: int = 0) -> BenchmarkRun:

@@ -131,6 +131,13 @@ def test_rounds_alternate_peers_and_ours_and_ratios_are_taken_per_round() -> Non
     assert harness.paired_ratio(by_name["ours B"], by_name["peer B"]) == pytest.approx(0.25, rel=1e-6)
 
 
+def test_alternate_spreads_the_shorter_list_through_the_longer() -> None:
+    peers = [harness.Case(f"peer {i}", "") for i in range(3)] + [harness.Case("absent", "", skip="skipped")]
+    ours = [harness.Case(f"ours {i}", "") for i in range(6)]
+    names = [case.name.split()[0] for case in throughput.alternate(peers, ours)]
+    assert names == ["peer", "ours", "ours", "peer", "ours", "ours", "peer", "ours", "ours"]
+
+
 def test_paired_ratio_is_the_median_of_per_round_ratios() -> None:
     peer = Measurement("peer", "", 200.0, 5e3, None, per_repeat=(100.0, 200.0, 300.0), session=7)
     row = Measurement("ours", "", 90.0, 1e4, None, per_repeat=(60.0, 100.0, 90.0), session=7)
