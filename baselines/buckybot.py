@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.base import Policy
+from baselines.base import Policy, check_flag, check_parameter
 from polyenvs.buckybot.env import SENSOR_OBSERVATION_STRUCTURE
-from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range, walls_from_readings
+from polyenvs.buckybot.geometry import BODY_RADIUS_CM, STEP_LENGTH_CM
+from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_MIN_CM, horizontal_range, walls_from_readings
 from polyenvs.buckybot.simulator import TIP_ANGLES_RAD
 
 __all__ = ["GoalSeeker", "WallFollower", "WallFollowExplorer", "decode_readings"]
@@ -47,15 +47,20 @@ class WallFollower(Policy):
     wall flips between two, and the robot alternates between two faces. The paper's fixes are options:
 
     Args:
-        d_star_cm: wall distance to keep.
-        x_s_cm: the look-ahead along the wall; larger values navigate corners better.
+        d_star_cm: wall distance to keep, from the robot's centre: in [13, 182.88] cm (the body radius
+            ``BODY_RADIUS_CM`` to the sonar's maximum range ``RANGE_MAX_CM``).
+        x_s_cm: the look-ahead along the wall; larger values navigate corners better. In [0, 182.88] cm.
         no_backtrack: never undo the previous tip (unless both other tips face a too-close reading).
         clockwise_exception: when the closest wall switches to one on the opposite side (normals more than 120°
             apart), flip the sense of travel, so the robot keeps going the way it went (paper: "if a wall is sensed
             on the opposite side of the robot, the robot will begin following in a clockwise direction").
-        too_close_cm: the range assumed for a sensor that did not settle (it is near an obstacle).
+        too_close_cm: the range assumed for a sensor that did not settle (it is near an obstacle): in
+            (0, 30.48] cm, i.e. at most the sonar's minimum range ``RANGE_MIN_CM``.
         avoid_failed_tip: not in the paper: after a blocked tip (the accelerometer reports the same face), do not
             repeat it; try the next-best direction instead of pushing against the wall again.
+
+    Numbers must be finite real numbers in their range and switches ``True``/``False``; anything else raises
+    ``ValueError`` naming the parameter.
     """
 
     # sense (+1 counter-clockwise), last wall normal azimuth (frame), has a last wall, last action, has acted,
@@ -73,13 +78,17 @@ class WallFollower(Policy):
         too_close_cm: float = 20.0,
         avoid_failed_tip: bool = False,
     ):
+        # Validate everything before keeping anything.
+        d_star_cm = check_parameter("d_star_cm", d_star_cm, BODY_RADIUS_CM, RANGE_MAX_CM)
+        x_s_cm = check_parameter("x_s_cm", x_s_cm, 0.0, RANGE_MAX_CM)
+        too_close_cm = check_parameter("too_close_cm", too_close_cm, 0.0, RANGE_MIN_CM, low_open=True)
+        no_backtrack = check_flag("no_backtrack", no_backtrack)
+        clockwise_exception = check_flag("clockwise_exception", clockwise_exception)
+        avoid_failed_tip = check_flag("avoid_failed_tip", avoid_failed_tip)
         super().__init__(observation_space, action_space)
-        self.avoid_failed_tip = bool(avoid_failed_tip)
-        if d_star_cm <= 0 or x_s_cm < 0 or too_close_cm <= 0:
-            raise ValueError("d_star_cm and too_close_cm must be > 0 and x_s_cm >= 0")
-        self.d_star_cm, self.x_s_cm = float(d_star_cm), float(x_s_cm)
-        self.no_backtrack, self.clockwise_exception = bool(no_backtrack), bool(clockwise_exception)
-        self.too_close_cm = float(too_close_cm)
+        self.d_star_cm, self.x_s_cm, self.too_close_cm = d_star_cm, x_s_cm, too_close_cm
+        self.no_backtrack, self.clockwise_exception = no_backtrack, clockwise_exception
+        self.avoid_failed_tip = avoid_failed_tip
 
     def describe(self):
         return {
@@ -156,16 +165,17 @@ class GoalSeeker(Policy):
     is free. When the way ahead is walled off it slides along the wall on the side nearer the goal.
 
     Args:
-        clearance_cm: a tip direction whose flanking sensors read closer than this is treated as obstructed.
+        clearance_cm: a tip direction whose flanking sensors read closer than this is treated as obstructed:
+            in (0, 182.88] cm (up to the sonar's maximum range ``RANGE_MAX_CM``); ``ValueError`` otherwise, and
+            for NaN, infinities, bools and strings.
     """
 
     memory_size = 1  # has moved
 
     def __init__(self, observation_space, action_space, clearance_cm: float = 40.0):
+        clearance_cm = check_parameter("clearance_cm", clearance_cm, 0.0, RANGE_MAX_CM, low_open=True)
         super().__init__(observation_space, action_space)
-        if clearance_cm <= 0:
-            raise ValueError("clearance_cm must be > 0")
-        self.clearance_cm = float(clearance_cm)
+        self.clearance_cm = clearance_cm
 
     def describe(self):
         return {"name": type(self).__name__, "clearance_cm": self.clearance_cm}
