@@ -6,16 +6,79 @@ The same seeds for every policy make comparisons paired; per-episode returns and
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-import tempfile
+import secrets
+from collections.abc import Callable, Iterator
+from numbers import Integral
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-__all__ = ["evaluate", "iqm_with_ci", "write_json_atomic", "write_text_atomic"]
+__all__ = [
+    "InputError",
+    "atomic_path",
+    "check_count",
+    "evaluate",
+    "iqm_with_ci",
+    "make_agent",
+    "make_env",
+    "temp_path_for",
+    "write_json_atomic",
+    "write_text_atomic",
+]
+
+
+class InputError(ValueError):
+    """A bad argument from the caller (unknown id or policy, bad keyword arguments, seeds, counts).
+
+    Distinct from a ``ValueError`` raised while an environment runs, which is a bug: the command line prints an
+    ``InputError`` as one line and lets anything else show its traceback.
+    """
+
+
+def check_count(name: str, value, minimum: int) -> int:
+    """An integer (not a bool, float or string) that is at least ``minimum``; raises :class:`InputError`."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, Integral):
+        raise InputError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise InputError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def make_env(env_id: str, env_kwargs: dict | None = None, **extra) -> gym.Env:
+    """``gym.make(env_id, **env_kwargs, **extra)``; an unknown id or a rejected keyword raises :class:`InputError`.
+
+    ``extra`` holds the caller's own fixed arguments (``render_mode``); an error building the environment with no
+    user keywords at all is not the user's doing and propagates unchanged.
+    """
+    import polyenvs  # noqa: F401  (registers the ids)
+
+    env_id = env_id.split(":", 1)[-1]
+    if env_id not in gym.registry:
+        raise InputError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
+    env_kwargs = dict(env_kwargs or {})
+    try:
+        return gym.make(env_id, **env_kwargs, **extra)
+    except (TypeError, ValueError, gym.error.Error) as exc:
+        if not env_kwargs:
+            raise
+        raise InputError(f"bad environment keyword arguments for {env_id}: {exc}") from exc
+
+
+def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, policy_kwargs: dict | None = None):
+    """``baselines.make_policy`` for ``env``; an unknown policy or a rejected parameter raises :class:`InputError`."""
+    from baselines import make_policy
+
+    try:
+        return make_policy(
+            policy, env_id, env.observation_space, env.action_space, seed=seed, **dict(policy_kwargs or {})
+        )
+    except (TypeError, ValueError) as exc:
+        raise InputError(str(exc)) from exc
 
 
 def evaluate(
@@ -25,29 +88,28 @@ def evaluate(
     seed: int = 0,
     env_kwargs: dict | None = None,
     policy_kwargs: dict | None = None,
+    on_episode: Callable[[dict], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``policy`` for ``episodes`` episodes seeded ``seed, seed + 1, ...``.
 
     Returns the document ``{"env_id", "policy", "policy_description", "seeds", "episodes": [{"seed", "return",
     "length", "metrics"}], "summary"}`` where ``summary`` holds the mean of return, length and every metric.
-    Raises ``ValueError`` for unknown ids, policies or bad keyword arguments.
+    ``on_episode(result)`` is called after each episode (for progress bars).
+    Raises :class:`InputError` (a ``ValueError``) for unknown ids, policies, bad keyword arguments, a negative
+    seed or fewer than one episode, all before any episode runs.
     """
-    import polyenvs  # noqa: F401  (registers the ids)
-    from baselines import make_policy
-
-    if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    episodes = check_count("episodes", episodes, 1)
+    seed = check_count("seed", seed, 0)
+    env = make_env(env_id, env_kwargs)
     env_id = env_id.split(":", 1)[-1]
-    if env_id not in gym.registry:
-        raise ValueError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
     try:
-        env = gym.make(env_id, **(env_kwargs or {}))
-    except TypeError as exc:
-        raise ValueError(f"bad environment keyword arguments for {env_id}: {exc}") from None
-    try:
-        agent = make_policy(policy, env_id, env.observation_space, env.action_space, seed=seed, **(policy_kwargs or {}))
+        agent = make_agent(policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
         seeds = [seed + i for i in range(episodes)]
-        results = [_run_episode(env, agent, s) for s in seeds]
+        results = []
+        for s in seeds:
+            results.append(_run_episode(env, agent, s))
+            if on_episode is not None:
+                on_episode(results[-1])
     finally:
         env.close()
     summary = {
@@ -97,18 +159,49 @@ def iqm_with_ci(values, n_boot: int = 2000, seed: int = 0) -> tuple[float, float
     return float(iqm(x)), float(np.quantile(dist, 0.025)), float(np.quantile(dist, 0.975))
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write a file so that a crash never leaves it half-written (temp file in the same directory + rename)."""
+def temp_path_for(path: str | os.PathLike, keep_suffix: bool = False) -> Path:
+    """A fresh temporary name next to ``path``: ``.NAME.<random>.tmp`` (hidden, and matched by ``.gitignore``).
+
+    With ``keep_suffix`` the name ends in ``path``'s suffix too (``.NAME.<random>.tmp.mp4``), for writers that
+    choose the format from the file name (ffmpeg).
+    """
+    path = Path(path)
+    return path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp{path.suffix if keep_suffix else ''}"
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, keep_suffix: bool = False) -> Iterator[Path]:
+    """Yield a new, empty temporary file next to ``path``; rename it onto ``path`` when the block succeeds.
+
+    The temporary file is created with the usual mode (``0o666 & ~umask``, like ``open(path, "w")``), not
+    ``mkstemp``'s 0600. If the block raises (or the process is interrupted), the temporary file is removed and
+    ``path`` is left as it was. The parent directory is created if needed. ``keep_suffix``: see
+    :func:`temp_path_for`.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+    while True:
+        tmp = temp_path_for(path, keep_suffix)
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:  # pragma: no cover - 32 random bits collided
+            continue
+        os.close(fd)
+        break
     try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
+        yield tmp
+        with open(tmp, "rb+") as fh:  # the data must be on disk before the rename makes it visible
+            os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write a file so that a crash never leaves it half-written (temp file in the same directory + rename)."""
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        fh.write(text)
 
 
 def write_json_atomic(path: str | os.PathLike, document: Any) -> None:
