@@ -1,20 +1,67 @@
 """The ``polyenvs`` command line: list environments, evaluate policies, build the leaderboard, record episodes.
 
-Expected failures (unknown id or policy, bad JSON or keyword arguments) print one line on stderr and exit 2.
+Expected failures (a bad flag value, an unknown id or policy, bad JSON or keyword arguments, an output path that
+cannot be written) print one line on stderr and exit 2, before any evaluation runs. Anything else is a bug and
+shows its traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+import tempfile
+import time
 from pathlib import Path
 
 __all__ = ["main"]
 
+#: Where ``polyenvs leaderboard`` writes by default: untracked and gitignored, so a run leaves ``git status`` clean.
+DEFAULT_LEADERBOARD_DIR = Path("runs/leaderboard")
+#: The committed reference results, rewritten only by ``polyenvs leaderboard --update-reference``.
+REFERENCE_RESULTS_DIR = Path("benchmarks/results")
+REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
+#: Output formats of ``polyenvs record``: suffix -> what writing it needs.
+RECORD_FORMATS = {".gif": "imageio", ".mp4": "imageio-ffmpeg"}
+
 
 class CliError(Exception):
     """An error the user can fix: printed as one line, no traceback."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block), like every other error of this command line."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+# ---------------------------------------------------------------------------------------------- argument types
+
+
+def _int_at_least(minimum: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+def _positive_finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
 
 
 def _json_arg(text: str, name: str) -> dict:
@@ -27,6 +74,115 @@ def _json_arg(text: str, name: str) -> dict:
     return value
 
 
+# ----------------------------------------------------------------------------------------------- output paths
+
+
+def _nearest_existing(path: Path) -> Path:
+    path = Path(path).absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _check_dir_writable(directory: Path, flag: str, shown: Path | None = None) -> None:
+    """``directory`` exists and we can create files in it, or it can be created: else a :class:`CliError`.
+
+    Creates nothing: a non-existent directory is judged by its nearest existing ancestor, and writability by
+    creating (and at once deleting) an anonymous file, which also works where permission bits do not tell
+    (root, read-only or virtual file systems such as /proc).
+    """
+    directory = Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise CliError(f"{flag} {shown or directory}: {directory} is not a directory")
+    existing = _nearest_existing(directory)
+    if not existing.is_dir():
+        raise CliError(f"{flag} {shown or directory}: cannot create {directory}: {existing} is not a directory")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise CliError(f"{flag} {shown or directory}: cannot write in {existing}: {exc.strerror or exc}") from None
+
+
+def _check_output_file(path: Path, flag: str) -> None:
+    path = Path(path)
+    if path.is_dir():
+        raise CliError(f"{flag} {path}: is a directory; give a file name")
+    _check_dir_writable(path.parent, flag, shown=path)
+
+
+# -------------------------------------------------------------------------------------------- progress display
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal (so logs and pipes stay clean).
+
+    ``start(total)`` sets the amount of work, ``advance()`` counts one unit, ``message(text)`` prints a line above
+    the bar, ``close()`` ends it. Messages are printed whether or not the bar is drawn.
+    """
+
+    def __init__(self, unit: str = "episodes", stream=None, enabled: bool | None = None, width: int = 30):
+        self.stream = sys.stderr if stream is None else stream
+        self.enabled = _isatty(self.stream) if enabled is None else enabled
+        self.unit, self.width = unit, width
+        self.total, self.done, self.label = 0, 0, ""
+        self._start = time.monotonic()
+        self._drawn = False
+
+    def start(self, total: int, label: str = "", draw: bool = True) -> None:
+        """Set the amount of work; with ``draw=False`` the bar first appears at the first ``advance()``."""
+        self.total, self.done, self.label = int(total), 0, label
+        self._start = time.monotonic()
+        if draw:
+            self._draw()
+
+    def set_label(self, label: str) -> None:
+        self.label = label
+        self._draw()
+
+    def advance(self, n: int = 1) -> None:
+        self.done += n
+        self._draw()
+
+    def message(self, text: str) -> None:
+        if self._drawn:
+            self.stream.write("\r\x1b[K")
+        print(text, file=self.stream)
+        self._draw()
+
+    def close(self) -> None:
+        if self._drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._drawn = False
+
+    def render(self) -> str:
+        frac = min(self.done / self.total, 1.0) if self.total else 1.0
+        filled = round(self.width * frac)
+        elapsed = time.monotonic() - self._start
+        eta = f", ~{elapsed * (self.total - self.done) / self.done:.0f}s left" if 0 < self.done < self.total else ""
+        label = f"{self.label} " if self.label else ""
+        bar = "#" * filled + "." * (self.width - filled)
+        return f"{label}[{bar}] {self.done}/{self.total} {self.unit} ({elapsed:.0f}s{eta})"
+
+    def _draw(self) -> None:
+        if not self.enabled or self.total <= 0:
+            return
+        self.stream.write("\r" + self.render() + "\x1b[K")
+        self.stream.flush()
+        self._drawn = True
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+# ---------------------------------------------------------------------------------------------------- commands
+
+
 def _describe_space(space) -> str:
     """A one-line summary: ``Discrete(3)``, or ``Box(22,) float32 in [-1, 1]`` instead of every bound."""
     import numpy as np
@@ -35,6 +191,36 @@ def _describe_space(space) -> str:
     if isinstance(space, spaces.Box):
         return f"Box{space.shape} {space.dtype} in [{np.min(space.low):g}, {np.max(space.high):g}]"
     return str(space)
+
+
+def _format_value(value) -> str:
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def describe_policy(env_id: str, policy: str, description: dict) -> str:
+    """``wall_follower (d_star_cm=50, x_s_cm=20, ...)``; ``paper = goal_seeker (clearance_cm=40)`` for the alias."""
+    from baselines import PAPER_POLICY
+
+    name = policy
+    if policy == "paper" and env_id in PAPER_POLICY:
+        name = f"paper = {PAPER_POLICY[env_id]}"
+    params = ", ".join(f"{k}={_format_value(v)}" for k, v in description.items() if k != "name")
+    return f"{name} ({params})" if params else name
+
+
+def _format_table(header: list[str], rows: list[list]) -> list[str]:
+    """Right-aligned columns, each as wide as its widest cell."""
+
+    def cell(v) -> str:
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    cells = [header] + [[cell(v) for v in row] for row in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    return ["  ".join(f"{c:>{w}}" for c, w in zip(r, widths, strict=True)) for r in cells]
 
 
 def _cmd_list(args) -> int:
@@ -68,90 +254,167 @@ def _cmd_list(args) -> int:
 def _cmd_evaluate(args) -> int:
     from polyenvs.evaluation import evaluate
 
-    doc = evaluate(
-        args.env_id,
-        args.policy,
-        episodes=args.episodes,
-        seed=args.seed,
-        env_kwargs=_json_arg(args.env_kwargs, "--env-kwargs"),
-        policy_kwargs=_json_arg(args.policy_kwargs, "--policy-kwargs"),
-    )
+    env_kwargs = _json_arg(args.env_kwargs, "--env-kwargs")
+    policy_kwargs = _json_arg(args.policy_kwargs, "--policy-kwargs")
+    bar = ProgressBar("episodes")
+    bar.start(args.episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
+    try:
+        doc = evaluate(
+            args.env_id,
+            args.policy,
+            episodes=args.episodes,
+            seed=args.seed,
+            env_kwargs=env_kwargs,
+            policy_kwargs=policy_kwargs,
+            on_episode=lambda _: bar.advance(),
+        )
+    finally:
+        bar.close()
     if args.json:
         print(json.dumps(doc, indent=1))
         return 0
     metric_names = list(doc["episodes"][0]["metrics"])
     header = ["seed", "return", "length", *metric_names]
-    print(f"{doc['env_id']}  policy {doc['policy']}  {doc['policy_description']}")
-    print("  ".join(f"{h:>14}" for h in header))
-    for ep in doc["episodes"]:
-        values = [ep["seed"], ep["return"], ep["length"], *(ep["metrics"][m] for m in metric_names)]
-        print("  ".join(f"{v:>14.4g}" if isinstance(v, float) else f"{v:>14}" for v in values))
+    rows = [
+        [ep["seed"], ep["return"], ep["length"], *(ep["metrics"][m] for m in metric_names)] for ep in doc["episodes"]
+    ]
     summary = doc["summary"]
-    print("  ".join([f"{'mean':>14}"] + [f"{summary[h]:>14.4g}" for h in header[1:]]))
+    rows.append(["mean", *(summary[h] for h in header[1:])])
+    seeds = doc["seeds"]
+    print(doc["env_id"])
+    print(f"policy: {describe_policy(doc['env_id'], doc['policy'], doc['policy_description'])}")
+    print(f"episodes: {len(seeds)} on seeds {seeds[0]}..{seeds[-1]}" if len(seeds) > 1 else f"seed: {seeds[0]}")
+    if doc["env_kwargs"]:
+        print(f"environment: {', '.join(f'{k}={_format_value(v)}' for k, v in doc['env_kwargs'].items())}")
+    print()
+    print("\n".join(_format_table(header, rows)))
     return 0
 
 
 def _cmd_leaderboard(args) -> int:
-    from polyenvs.leaderboard import run_leaderboard, write_leaderboard
+    from polyenvs.leaderboard import (
+        PROTOCOL_EPISODES,
+        run_leaderboard,
+        stored_results,
+        write_leaderboard,
+    )
     from polyenvs.registry import ENV_IDS
 
+    # Everything the user could get wrong is checked here, before the first evaluation.
+    episodes = args.episodes if args.episodes is not None else (5 if args.quick else PROTOCOL_EPISODES)
+    if args.update_reference:
+        if args.quick or episodes != PROTOCOL_EPISODES:
+            raise CliError(
+                f"--update-reference writes the committed reference results, which use {PROTOCOL_EPISODES} "
+                "episodes: do not combine it with --quick or --episodes"
+            )
+        if args.results_dir is not None or args.output is not None:
+            raise CliError(
+                f"--update-reference writes {REFERENCE_RESULTS_DIR} and {REFERENCE_TABLE}: "
+                "do not combine it with --results-dir or --output"
+            )
+        if not REFERENCE_RESULTS_DIR.is_dir():
+            raise CliError(
+                f"--update-reference: no {REFERENCE_RESULTS_DIR} directory here; run it from the repository root"
+            )
+        results_dir, output = REFERENCE_RESULTS_DIR, REFERENCE_TABLE
+    else:
+        results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
+        output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
     env_ids = [e for e in ENV_IDS if args.only is None or args.only in e]
     if not env_ids:
-        raise CliError(f"no environment id contains {args.only!r}")
-    episodes = args.episodes if args.episodes is not None else (5 if args.quick else 50)
-    docs = run_leaderboard(
-        env_ids, episodes, Path(args.results_dir), redo=args.redo, progress=lambda m: print(m, file=sys.stderr)
-    )
-    text = write_leaderboard(docs, Path(args.output), quick=episodes < 50)
+        raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
+    _check_dir_writable(results_dir, "--results-dir")
+    _check_output_file(output, "--output")
+    if results_dir.absolute() == output.absolute():
+        raise CliError(f"--output {output} is the results directory")
+
+    bar = ProgressBar("episodes")
+    try:
+        selected = run_leaderboard(
+            env_ids,
+            episodes,
+            results_dir,
+            redo=args.redo or args.update_reference,
+            progress=bar.message,
+            on_plan=bar.start,
+            on_episode=lambda _: bar.advance(),
+        )
+    finally:
+        bar.close()
+    # The table shows every environment with results in the directory, not only the ones just evaluated.
+    others = stored_results([e for e in ENV_IDS if e not in env_ids], results_dir, progress=bar.message)
+    order = {env_id: i for i, env_id in enumerate(ENV_IDS)}
+    documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
+    text = write_leaderboard(documents, output)
     print(text)
-    print(f"wrote {args.output}", file=sys.stderr)
+    print(f"wrote {output} ({len(documents)} results from {results_dir})", file=sys.stderr)
     return 0
 
 
 def _cmd_record(args) -> int:
-    import gymnasium as gym
     import numpy as np
 
-    import polyenvs  # noqa: F401
-    from baselines import make_policy
+    from polyenvs.evaluation import atomic_path, make_agent, make_env
 
+    output = Path(args.output)
+    suffix = output.suffix.lower()
+    if suffix not in RECORD_FORMATS:
+        raise CliError(f"--output {output}: the file name must end in {' or '.join(RECORD_FORMATS)}")
     try:
-        import imageio.v2 as imageio
+        import imageio.v3 as iio
     except ImportError:
         raise CliError('recording needs imageio: pip install "polyenvs[render]"') from None
-    env_id = args.env_id.split(":", 1)[-1]
-    if env_id not in gym.registry:
-        raise CliError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
+    if suffix == ".mp4":
+        try:
+            import imageio_ffmpeg
+
+            imageio_ffmpeg.get_ffmpeg_exe()
+        except (ImportError, RuntimeError):
+            raise CliError(
+                f'--output {output}: writing .mp4 needs imageio-ffmpeg: pip install "polyenvs[render]"'
+            ) from None
+    _check_output_file(output, "--output")
+    env_kwargs = _json_arg(args.env_kwargs, "--env-kwargs")
+    policy_kwargs = _json_arg(args.policy_kwargs, "--policy-kwargs")
+
+    env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
     try:
-        env = gym.make(env_id, render_mode="rgb_array", **_json_arg(args.env_kwargs, "--env-kwargs"))
-    except TypeError as exc:
-        raise CliError(f"bad environment keyword arguments for {env_id}: {exc}") from None
-    policy = make_policy(args.policy, env_id, env.observation_space, env.action_space, seed=args.seed)
-    obs, _ = env.reset(seed=args.seed)
-    frames, state, start = [env.render()], None, True
-    for _ in range(args.max_steps):
-        action, state = policy.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
-        obs, _, terminated, truncated, _ = env.step(action)
-        frames.append(env.render())
-        start = False
-        if terminated or truncated:
-            break
-    env.close()
-    fps = args.fps or env.metadata.get("render_fps", 10)
+        env_id = args.env_id.split(":", 1)[-1]
+        policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
+        obs, _ = env.reset(seed=args.seed)
+        frames, state, start = [env.render()], None, True
+        for _ in range(args.max_steps):
+            action, state = policy.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
+            obs, _, terminated, truncated, _ = env.step(action)
+            frames.append(env.render())
+            start = False
+            if terminated or truncated:
+                break
+        fps = args.fps or env.metadata.get("render_fps", 10)
+    finally:
+        env.close()
+    video = np.stack(frames)
+    if suffix == ".gif":
+        options = {"duration": 1000 / fps, "loop": 0}
+    else:  # H.264 in yuv420p needs even sides: repeat the last row / column where needed
+        video = np.pad(video, ((0, 0), (0, video.shape[1] % 2), (0, video.shape[2] % 2), (0, 0)), mode="edge")
+        options = {"fps": fps, "macro_block_size": 1}
     try:
-        if args.output.endswith(".gif"):
-            imageio.mimsave(args.output, frames, duration=1000 / fps, loop=0)
-        else:
-            imageio.mimsave(args.output, frames, fps=fps)
-    except (OSError, ValueError) as exc:
-        raise CliError(f"could not write {args.output}: {exc}") from None
-    print(f"wrote {len(frames)} frames to {args.output}")
+        with atomic_path(output, keep_suffix=True) as tmp:
+            iio.imwrite(tmp, video, extension=suffix, **options)
+            if tmp.stat().st_size == 0:  # ffmpeg can fail without an exception
+                raise OSError("the writer produced an empty file")
+    except OSError as exc:
+        raise CliError(f"--output {output}: could not write it: {exc}") from None
+    print(f"wrote {len(frames)} frames to {output}")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="polyenvs", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="polyenvs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
 
     p = sub.add_parser("list", help="every environment id with its spaces and a one-line description")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -160,39 +423,63 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("evaluate", help="run a policy on fixed seeds and print its returns and task metrics")
     p.add_argument("env_id")
     p.add_argument("--policy", default="paper", help="'random', a hand baseline's name, or 'paper' (default)")
-    p.add_argument("--episodes", type=int, default=10)
-    p.add_argument("--seed", type=int, default=0, help="first seed; episodes use seed, seed+1, ...")
+    p.add_argument("--episodes", type=episodes_type, default=10, help="number of episodes, >= 1 (default 10)")
+    p.add_argument("--seed", type=seed_type, default=0, help="first seed, >= 0; episodes use seed, seed+1, ...")
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
-    p.add_argument("--json", action="store_true", help="print one JSON document")
+    p.add_argument("--json", action="store_true", help="print one JSON document (progress, if any, goes to stderr)")
     p.set_defaults(func=_cmd_evaluate)
 
-    p = sub.add_parser("leaderboard", help="evaluate every baseline on every environment; write the table")
-    p.add_argument("--episodes", type=int, default=None, help="episodes per policy (default 50, 5 with --quick)")
+    p = sub.add_parser(
+        "leaderboard",
+        help="evaluate every baseline on every environment; write the table",
+        description=f"Evaluate random and every hand baseline on every environment and write the table. By default "
+        f"results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); --update-reference refreshes the committed "
+        f"{REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
+    )
+    p.add_argument(
+        "--episodes", type=episodes_type, default=None, help="episodes per policy (default 50, 5 with --quick)"
+    )
     p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
-    p.add_argument("--only", default=None, help="only environment ids containing this text")
-    p.add_argument("--results-dir", default="benchmarks/results")
-    p.add_argument("--output", default="benchmarks/LEADERBOARD.md")
+    p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
+    p.add_argument(
+        "--results-dir", default=None, help=f"where result files go (default {DEFAULT_LEADERBOARD_DIR}/results)"
+    )
+    p.add_argument(
+        "--output", default=None, help=f"the Markdown table (default {DEFAULT_LEADERBOARD_DIR}/LEADERBOARD.md)"
+    )
     p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
+    p.add_argument(
+        "--update-reference",
+        action="store_true",
+        help=f"re-evaluate and overwrite the committed reference results ({REFERENCE_RESULTS_DIR}/, "
+        f"{REFERENCE_TABLE}) with the full protocol; run from the repository root",
+    )
     p.set_defaults(func=_cmd_leaderboard)
-    p = sub.add_parser("record", help="record a GIF or MP4 of a policy (needs imageio: polyenvs[render])")
+
+    p = sub.add_parser("record", help="record a GIF or MP4 of a policy (needs polyenvs[render])")
     p.add_argument("env_id")
     p.add_argument("--policy", default="paper")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--max-steps", type=int, default=300)
-    p.add_argument("--fps", type=float, default=None, help="frames per second (default: the env's render_fps)")
+    p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
+    p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")
+    p.add_argument("--max-steps", type=steps_type, default=300, help="at most this many steps, >= 1 (default 300)")
+    p.add_argument(
+        "--fps", type=_positive_finite, default=None, help="frames per second, > 0 (default: the env's render_fps)"
+    )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
-    p.add_argument("--output", default="episode.gif", help="a .gif, or .mp4 with imageio-ffmpeg installed")
+    p.add_argument("--output", default="episode.gif", help="a .gif, or a .mp4 (needs imageio-ffmpeg)")
     p.set_defaults(func=_cmd_record)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    from polyenvs.evaluation import InputError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (CliError, ValueError, KeyError) as exc:
+    except (CliError, InputError) as exc:
         message = exc.args[0] if exc.args else str(exc)
         print(f"polyenvs {args.command}: error: {message}", file=sys.stderr)
         return 2

@@ -1,20 +1,56 @@
-"""The ``polyenvs`` command line: list, evaluate (table and JSON), leaderboard, and one-line errors."""
+"""The ``polyenvs`` command line: list, evaluate (table and JSON), record, and one-line errors checked up front.
+
+The leaderboard command (result files, default and reference paths, progress) is in ``test_leaderboard.py``.
+"""
 
 from __future__ import annotations
 
+import io
 import json
+import math
+import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 
 import polyenvs
-from polyenvs.cli import main
+from baselines import make_policy
+from polyenvs.cli import ProgressBar, main
+
+ROOT = Path(__file__).resolve().parent.parent
+GOAL, WALL, EXPLORE = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0"
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "polyenvs.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "polyenvs.cli", *args], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
+
+
+def run_main(args: list[str], capsys) -> tuple[int, str, str]:
+    """``main(args)`` in this process: (exit code, stdout, stderr), argparse's exits included."""
+    try:
+        code = main(args)
+    except SystemExit as exc:
+        code = exc.code
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def assert_one_line_error(code: int, err: str, fragment: str) -> None:
+    lines = err.strip().splitlines()
+    assert code == 2, err
+    assert len(lines) == 1 and fragment in lines[0], err
+    assert "Traceback" not in err
+
+
+class FakeTerminal(io.StringIO):
+    def isatty(self):
+        return True
 
 
 def test_list_shows_every_id_with_spaces(capsys):
@@ -29,24 +65,9 @@ def test_list_shows_every_id_with_spaces(capsys):
 
 
 def test_evaluate_json_document(capsys):
-    assert (
-        main(
-            [
-                "evaluate",
-                "polyenvs/BuckybotWallFollow-v0",
-                "--policy",
-                "paper",
-                "--episodes",
-                "2",
-                "--seed",
-                "3",
-                "--json",
-            ]
-        )
-        == 0
-    )
+    assert main(["evaluate", WALL, "--policy", "paper", "--episodes", "2", "--seed", "3", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["env_id"] == "polyenvs/BuckybotWallFollow-v0" and doc["policy"] == "paper"
+    assert doc["env_id"] == WALL and doc["policy"] == "paper"
     assert doc["seeds"] == [3, 4]
     assert [e["seed"] for e in doc["episodes"]] == [3, 4]
     for key in ("wall_distance_error_cm", "perimeter_fraction", "laps", "blocked_tips", "oscillation_events"):
@@ -56,7 +77,7 @@ def test_evaluate_json_document(capsys):
 
 
 def test_evaluate_is_reproducible(capsys):
-    args = ["evaluate", "polyenvs/BuckybotGoal-v0", "--policy", "random", "--episodes", "2", "--json"]
+    args = ["evaluate", GOAL, "--policy", "random", "--episodes", "2", "--json"]
     main(args)
     first = json.loads(capsys.readouterr().out)
     main(args)
@@ -64,32 +85,84 @@ def test_evaluate_is_reproducible(capsys):
 
 
 def test_evaluate_table_and_env_kwargs(capsys):
-    assert (
-        main(
-            [
-                "evaluate",
-                "polyenvs/BuckybotExplore-v0",
-                "--episodes",
-                "1",
-                "--env-kwargs",
-                '{"floor_plan": "rectangle"}',
-            ]
-        )
-        == 0
-    )
+    assert main(["evaluate", EXPLORE, "--episodes", "1", "--env-kwargs", '{"floor_plan": "rectangle"}']) == 0
     out = capsys.readouterr().out
-    assert "coverage" in out and "mean" in out
+    assert "coverage" in out and "mean" in out and "floor_plan=rectangle" in out
+
+
+def test_evaluate_table_is_aligned_and_describes_the_policy_readably(capsys):
+    assert main(["evaluate", GOAL, "--episodes", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "goal_seeker (clearance_cm=40)" in out  # "paper" resolved, parameters as name=value
+    assert "{" not in out and "'name'" not in out  # not a raw dict
+    lines = out.splitlines()
+    table = lines[next(i for i, line in enumerate(lines) if line.split()[:1] == ["seed"]) :]
+    assert [line.split()[0] for line in table] == ["seed", "0", "1", "mean"]
+    # Right-aligned columns: every row as long as the header, and every header name ends where its values end.
+    assert len({len(line) for line in table}) == 1, table
+    header_ends = [m.end() for m in re.finditer(r"\S+", table[0])]
+    for line in table[1:]:
+        assert [m.end() for m in re.finditer(r"\S+", line)] == header_ends, (table[0], line)
+
+
+def test_evaluate_describes_wall_follower_parameters(capsys):
+    assert main(["evaluate", WALL, "--policy", "wall_follower_rules", "--episodes", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "wall_follower_rules (d_star_cm=50, x_s_cm=30, no_backtrack=true, clockwise_exception=true" in out
+
+
+def test_evaluate_progress_bar_on_a_terminal_keeps_json_clean(capsys, monkeypatch):
+    terminal = FakeTerminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["evaluate", GOAL, "--episodes", "3", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)  # stdout is exactly one JSON document
+    assert len(doc["episodes"]) == 3
+    bar = terminal.getvalue()
+    assert "3/3 episodes" in bar and "1/3 episodes" in bar and "[" + "#" * 30 + "]" in bar
+
+
+def test_evaluate_without_a_terminal_prints_no_progress(capsys):
+    assert main(["evaluate", GOAL, "--episodes", "2", "--json"]) == 0
+    captured = capsys.readouterr()
+    json.loads(captured.out)
+    assert captured.err == ""
+
+
+def test_progress_bar_renders_counts_and_stays_silent_off_a_terminal():
+    stream = FakeTerminal()
+    bar = ProgressBar("episodes", stream=stream)
+    bar.start(4, label="goal_seeker")
+    bar.advance()
+    assert "goal_seeker [" + "#" * 8 + "." * 22 + "] 1/4 episodes" in bar.render()
+    bar.message("a note")
+    bar.advance(3)
+    bar.close()
+    text = stream.getvalue()
+    assert "a note\n" in text and "4/4 episodes" in text and text.endswith("\n")
+    quiet = io.StringIO()
+    bar = ProgressBar("episodes", stream=quiet)
+    bar.start(2)
+    bar.advance(2)
+    bar.message("only messages")
+    bar.close()
+    assert quiet.getvalue() == "only messages\n"
+
+
+# ------------------------------------------------------------------------------------------ one-line errors
 
 
 @pytest.mark.parametrize(
     "args, fragment",
     [
         (["evaluate", "polyenvs/Nope-v0"], "unknown environment id"),
-        (["evaluate", "polyenvs/BuckybotGoal-v0", "--policy", "nope"], "unknown policy"),
-        (["evaluate", "polyenvs/BuckybotGoal-v0", "--env-kwargs", "{not json"], "not valid JSON"),
-        (["evaluate", "polyenvs/BuckybotGoal-v0", "--env-kwargs", '{"noise_scale": 5}'], "noise_scale"),
-        (["evaluate", "polyenvs/BuckybotGoal-v0", "--env-kwargs", '{"nonsense": 1}'], "nonsense"),
-        (["evaluate", "polyenvs/BuckybotGoal-v0", "--episodes", "0"], "episodes"),
+        (["evaluate", GOAL, "--policy", "nope"], "unknown policy"),
+        (["evaluate", GOAL, "--env-kwargs", "{not json"], "not valid JSON"),
+        (["evaluate", GOAL, "--env-kwargs", '{"noise_scale": 5}'], "noise_scale"),
+        (["evaluate", GOAL, "--env-kwargs", '{"nonsense": 1}'], "nonsense"),
+        (["evaluate", GOAL, "--episodes", "0"], "episodes"),
+        (["evaluate", GOAL, "--seed", "-1"], "--seed"),
+        (["record", GOAL, "--seed", "-1"], "--seed"),
+        (["record", GOAL, "--fps", "-1"], "--fps"),
         (["leaderboard", "--only", "NothingMatches"], "no environment id"),
     ],
 )
@@ -101,21 +174,235 @@ def test_errors_are_one_line_without_traceback(args, fragment):
     assert "Traceback" not in result.stderr
 
 
-def test_leaderboard_writes_results_and_table(tmp_path: Path):
-    results, table = tmp_path / "results", tmp_path / "LEADERBOARD.md"
-    args = ["leaderboard", "--episodes", "2", "--only", "Goal", "--results-dir", str(results), "--output", str(table)]
-    assert main(args) == 0
-    files = sorted(p.name for p in results.glob("*.json"))
-    assert files == ["polyenvs__BuckybotGoal-v0__goal_seeker.json", "polyenvs__BuckybotGoal-v0__random.json"]
-    doc = json.loads((results / files[0]).read_text())
-    assert doc["n_episodes"] == 2 and doc["versions"]["polyenvs"] == polyenvs.__version__ and doc["date"]
-    text = table.read_text()
-    assert "| goal_seeker | polyenvs/BuckybotGoal-v0 |" in text and "Quick mode" in text
-    assert "1.00" in text  # the paper baseline's normalised score is 1 by construction
-    assert not list(results.glob("*.tmp"))  # atomic writes leave no temp files
-    before = (results / files[0]).stat().st_mtime_ns
-    assert main(args) == 0  # a re-run skips what is done
-    assert (results / files[0]).stat().st_mtime_ns == before
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["evaluate", GOAL, "--seed", "-1"], "--seed"),
+        (["evaluate", GOAL, "--seed", "abc"], "--seed"),
+        (["evaluate", GOAL, "--episodes", "-3"], "--episodes"),
+        (["evaluate", GOAL, "--episodes", "1.5"], "--episodes"),
+        (["evaluate", GOAL, "--policy-kwargs", "[1]"], "--policy-kwargs"),
+        (["evaluate", GOAL, "--policy-kwargs", '{"clearance_cm": NaN}'], "clearance_cm"),
+        (["evaluate", GOAL, "--policy-kwargs", '{"nonsense": 1}'], "nonsense"),
+        (["evaluate", GOAL, "--policy", "random", "--policy-kwargs", '{"x": 1}'], "random"),
+        (["evaluate", WALL, "--policy", "wall_follower", "--policy-kwargs", '{"d_star_cm": NaN}'], "d_star_cm"),
+        (["evaluate", WALL, "--policy", "wall_follower", "--policy-kwargs", '{"x_s_cm": Infinity}'], "x_s_cm"),
+        (["evaluate", WALL, "--policy-kwargs", '{"no_backtrack": "false"}'], "no_backtrack"),
+        (["evaluate", WALL, "--policy-kwargs", '{"too_close_cm": true}'], "too_close_cm"),
+        (["record", GOAL, "--seed", "-1"], "--seed"),
+        (["record", GOAL, "--max-steps", "-5"], "--max-steps"),
+        (["record", GOAL, "--max-steps", "0"], "--max-steps"),
+        (["record", GOAL, "--fps", "-1"], "--fps"),
+        (["record", GOAL, "--fps", "0"], "--fps"),
+        (["record", GOAL, "--fps", "nan"], "--fps"),
+        (["record", GOAL, "--fps", "inf"], "--fps"),
+        (["record", GOAL, "--fps", "fast"], "--fps"),
+        (["record", GOAL, "--output", "episode.png"], ".gif or .mp4"),
+        (["record", "polyenvs/Nope-v0"], "unknown environment id"),
+        (["record", GOAL, "--env-kwargs", '{"nonsense": 1}'], "nonsense"),
+        (["record", GOAL, "--policy-kwargs", '{"clearance_cm": -1}'], "clearance_cm"),
+        (["leaderboard", "--episodes", "0"], "--episodes"),
+        (["evaluate"], "env_id"),
+        ([], "command"),
+    ],
+)
+def test_bad_arguments_are_one_line_naming_the_flag(args, fragment, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a record that wrongly went ahead would write episode.gif here
+    code, out, err = run_main(args, capsys)
+    assert_one_line_error(code, err, fragment)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unexpected_errors_inside_an_environment_show_their_traceback(monkeypatch, capsys):
+    """A bug (here a KeyError or ValueError from step) is not a user error: it must not become one tidy line."""
+    from polyenvs.buckybot.goal import BuckybotGoalEnv
+
+    def broken_step(self, action):
+        raise KeyError("internal table")
+
+    monkeypatch.setattr(BuckybotGoalEnv, "step", broken_step)
+    with pytest.raises(KeyError, match="internal table"):
+        main(["evaluate", GOAL, "--episodes", "1"])
+
+    def broken_step_value(self, action):
+        raise ValueError("internal invariant")
+
+    monkeypatch.setattr(BuckybotGoalEnv, "step", broken_step_value)
+    with pytest.raises(ValueError, match="internal invariant"):
+        main(["evaluate", GOAL, "--episodes", "1"])
+    assert "error:" not in capsys.readouterr().err
+
+
+def test_unexpected_error_exits_with_a_traceback_in_a_subprocess():
+    code = (
+        "import sys\n"
+        "from polyenvs.buckybot.goal import BuckybotGoalEnv\n"
+        "def step(self, action): raise KeyError('internal table')\n"
+        "BuckybotGoalEnv.step = step\n"
+        "from polyenvs.cli import main\n"
+        "sys.exit(main(['evaluate', 'polyenvs/BuckybotGoal-v0', '--episodes', '1']))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert result.returncode not in (0, 2)
+    assert "Traceback" in result.stderr and "KeyError: 'internal table'" in result.stderr
+
+
+# ------------------------------------------------------------------------------- baseline parameters
+
+
+@pytest.mark.parametrize(
+    "env_id, policy, name, value",
+    [
+        (WALL, "wall_follower", "d_star_cm", float("nan")),
+        (WALL, "wall_follower", "d_star_cm", float("inf")),
+        (WALL, "wall_follower", "d_star_cm", 0.0),
+        (WALL, "wall_follower", "d_star_cm", 5.0),  # inside the body
+        (WALL, "wall_follower", "d_star_cm", 500.0),  # beyond the sonar
+        (WALL, "wall_follower", "d_star_cm", True),
+        (WALL, "wall_follower", "d_star_cm", "50"),
+        (WALL, "wall_follower", "d_star_cm", None),
+        (WALL, "wall_follower", "x_s_cm", float("nan")),
+        (WALL, "wall_follower", "x_s_cm", -1.0),
+        (WALL, "wall_follower", "x_s_cm", 1e6),
+        (WALL, "wall_follower", "x_s_cm", False),
+        (WALL, "wall_follower", "too_close_cm", 0.0),
+        (WALL, "wall_follower", "too_close_cm", float("-inf")),
+        (WALL, "wall_follower", "too_close_cm", 100.0),  # a too-close reading is under the 30.48 cm minimum
+        (WALL, "wall_follower", "too_close_cm", "20"),
+        (WALL, "wall_follower", "no_backtrack", "false"),
+        (WALL, "wall_follower", "clockwise_exception", 1),
+        (WALL, "wall_follower", "avoid_failed_tip", None),
+        (WALL, "wall_follower_rules", "x_s_cm", float("nan")),
+        (EXPLORE, "wall_follow_explorer", "d_star_cm", float("nan")),
+        (EXPLORE, "wall_follow_explorer", "no_backtrack", "yes"),
+        (GOAL, "goal_seeker", "clearance_cm", float("nan")),
+        (GOAL, "goal_seeker", "clearance_cm", 0.0),
+        (GOAL, "goal_seeker", "clearance_cm", -40.0),
+        (GOAL, "goal_seeker", "clearance_cm", 1000.0),
+        (GOAL, "goal_seeker", "clearance_cm", True),
+        (GOAL, "goal_seeker", "clearance_cm", "40"),
+    ],
+)
+def test_baseline_parameters_are_validated(env_id, policy, name, value):
+    env = gym.make(env_id)
+    with pytest.raises(ValueError, match=name):
+        make_policy(policy, env_id, env.observation_space, env.action_space, **{name: value})
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "env_id, policy, kwargs",
+    [
+        (WALL, "wall_follower", {}),
+        (WALL, "wall_follower", {"d_star_cm": 13, "x_s_cm": 0, "too_close_cm": 30.48, "no_backtrack": True}),
+        (WALL, "wall_follower", {"d_star_cm": 182.88, "x_s_cm": 182.88, "avoid_failed_tip": False}),
+        (EXPLORE, "wall_follow_explorer", {"x_s_cm": 40.0}),
+        (GOAL, "goal_seeker", {"clearance_cm": 25}),
+    ],
+)
+def test_plausible_baseline_parameters_are_accepted(env_id, policy, kwargs):
+    env = gym.make(env_id)
+    agent = make_policy(policy, env_id, env.observation_space, env.action_space, **kwargs)
+    description = agent.describe()
+    for key, value in kwargs.items():
+        assert description.get(key, value) == value
+        assert not isinstance(value, float) or math.isfinite(description.get(key, value))
+    obs, _ = env.reset(seed=0)
+    action, _ = agent.predict(obs, episode_start=[True])
+    assert env.action_space.contains(int(action))
+    env.close()
+
+
+# --------------------------------------------------------------------------------------------------- record
+
+
+def test_record_writes_a_gif(tmp_path: Path):
+    imageio = pytest.importorskip("imageio.v3")
+    out = tmp_path / "episode.gif"
+    assert main(["record", GOAL, "--max-steps", "5", "--fps", "4", "--output", str(out)]) == 0
+    frames = imageio.imread(out, index=None)
+    assert 2 <= len(frames) <= 6 and frames[0].shape[-1] in (3, 4)
+    assert imageio.immeta(out)["duration"] == 250  # ms per frame at 4 fps
+    assert [p.name for p in tmp_path.iterdir()] == ["episode.gif"]  # no temporary file left
+    assert (out.stat().st_mode & 0o777) != 0o600
+
+
+def test_record_writes_an_mp4(tmp_path: Path):
+    pytest.importorskip("imageio_ffmpeg")
+    imageio = pytest.importorskip("imageio.v3")
+    out = tmp_path / "episode.mp4"
+    assert main(["record", GOAL, "--max-steps", "3", "--output", str(out)]) == 0
+    frames = imageio.imread(out)
+    assert frames.shape[0] == 4 and frames.shape[-1] == 3
+    assert [p.name for p in tmp_path.iterdir()] == ["episode.mp4"]
+
+
+def test_record_mp4_without_imageio_ffmpeg_is_one_line(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("imageio.v3")
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # import imageio_ffmpeg now raises ImportError
+    code, _, err = run_main(["record", GOAL, "--max-steps", "2", "--output", str(tmp_path / "x.mp4")], capsys)
+    assert_one_line_error(code, err, "imageio-ffmpeg")
+    assert "polyenvs[render]" in err and list(tmp_path.iterdir()) == []
+
+
+def test_record_checks_the_output_path_before_running(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("imageio.v3")
+    import polyenvs.evaluation
+
+    def no_env(*args, **kwargs):
+        raise AssertionError("the episode ran before the output path was checked")
+
+    monkeypatch.setattr(polyenvs.evaluation, "make_env", no_env)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    for output, fragment in [(blocker / "x.gif", "not a directory"), (tmp_path, ".gif or .mp4")]:
+        code, _, err = run_main(["record", GOAL, "--output", str(output)], capsys)
+        assert_one_line_error(code, err, "--output")
+        assert fragment in err
+    (tmp_path / "dir.gif").mkdir()
+    code, _, err = run_main(["record", GOAL, "--output", str(tmp_path / "dir.gif")], capsys)
+    assert_one_line_error(code, err, "is a directory")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "dir.gif"]
+
+
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs /proc")
+def test_record_into_proc_is_one_line_and_leaves_nothing():
+    pytest.importorskip("imageio.v3")
+    result = run_cli("record", GOAL, "--max-steps", "2", "--output", "/proc/x.gif")
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1 and "--output" in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr
+    assert not Path("/proc/x.gif").exists()
+
+
+def test_record_failure_while_writing_leaves_no_file(tmp_path, monkeypatch, capsys):
+    """The video goes to a temporary file that is renamed only when complete; a failure removes it."""
+    iio = pytest.importorskip("imageio.v3")
+    written = []
+
+    def failing_write(uri, image, **kwargs):
+        Path(uri).write_bytes(b"GIF89a half")  # a partial file, then the disk fills up
+        written.append(Path(uri))
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(iio, "imwrite", failing_write)
+    out = tmp_path / "episode.gif"
+    code, _, err = run_main(["record", GOAL, "--max-steps", "2", "--output", str(out)], capsys)
+    assert_one_line_error(code, err, "No space left on device")
+    assert written and written[0] != out and written[0].parent == tmp_path
+    assert list(tmp_path.iterdir()) == []  # neither the output nor the temporary file
+
+
+def test_record_accepts_policy_kwargs(tmp_path):
+    pytest.importorskip("imageio.v3")
+    out = tmp_path / "e.gif"
+    assert (
+        main(["record", GOAL, "--max-steps", "2", "--policy-kwargs", '{"clearance_cm": 30}', "--output", str(out)]) == 0
+    )
+    assert out.stat().st_size > 0
+
+
+# -------------------------------------------------------------------------------------------------- install
 
 
 def test_console_script_is_installed():
@@ -126,9 +413,14 @@ def test_console_script_is_installed():
     assert result.returncode == 0 and polyenvs.ENV_IDS[0] in result.stdout
 
 
-def test_record_writes_a_gif(tmp_path: Path):
-    imageio = pytest.importorskip("imageio.v2")
-    out = tmp_path / "episode.gif"
-    assert main(["record", "polyenvs/BuckybotGoal-v0", "--max-steps", "5", "--output", str(out)]) == 0
-    frames = imageio.mimread(out)
-    assert 2 <= len(frames) <= 6 and frames[0].shape[-1] in (3, 4)
+def test_extras_install_one_pygame_and_an_mp4_writer():
+    """pygame and pygame-ce both install the ``pygame`` package; minigrid (dev) needs pygame-ce, so use only it."""
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+
+    def names(extra):
+        return {re.split(r"[<>=!~\[; ]", req, maxsplit=1)[0].lower() for req in extras[extra]}
+
+    for extra in ("render", "dev"):
+        assert "pygame-ce" in names(extra) and "pygame" not in names(extra), extras[extra]
+        assert {"imageio", "imageio-ffmpeg"} <= names(extra), extras[extra]
+    assert not any("pygame" == n for extra in extras for n in names(extra))
