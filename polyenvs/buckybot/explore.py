@@ -20,6 +20,8 @@ _SEEN, _ERROR_SUM, _POINTS = range(3)
 # Per plan slot: grid origin x, y and the number of free cells coverage is measured against.
 _ORIGIN_X, _ORIGIN_Y, _FREE_TOTAL = range(3)
 _CELL, _GOAL = range(2)
+#: Map cells of all the rows together (one byte each): a bound on a vector env's memory.
+_MAX_BATCH_CELLS = 500_000_000
 
 
 @njit(cache=True)
@@ -135,6 +137,11 @@ class BuckybotExploreEnv(BuckybotEnv):
         else:
             shape = grid_shape(RANDOM_ROOM_BOUNDS, self.cell_cm)[1]  # every random room's grid fits in this one
         n, slots = self._batch_size, self._n_slots
+        if n * shape[0] * shape[1] > _MAX_BATCH_CELLS:
+            raise ValueError(
+                f"num_envs={n} robots with cell_cm={self.cell_cm:g} need {n * shape[0] * shape[1]:,} map cells "
+                f"(at most {_MAX_BATCH_CELLS:,}): use fewer robots or larger cells"
+            )
         self._task_state = np.zeros((n, 3))
         self._cells = np.zeros((n, *shape), dtype=np.int8)
         self._free = np.zeros((slots, *shape), dtype=np.bool_)  # the free area coverage is measured against
