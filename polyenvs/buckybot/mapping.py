@@ -2,7 +2,13 @@
 
 The paper replays the actuator sequence without noise to place the sensed obstacle points and compares them with
 the true positions: the map degrades with distance travelled. :class:`OccupancyGrid` turns readings into a grid
-from whichever pose it is given, so both maps can be built side by side and compared.
+from whichever pose it is given, so both maps can be built side by side and compared
+(:func:`polyenvs.buckybot.analysis.figure8_maps` does it for an exploration run).
+
+Geometry of a beam: the sensor sits at the centre of an upper hexagon, 11.95 cm from the body centre along the
+face normal, which points 19.47° above the horizon at azimuth ``heading + SENSOR_AZIMUTHS_RAD[i]``. A slant reading
+``r`` therefore puts the hit ``r cos 19.47°`` horizontally beyond the sensor, ``(r + 11.95) cos 19.47°`` from the
+centre (:func:`polyenvs.buckybot.sensors.horizontal_range`).
 """
 
 from __future__ import annotations
@@ -27,17 +33,23 @@ _MAX_BEAM_CM = RANGE_MAX_CM * _COS_ELEVATION  # horizontal reach of a beam from 
 
 
 def obstacle_points(position: np.ndarray, heading: float, reading: np.ndarray) -> np.ndarray:
-    """World points where the six beams hit something, from a pose (``nan`` rows for invalid readings)."""
+    """World points where the six beams hit something, from a pose (``nan`` rows for invalid readings).
+
+    Args:
+        position: ``(x, y)`` of the body centre (cm).
+        heading: world azimuth of the motion frame's direction 0 (rad).
+        reading: the six slant readings (cm, ``nan`` where invalid).
+    """
     az = heading + SENSOR_AZIMUTHS_RAD
-    r = horizontal_range(reading)
-    return position + r[:, None] * np.stack([np.cos(az), np.sin(az)], axis=-1)
+    r = horizontal_range(np.asarray(reading, dtype=np.float64))
+    return np.asarray(position, dtype=np.float64) + r[:, None] * np.stack([np.cos(az), np.sin(az)], axis=-1)
 
 
 def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]:
     """How far the obstacle points of one set of readings move when placed from the dead-reckoned pose instead
     of the true one (the paper's Figure 8): ``(sum of distances in cm, number of valid readings)``.
 
-    Poses are ``(x, y, heading_rad)``.
+    Poses are ``(x_cm, y_cm, heading_rad)``.
     """
     return placement_gaps(
         *(float(v) for v in true_pose), *(float(v) for v in dead_reckoned_pose), np.asarray(reading, dtype=np.float64)
@@ -68,10 +80,13 @@ def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
 class OccupancyGrid:
     """Cells seen by the beams (0 = unknown, 1 = free, 2 = occupied) on a regular grid.
 
+    Cell ``(row, col)`` covers ``[ox + col c, ox + (col + 1) c) x [oy + row c, oy + (row + 1) c)``.
+
     Args:
         origin: world coordinates (cm) of the lower-left corner of cell (0, 0).
         shape: (rows, cols).
         cell_cm: cell size.
+        cells: an existing ``int8`` buffer of ``shape`` to mark into (shared, not copied).
     """
 
     UNKNOWN, FREE, OCCUPIED = 0, 1, 2
@@ -82,28 +97,91 @@ class OccupancyGrid:
         self.cells = np.zeros(shape, dtype=np.int8) if cells is None else cells  # ``cells``: share a buffer
         self._everywhere = np.ones(shape, dtype=np.bool_)
 
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.cells.shape
+
+    def centres(self) -> np.ndarray:
+        """``(rows, cols, 2)`` world coordinates of the cell centres."""
+        rows, cols = self.shape
+        ys, xs = np.mgrid[0:rows, 0:cols]
+        return self.origin + (np.stack([xs, ys], axis=-1) + 0.5) * self.cell_cm
+
     def observe(self, position, heading: float, reading, too_close, no_return, count_in=None) -> int:
         """Mark the six beams of one set of readings from a pose; returns how many cells turned from unknown to free
         (only those where ``count_in`` is true, if given).
 
-        A beam with a valid reading frees the cells up to its hit and marks the hit occupied; a beam with no return
-        frees its whole reach; a sensor that did not settle (too close) tells nothing about where.
+        A beam with a valid reading frees the cells up to half a cell short of its hit and marks the hit's cell
+        occupied; a beam with no return frees its whole reach (182.88 cm slant); a sensor that did not settle (too
+        close) tells nothing about where. ``heading`` is the world azimuth of the frame's direction 0 (rad);
+        ``reading`` the slant readings in cm. Cells already occupied stay occupied.
         """
         x, y = (float(v) for v in position)
         return mark_beams(
             self.cells, self.origin[0], self.origin[1], self.cell_cm, x, y, float(heading),
-            np.asarray(reading, dtype=np.float64), np.asarray(too_close), np.asarray(no_return),
-            self._everywhere if count_in is None else count_in,
+            np.asarray(reading, dtype=np.float64), np.asarray(too_close, dtype=np.bool_),
+            np.asarray(no_return, dtype=np.bool_), self._everywhere if count_in is None else count_in,
         )  # fmt: skip
+
+
+@njit(cache=True)
+def _free_cells(cells, count_in, gx, gy, dx, dy, length):
+    """Free the unknown cells crossed by the segment from grid point ``(gx, gy)`` (cell units) along the unit
+    direction ``(dx, dy)`` for ``length`` cells, each crossed cell visited once (Amanatides & Woo's traversal).
+
+    The segment is first clipped to the grid, so a beam from a pose far outside costs nothing and every index
+    stays in range. Returns the cells newly freed where ``count_in`` is true.
+    """
+    rows, cols = cells.shape
+    t0, t1 = 0.0, length
+    for axis in range(2):
+        g, d, n = (gx, dx, cols) if axis == 0 else (gy, dy, rows)
+        if d == 0.0:
+            if not (0.0 <= g < n):
+                return 0
+        else:
+            ta, tb = (0.0 - g) / d, (n - g) / d
+            t0 = max(t0, min(ta, tb))
+            t1 = min(t1, max(ta, tb))
+    if not t0 <= t1:  # also false for nan
+        return 0
+    # Restart from the entry point: every quantity below is then bounded by the grid's size.
+    px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
+    col, row = int(math.floor(px)), int(math.floor(py))
+    step_c = 1 if dx > 0.0 else -1
+    step_r = 1 if dy > 0.0 else -1
+    inf = math.inf
+    # Distance along the beam to the next vertical / horizontal cell boundary, and between two of them.
+    next_c = inf if dx == 0.0 else ((col + 1 - px) / dx if dx > 0.0 else (col - px) / dx)
+    next_r = inf if dy == 0.0 else ((row + 1 - py) / dy if dy > 0.0 else (row - py) / dy)
+    delta_c = inf if dx == 0.0 else abs(1.0 / dx)
+    delta_r = inf if dy == 0.0 else abs(1.0 / dy)
+    fresh = 0
+    for _ in range(rows + cols + 4):  # a clipped segment crosses at most rows + cols boundaries
+        if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
+            cells[row, col] = 1
+            if count_in[row, col]:
+                fresh += 1
+        if next_c < next_r:
+            if next_c > span:
+                break
+            col += step_c
+            next_c += delta_c
+        else:
+            if next_r > span:
+                break
+            row += step_r
+            next_r += delta_r
+    return fresh
 
 
 @njit(cache=True)
 def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return, count_in):
     """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(heading)):
+        return 0
     ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
-    cos_elevation, max_beam = _COS_ELEVATION, _MAX_BEAM_CM
     rows, cols = cells.shape
-    step = 0.5 * cell  # sample each beam at half a cell so no crossed cell is skipped
     ch, sh = math.cos(heading), math.sin(heading)
     fresh = 0
     for i in range(6):
@@ -111,21 +189,16 @@ def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return
             continue
         dx, dy = ch * ca[i] - sh * sa[i], sh * ca[i] + ch * sa[i]
         sx, sy = x + sensor_offset * dx, y + sensor_offset * dy
-        length = max_beam if no_return[i] else reading[i] * cos_elevation
+        # The beam climbs at 19.47°: a slant reading covers only its cosine horizontally.
+        length = _MAX_BEAM_CM if no_return[i] else reading[i] * _COS_ELEVATION
+        if not (length >= 0.0 and math.isfinite(length)):
+            continue
         # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
         free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
-        n = int(free_length / step) + 1
-        for k in range(n + 1):
-            t = min(k * step, free_length)
-            col = int(math.floor((sx + t * dx - ox) / cell))
-            row = int(math.floor((sy + t * dy - oy) / cell))
-            if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
-                cells[row, col] = 1
-                if count_in[row, col]:
-                    fresh += 1
+        fresh += _free_cells(cells, count_in, (sx - ox) / cell, (sy - oy) / cell, dx, dy, free_length / cell)
         if not no_return[i]:
-            col = int(math.floor((sx + length * dx - ox) / cell))
-            row = int(math.floor((sy + length * dy - oy) / cell))
-            if 0 <= row < rows and 0 <= col < cols:
-                cells[row, col] = 2
+            # Compare as floats before converting: a far-off hit must not overflow the integer cast.
+            hc, hr = (sx + length * dx - ox) / cell, (sy + length * dy - oy) / cell
+            if 0.0 <= hc < cols and 0.0 <= hr < rows:
+                cells[int(hr), int(hc)] = 2
     return fresh
