@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from polyenvs.buckybot import geometry as geo
+from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.core.geometry2d import SegmentTable
 
 
 def _axis_rotation(axis, angle):
@@ -16,17 +18,58 @@ def _axis_rotation(axis, angle):
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
-def test_physical_scale():
-    assert geo.HEXAGON_INRADIUS_CM == pytest.approx(11.95)
-    assert geo.ICOSAHEDRON_EDGE_CM == pytest.approx(15.81, abs=0.005)
-    assert geo.TRUNCATED_EDGE_CM == pytest.approx(5.27, abs=0.005)
+def _truncated_icosahedron():
+    """The robot's 60 corners (cm, home frame), built from the icosahedron by cutting every edge at its thirds."""
+    unit = geo.ACTUATOR_AXES_HOME
+    gaps = np.linalg.norm(unit[:, None] - unit[None], axis=-1)
+    edge = gaps[gaps > 1e-9].min()
+    verts = unit * (geo.ICOSAHEDRON_EDGE_CM / edge)
+    i, j = np.nonzero(np.triu(np.abs(gaps - edge) < 1e-9))
+    assert len(i) == 30
+    d = verts[j] - verts[i]
+    return np.concatenate([verts[i] + d / 3, verts[i] + 2 * d / 3])
+
+
+def test_physical_scale_of_the_built_solid():
+    """The paper's measured sizes, read off the solid the constants build (not the constants themselves)."""
+    corners = _truncated_icosahedron()
+    gaps = np.linalg.norm(corners[:, None] - corners[None], axis=-1)
+    assert gaps[gaps > 1e-9].min() == pytest.approx(5.27, abs=0.005)  # truncated edge
+    assert gaps[gaps > 1e-9].min() == pytest.approx(geo.TRUNCATED_EDGE_CM, abs=1e-9)
+    # The paper's 26.0 cm diameter (actuators retracted) is the circumscribed sphere's, within 0.5%.
+    diameter = 2 * np.linalg.norm(corners, axis=1).max()
+    assert diameter == pytest.approx(26.0, rel=0.005)
+    assert diameter == pytest.approx(geo.TRUNCATED_EDGE_CM / 2 * np.sqrt(58 + 18 * np.sqrt(5)), abs=1e-9)
+    # Each hexagonal face: six corners on the plane of support along its normal, 23.9 cm from the opposite one.
+    support = corners @ geo.FACE_NORMALS_HOME.T  # (60, 20)
+    top = support.max(axis=0)
+    assert ((support > top - 1e-9).sum(axis=0) == 6).all()
+    np.testing.assert_allclose(2 * top, 23.9, atol=1e-9)
+    np.testing.assert_allclose(top, geo.HEXAGON_INRADIUS_CM, atol=1e-9)
+    for f in range(geo.N_FACES):  # the contact point (and each sensor) is the hexagon's centre, on its normal
+        hexagon = corners[support[:, f] > top[f] - 1e-9]
+        np.testing.assert_allclose(hexagon.mean(axis=0), top[f] * geo.FACE_NORMALS_HOME[f], atol=1e-9)
     assert geo.STEP_LENGTH_CM == pytest.approx(9.129, abs=5e-4)
-    # Circumradius of the truncated icosahedron: the paper's 26.0 cm diameter within 0.5%.
-    e = geo.TRUNCATED_EDGE_CM
-    circumradius = e / 4 * np.sqrt(58 + 18 * np.sqrt(5))
-    assert 2 * circumradius == pytest.approx(26.12, abs=0.01)
     assert np.degrees(geo.DIHEDRAL_TIP_RAD) == pytest.approx(41.81, abs=0.005)
+
+
+def test_upper_sensors_sit_where_the_solid_puts_them():
+    """Resting on any face, the six upper hexagon centres: 15.93 cm up, 11.27 cm out, at the published azimuths."""
+    corners = _truncated_icosahedron()
+    floor = geo.HEXAGON_INRADIUS_CM
+    frames = geo.face_frames()
+    faces, _ = geo.upper_sensor_faces()
     assert geo.SENSOR_HEIGHT_CM == pytest.approx(15.93, abs=0.005)
+    for f in range(geo.N_FACES):
+        local = corners @ frames[f].T
+        assert local[:, 2].min() == pytest.approx(-floor, abs=1e-9)  # resting on the floor at z = -11.95
+        centres = floor * geo.FACE_NORMALS_HOME[faces[f]] @ frames[f].T
+        np.testing.assert_allclose(centres[:, 2] + floor, geo.SENSOR_HEIGHT_CM, atol=1e-9)
+        np.testing.assert_allclose(np.hypot(centres[:, 0], centres[:, 1]), geo.SENSOR_HORIZONTAL_OFFSET_CM, atol=1e-9)
+        azimuth = np.arctan2(centres[:, 1], centres[:, 0]) % (2 * np.pi)
+        np.testing.assert_allclose(azimuth, geo.SENSOR_AZIMUTHS_RAD, atol=1e-9)
+        elevation = np.arcsin(centres[:, 2] / floor)
+        np.testing.assert_allclose(elevation, geo.SENSOR_ELEVATION_RAD, atol=1e-9)
 
 
 def test_face_normal_elevations_when_resting():
@@ -96,13 +139,70 @@ def _walk(actions, face=0):
     return out
 
 
-def test_tip_directions_shift_by_60_degrees():
-    # After tip j the three directions are the old ones rotated by 60° (mod 120°): back, and +-60° of the move.
+def _bottom_face(verts):
+    """Indices of the three lowest corners of an icosahedron (the face it rests on) and the floor height."""
+    low = np.argsort(verts[:, 2])[:3]
+    return low, verts[low, 2].mean()
+
+
+def _edge_directions(verts, bottom):
+    """World azimuths (deg, sorted) from the contact face's centre to the midpoints of its three edges."""
+    centre = verts[bottom].mean(axis=0)
+    mids = [
+        (verts[a] + verts[b]) / 2 for a, b in ((bottom[0], bottom[1]), (bottom[1], bottom[2]), (bottom[2], bottom[0]))
+    ]
+    return np.sort([np.degrees(np.arctan2(*(m - centre)[1::-1])) % 360 for m in mids])
+
+
+def _angle_gap(a, b):
+    return np.abs((np.asarray(a) - np.asarray(b) + 180.0) % 360.0 - 180.0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rolling_the_solid_shifts_the_tip_directions_by_60_and_the_simulator_agrees(seed):
+    """Roll the icosahedron over an edge as a rigid body: it lands on a face 9.129 cm away whose three edges point
+    60° (mod 120°) from the old ones, one of them straight back. The simulator's tip must be that roll."""
+    rng = np.random.default_rng(seed)
+    unit = geo.ACTUATOR_AXES_HOME
+    gaps = np.linalg.norm(unit[:, None] - unit[None], axis=-1)
+    home = unit * (geo.ICOSAHEDRON_EDGE_CM / gaps[gaps > 1e-9].min())
+    face, heading = int(rng.integers(geo.N_FACES)), rng.uniform(0, 2 * np.pi)
+    verts = home @ geo.body_rotation(face, 0, heading).T
+    bottom, floor = _bottom_face(verts)
+    np.testing.assert_allclose(verts[bottom, 2], floor, atol=1e-9)  # flat on the floor
+    before = _edge_directions(verts, bottom)
+    # The simulator's frame directions 0, 120, 240 from ``heading`` are the resting face's edges.
+    frame = (np.degrees(heading) + np.array([0.0, 120.0, 240.0])) % 360
+    assert _angle_gap(np.sort(frame)[:, None], before[None]).min(axis=1).max() < 1e-9
+
     for j in range(3):
-        move = 120.0 * j
-        new_directions = (move + 180.0 + np.array([0.0, 120.0, 240.0])) % 360
-        assert np.allclose(np.sort((new_directions - move) % 360), [60.0, 180.0, 300.0])
-        assert np.allclose((new_directions - 60.0) % 120.0, 0.0)
+        direction = np.radians(frame[j])
+        d = np.array([np.cos(direction), np.sin(direction), 0.0])
+        # The pivot edge is the one whose midpoint lies along d from the contact centre.
+        centre = verts[bottom].mean(axis=0)
+        pivot = [v for v in bottom if np.dot(verts[v] - centre, d) > 0]
+        assert len(pivot) == 2
+        mid = verts[pivot].mean(axis=0)
+        rolled = mid + (verts - mid) @ _axis_rotation(np.cross([0, 0, 1], d), geo.DIHEDRAL_TIP_RAD).T
+        new_bottom, new_floor = _bottom_face(rolled)
+        assert new_floor == pytest.approx(floor, abs=1e-9)
+        np.testing.assert_allclose(rolled[new_bottom, 2], floor, atol=1e-9)  # a whole face lands: the 41.81° roll
+        assert set(pivot) < set(new_bottom)
+        step = rolled[new_bottom].mean(axis=0) - centre
+        np.testing.assert_allclose(step[:2], geo.STEP_LENGTH_CM * d[:2], atol=1e-9)
+        after = _edge_directions(rolled, new_bottom)
+        shifted = (before + 60.0) % 360
+        assert _angle_gap(np.sort(shifted)[:, None], after[None]).min(axis=1).max() < 1e-9
+        assert _angle_gap(after, frame[j] + 180.0).min() < 1e-9  # one edge leads straight back
+
+        sim = BuckybotSimulator(1, TipModel().scaled(0.0), range_noise_scale=0.0, body_radius_cm=13.0)
+        sim.set_walls(SegmentTable(np.array([[1e7, -1.0, 1e7, 1.0]])))
+        sim.place(0, np.zeros(2), face, heading)
+        sim.tip(np.array([j]), np.zeros((1, 3)))
+        np.testing.assert_allclose(sim.position[0], step[:2], atol=1e-9)
+        new_frame = np.degrees(sim.heading[0]) + np.array([0.0, 120.0, 240.0])
+        assert _angle_gap(np.sort(new_frame % 360)[:, None], after[None]).min(axis=1).max() < 1e-9
+        assert _angle_gap(new_frame[0], frame[j] + 180.0) < 1e-9  # direction 0 goes back
 
 
 def test_six_tips_round_a_hexagon_rotate_72_degrees_and_thirty_restore():
