@@ -216,6 +216,7 @@ class BuckybotEnv(gym.Env):
         self._out = np.zeros((n, k + m + 2))
         self._reward_column, self._terminated_column = k + m, k + m + 1
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
+        self._metric_names = self.all_metric_names
         self._row0 = np.zeros(1, dtype=np.int64)
         self._actions = np.zeros(n, dtype=np.int64)
         self._started = False
@@ -395,7 +396,7 @@ class BuckybotEnv(gym.Env):
         sim.streams.refill()
         self._step_kernel(
             actions, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
-            self._out, *self._kernel_arrays,
+            self._out, sim.scratch, *self._kernel_arrays,
         )  # fmt: skip
 
     def _option_pose(self, plan: FloorPlan, pose) -> tuple[np.ndarray, float]:
@@ -431,24 +432,23 @@ class BuckybotEnv(gym.Env):
 
     def _get_info(self, row: int) -> dict[str, Any]:
         state = self.sim.state[row]
-        x, y, heading, face, edge0, dr_x, dr_y, dr_heading = state[:8].tolist()
-        face, edge0 = int(face), int(edge0)
-        heading_deg = math.degrees(heading)
+        face, edge0 = int(state[S.FACE]), int(state[S.EDGE0])
+        truth = state[S.INFO_START : S.INFO_STOP].copy()  # one fresh array; the entries below are views of it
         out = self._out[row].tolist()
         k = len(self._reward_keys)
         info = {
             "action_mask": state[S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
             "face": face + 1,
-            "heading_deg": heading_deg,
-            "tip_directions_deg": np.array([heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0]),
+            "heading_deg": float(truth[2]),
+            "tip_directions_deg": truth[S.TIP_DIRECTIONS - S.INFO_START : S.TIP_DIRECTIONS - S.INFO_START + 3],
             "actuators": _ACTUATOR_NAMES[face][edge0],
             "sensor_faces": _SENSOR_FACES[face][edge0],
-            "pose": np.array([x, y, heading_deg]),
-            "dead_reckoned_pose": np.array([dr_x, dr_y, math.degrees(dr_heading)]),
-            "true_range_cm": state[S.TRUE_RANGE : S.TRUE_RANGE + 6].copy(),
-            "wall_distance_cm": float(state[S.WALL_DISTANCE]),
+            "pose": truth[0:3],
+            "dead_reckoned_pose": truth[3:6],
+            "true_range_cm": truth[S.TRUE_RANGE - S.INFO_START : S.TRUE_RANGE - S.INFO_START + 6],
+            "wall_distance_cm": float(truth[-1]),
             "blocked": bool(state[S.BLOCKED]),
-            **dict(zip(self._reward_keys, out[:k], strict=True)),
-            "episode_metrics": dict(zip(self.all_metric_names, out[k : self._reward_column], strict=True)),
         }
+        info.update(zip(self._reward_keys, out, strict=False))  # stops at the last reward term
+        info["episode_metrics"] = dict(zip(self._metric_names, out[k:], strict=False))  # ... the last metric
         return info

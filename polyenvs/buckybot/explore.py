@@ -8,7 +8,7 @@ from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams, placement_gaps
-from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range
@@ -68,13 +68,14 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, c
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, cells, free, grids, tp):
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, task, cells, free, grids, tp):
+    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch)
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
         w = 0 if shared else b
-        blocked = advance_row(b, actions[b], state, walls[w], params, normals, cursor, obs)
+        blocked = state[b, S.BLOCKED] > 0.5
         out[b, 0] = 100.0 * _observe(b, state, task, cells, free[w], grids[w], tp)  # percent newly observed
         out[b, 1] = -1.0 if blocked else 0.0
         _write_out(b, state, task, grids[w], tp, out)

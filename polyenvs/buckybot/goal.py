@@ -9,7 +9,7 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_finite, check_in_range, show
@@ -58,12 +58,12 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, t
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, tp):
-    shared = walls.shape[0] == 1
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, task, tp):
+    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch)
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
-        blocked = advance_row(b, actions[b], state, walls[0 if shared else b], params, normals, cursor, obs)
+        blocked = state[b, S.BLOCKED] > 0.5
         d = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
         out[b, 0] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in lattice steps
         task[b, _DISTANCE] = d

@@ -13,8 +13,8 @@ resting face and the actuator each action extends.
 
 Packed state. Everything a step reads or writes about a robot is one row of ``BuckybotSimulator.state``
 (float64, columns named by the constants below), so a compiled step takes a handful of arrays instead of twenty.
-The row kernels (``advance_row``, ``sense_row``) are called from each task's own compiled step loop, which then
-scores the task and writes the observation in the same call.
+``advance_rows`` (a step of every robot) and ``first_sense_row`` (a reset) are called from each task's own
+compiled step and reset loops, which then score the task and write the observation in the same call.
 
 Walls. A tip is allowed when its mean landing point keeps the body ``body_radius_cm`` off every wall and the
 straight motion there crosses no wall (the action mask is exactly this test). The noisy landing is used when its
@@ -31,7 +31,15 @@ import numpy as np
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.sensors import measure_one
-from polyenvs.core.geometry2d import SegmentTable, nearest_point, ray_distance, segment_crosses
+from polyenvs.core.geometry2d import (
+    SegmentTable,
+    crossings,
+    first_hits,
+    nearest_point,
+    nearest_squared,
+    ray_distance,
+    segment_crosses,
+)
 from polyenvs.core.jit import njit
 from polyenvs.core.streams import RowStreams
 
@@ -53,20 +61,35 @@ _BACK_EDGE = np.ascontiguousarray(geo.BACK_EDGE, dtype=np.int64)
 
 # Columns of ``BuckybotSimulator.state``.
 X, Y, HEADING, FACE, EDGE0, DR_X, DR_Y, DR_HEADING = range(8)
-TRUE_RANGE = 8  # 6 columns: slant range along each upper beam to the first wall (inf if none)
-READING = 14  # 6: the sensor's reading in cm, nan where invalid
-TOO_CLOSE = 20  # 6: 1 where the reading did not settle
-NO_RETURN = 26  # 6: 1 where nothing was seen within range
-ALLOWED = 32  # 3: 1 where a tip would not hit a wall
-WALL_DISTANCE, FOOT_X, FOOT_Y, WALL_SEGMENT = 35, 36, 37, 38
-BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 39, 40, 41, 42, 43
-STATE_COLUMNS = 44
+READING = 8  # 6 columns: the sensor's reading in cm, nan where invalid
+TOO_CLOSE = 14  # 6: 1 where the reading did not settle
+NO_RETURN = 20  # 6: 1 where nothing was seen within range
+ALLOWED = 26  # 3: 1 where a tip would not hit a wall
+FOOT_X, FOOT_Y, WALL_SEGMENT = 29, 30, 31
+BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 32, 33, 34, 35, 36
+# The ground truth ``info`` publishes, in the units it publishes, contiguous so one copy serves every key.
+POSE_INFO = 37  # 3: x, y (cm), heading of frame direction 0 (deg)
+DR_POSE_INFO = 40  # 3: the dead-reckoned pose, the same way
+TIP_DIRECTIONS = 43  # 3: world azimuths (deg) of the three actions
+TRUE_RANGE = 46  # 6: slant range along each upper beam to the first wall (inf if none)
+WALL_DISTANCE = 52  # distance from the centre to the nearest wall
+INFO_START, INFO_STOP = POSE_INFO, WALL_DISTANCE + 1
+STATE_COLUMNS = 53
 
 # Entries of ``BuckybotSimulator.params``.
 P_FORWARD, P_FORWARD_SD, P_LATERAL, P_LATERAL_SD, P_TURN_SD, P_BODY_RADIUS, P_RANGE_NOISE = range(7)
 P_MEAN_OFFSETS = 7  # 6: (3, 2) mean displacement of each tip in the motion frame
 P_FRAME_TURN = 13  # 3: frame rotation of each tip (rad)
 N_PARAMS = 16
+
+# Rows of the step's scratch array ``(SCRATCH_ROWS, 6 * batch)``: flat query arrays for the batched geometry
+# kernels (rays: 6 per robot; points: 4 per robot, the three mean landings and the centre; paths: 3 per robot,
+# the three mean tip motions, or 1 per robot, the noisy tip motion), then per-robot tip proposals.
+R_OX, R_OY, R_DX, R_DY, R_T = range(5)
+PT_X, PT_Y, PT_D2, PT_K = range(5, 9)
+MV_AX, MV_AY, MV_BX, MV_BY, MV_HIT = range(9, 14)
+TIP_NX, TIP_NY, TIP_MX, TIP_MY, TIP_ACTIVE = range(14, 19)
+SCRATCH_ROWS = 19
 
 # The sensor part of every Buckybot observation (the first 19 entries).
 OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = 0, 6, 12, 18
@@ -155,6 +178,7 @@ class BuckybotSimulator:
         self.walls = np.zeros((1, 1, 6))
         self.streams = RowStreams(b, NORMALS_PER_STEP)
         self.observation = np.zeros((b, N_SENSOR_OBS), dtype=np.float32)
+        self.scratch = np.zeros((SCRATCH_ROWS, 6 * b))
 
     # Named views of the packed state (writable where that makes sense).
     position = property(lambda self: self.state[:, X : Y + 1])
@@ -270,21 +294,134 @@ def sense_row(b, state, walls, params, z, obs):
     state[b, WALL_DISTANCE], state[b, FOOT_X], state[b, FOOT_Y], state[b, WALL_SEGMENT] = d, fx, fy, k
 
 
+@njit(cache=True, error_model="numpy")
+def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
+    """One step of every robot whose action is >= 0: tip, update its records, sense; writes the sensor part of
+    its observation row. Each consumes one draw row of its block.
+
+    The same physics as ``tip_row`` and ``sense_row``, with every wall query of the batch made by the batched
+    geometry kernels (walls outside, queries inside) instead of robot by robot: about twice as fast for many
+    robots, and the same numbers.
+    """
+    n = actions.shape[0]
+    # 1. Tip proposals: the noisy landing and the checked mean landing of every robot that tips.
+    for b in range(n):
+        scratch[TIP_ACTIVE, b] = 0.0
+        scratch[MV_AX, b] = scratch[MV_BX, b] = scratch[PT_X, b] = state[b, X]
+        scratch[MV_AY, b] = scratch[MV_BY, b] = scratch[PT_Y, b] = state[b, Y]
+        a = actions[b]
+        if a < 0:
+            continue
+        z = normals[b, cursor[b]]
+        state[b, STEPS] += 1.0
+        if state[b, ALLOWED + a] < 0.5:
+            state[b, BLOCKED] = 1.0
+            state[b, BLOCKED_TIPS] += 1.0
+            state[b, LAST_TIP_MOVED] = 0.0
+            continue
+        x, y, heading = state[b, X], state[b, Y], state[b, HEADING]
+        angle = heading + TIP_ANGLES_RAD[a]
+        c, s = math.cos(angle), math.sin(angle)
+        forward = params[P_FORWARD] + params[P_FORWARD_SD] * z[0]
+        lateral = params[P_LATERAL] + params[P_LATERAL_SD] * z[1]  # +lateral is to the right of the tip direction
+        nx, ny = x + forward * c + lateral * s, y + forward * s - lateral * c
+        hc, hs = math.cos(heading), math.sin(heading)
+        mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
+        scratch[TIP_NX, b], scratch[TIP_NY, b] = nx, ny
+        scratch[TIP_MX, b], scratch[TIP_MY, b] = x + hc * mx - hs * my, y + hs * mx + hc * my
+        scratch[TIP_ACTIVE, b] = 1.0
+        scratch[MV_BX, b], scratch[MV_BY, b] = nx, ny
+        scratch[PT_X, b], scratch[PT_Y, b] = nx, ny
+    # 2. Is each noisy motion clear of the walls?
+    crossings(walls, 1, n, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT])
+    nearest_squared(walls, 1, n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
+    # 3. Move: the noisy landing, or the checked one where contact stops the body; dead reckoning; faces.
+    half_radius_sq = (0.5 * params[P_BODY_RADIUS]) ** 2
+    for b in range(n):
+        if scratch[TIP_ACTIVE, b] < 0.5:
+            continue
+        a = actions[b]
+        z = normals[b, cursor[b]]
+        if scratch[MV_HIT, b] > 0.5 or scratch[PT_D2, b] < half_radius_sq:
+            state[b, X], state[b, Y] = scratch[TIP_MX, b], scratch[TIP_MY, b]
+        else:
+            state[b, X], state[b, Y] = scratch[TIP_NX, b], scratch[TIP_NY, b]
+        state[b, HEADING] = (state[b, HEADING] + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2]) % _TWO_PI
+        # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
+        dh = state[b, DR_HEADING]
+        dc, ds = math.cos(dh), math.sin(dh)
+        mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
+        state[b, DR_X] += dc * mx - ds * my
+        state[b, DR_Y] += ds * mx + dc * my
+        state[b, DR_HEADING] = (dh + params[P_FRAME_TURN + a]) % _TWO_PI
+        old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
+        state[b, FACE] = _NEIGHBOR[old, edge]
+        state[b, EDGE0] = _BACK_EDGE[old, edge]
+        state[b, BLOCKED] = 0.0
+        if a == 0 and state[b, LAST_TIP_MOVED] > 0.5:
+            state[b, OSCILLATIONS] += 1.0  # undid the previous tip: the robot alternates between two faces
+        state[b, LAST_TIP_MOVED] = 1.0
+    # 4. Sensing geometry at the new poses: six beams, the three mean landings and the centre, three motions.
+    for b in range(n):
+        px, py = state[b, X], state[b, Y]
+        c, s = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+        for i in range(6):
+            dx, dy = c * _BEAM_COS[i] - s * _BEAM_SIN[i], s * _BEAM_COS[i] + c * _BEAM_SIN[i]
+            j = 6 * b + i
+            scratch[R_OX, j], scratch[R_OY, j] = px + _SENSOR_OFFSET * dx, py + _SENSOR_OFFSET * dy
+            scratch[R_DX, j], scratch[R_DY, j] = dx, dy
+        for j in range(3):
+            mx, my = params[P_MEAN_OFFSETS + 2 * j], params[P_MEAN_OFFSETS + 2 * j + 1]
+            lx, ly = px + c * mx - s * my, py + s * mx + c * my
+            scratch[PT_X, 4 * b + j], scratch[PT_Y, 4 * b + j] = lx, ly
+            scratch[MV_AX, 3 * b + j], scratch[MV_AY, 3 * b + j] = px, py
+            scratch[MV_BX, 3 * b + j], scratch[MV_BY, 3 * b + j] = lx, ly
+        scratch[PT_X, 4 * b + 3], scratch[PT_Y, 4 * b + 3] = px, py
+    first_hits(walls, 6, 6 * n, scratch[R_OX], scratch[R_OY], scratch[R_DX], scratch[R_DY], scratch[R_T])
+    nearest_squared(walls, 4, 4 * n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
+    crossings(walls, 3, 3 * n, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT])
+    # 5. What the sensors report, the action mask, the nearest wall.
+    radius_sq = params[P_BODY_RADIUS] ** 2
+    scale = params[P_RANGE_NOISE]
+    shared = walls.shape[0] == 1
+    for b in range(n):
+        if actions[b] < 0:
+            continue
+        z = normals[b, cursor[b]]
+        cursor[b] += 1
+        for i in range(6):
+            d = scratch[R_T, 6 * b + i] / _COS_ELEVATION  # slant range along the tilted beam
+            reading, too_close, no_return, normalised = measure_one(d, z[3 + i], scale)
+            close, none = 1.0 if too_close else 0.0, 1.0 if no_return else 0.0
+            state[b, TRUE_RANGE + i], state[b, READING + i] = d, reading
+            state[b, TOO_CLOSE + i], state[b, NO_RETURN + i] = close, none
+            obs[b, OBS_RANGE + i] = normalised
+            obs[b, OBS_TOO_CLOSE + i] = close
+            obs[b, OBS_NO_RETURN + i] = none
+        obs[b, OBS_TIP_FAILED] = state[b, BLOCKED]
+        for j in range(3):  # the action mask: the mean landing keeps the body off the walls, the motion crosses none
+            clear = scratch[PT_D2, 4 * b + j] >= radius_sq and scratch[MV_HIT, 3 * b + j] < 0.5
+            state[b, ALLOWED + j] = 1.0 if clear else 0.0
+        k = int(scratch[PT_K, 4 * b + 3])
+        ws = walls[0 if shared else b]
+        along = ((state[b, X] - ws[k, 0]) * ws[k, 2] + (state[b, Y] - ws[k, 1]) * ws[k, 3]) * ws[k, 4]
+        along = min(max(along, 0.0), 1.0)
+        state[b, WALL_DISTANCE] = math.sqrt(scratch[PT_D2, 4 * b + 3])
+        state[b, FOOT_X], state[b, FOOT_Y] = ws[k, 0] + along * ws[k, 2], ws[k, 1] + along * ws[k, 3]
+        state[b, WALL_SEGMENT] = k
+        write_info(b, state)
+
+
 @njit(cache=True)
-def advance_row(b, a, state, walls, params, normals, cursor, obs):
-    """One step of robot ``b``: tip in direction ``a``, update its records, sense. Consumes one draw row of its
-    block. Returns whether the tip was blocked."""
-    z = normals[b, cursor[b]]
-    cursor[b] += 1
-    blocked = tip_row(b, a, state, walls, params, z)
-    state[b, STEPS] += 1.0
-    if blocked:
-        state[b, BLOCKED_TIPS] += 1.0
-    elif a == 0 and state[b, LAST_TIP_MOVED] > 0.5:
-        state[b, OSCILLATIONS] += 1.0  # undid the previous tip: the robot alternates between two faces
-    state[b, LAST_TIP_MOVED] = 0.0 if blocked else 1.0
-    sense_row(b, state, walls, params, z, obs)
-    return blocked
+def write_info(b, state):
+    """Row ``b``'s ground-truth block (``POSE_INFO`` to ``TIP_DIRECTIONS``) from its state."""
+    heading = math.degrees(state[b, HEADING])
+    state[b, POSE_INFO], state[b, POSE_INFO + 1], state[b, POSE_INFO + 2] = state[b, X], state[b, Y], heading
+    state[b, DR_POSE_INFO], state[b, DR_POSE_INFO + 1] = state[b, DR_X], state[b, DR_Y]
+    state[b, DR_POSE_INFO + 2] = math.degrees(state[b, DR_HEADING])
+    state[b, TIP_DIRECTIONS] = heading
+    state[b, TIP_DIRECTIONS + 1] = (heading + 120.0) % 360.0
+    state[b, TIP_DIRECTIONS + 2] = (heading + 240.0) % 360.0
 
 
 @njit(cache=True)
@@ -293,6 +430,7 @@ def first_sense_row(b, state, walls, params, normals, cursor, obs):
     z = normals[b, cursor[b]]
     cursor[b] += 1
     sense_row(b, state, walls, params, z, obs)
+    write_info(b, state)
 
 
 @njit(cache=True)

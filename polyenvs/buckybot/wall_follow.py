@@ -9,7 +9,7 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import advance_row, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range
@@ -61,13 +61,16 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, f
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, followed, bins, seg_bins, slot, tp):
+def _step_kernel(
+    actions, state, walls, params, normals, cursor, obs, out, scratch, task, followed, bins, seg_bins, slot, tp
+):
+    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch)
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
         w = 0 if shared else b
-        blocked = advance_row(b, actions[b], state, walls[w], params, normals, cursor, obs)
+        blocked = state[b, S.BLOCKED] > 0.5
         x, y = state[b, S.X], state[b, S.Y]
         # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
         progress = (x - task[b, _PX]) * -task[b, _NY] + (y - task[b, _PY]) * task[b, _NX]

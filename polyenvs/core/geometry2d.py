@@ -26,7 +26,10 @@ __all__ = [
     "WALL_COLUMNS",
     "SegmentTable",
     "cast_rays",
+    "crossings",
+    "first_hits",
     "nearest_point",
+    "nearest_squared",
     "nearest_wall_points",
     "pack_segments",
     "ray_distance",
@@ -202,3 +205,98 @@ def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.nda
     segment = np.empty(points.shape[:2], dtype=np.int64)
     _nearest(table.packed, points, distance, foot, segment)
     return distance, foot, segment
+
+
+# --- Batched, branch-free kernels: walls in the outer loop, queries inner, so the compiler vectorises them ------
+# Queries are flat arrays grouped by robot, ``per`` consecutive entries a robot. With one shared wall set
+# (W = 1) every query meets every wall in one sweep; with a wall set per robot, robot b's queries meet walls[b].
+# They give exactly the scalar kernels' numbers (same operations, same wall order, no fast-math).
+
+
+@njit(cache=True, error_model="numpy")
+def _rays_against(ws, lo, hi, ox, oy, dx, dy, best):
+    for k in range(ws.shape[0]):
+        if ws[k, _REAL] == 0.0:
+            continue
+        sx, sy, ex, ey = ws[k, _SX], ws[k, _SY], ws[k, _VX], ws[k, _VY]
+        for j in range(lo, hi):
+            denom = dx[j] * ey - dy[j] * ex  # 0 for a parallel ray: t and u become inf or nan and never hit
+            qx, qy = sx - ox[j], sy - oy[j]
+            t = (qx * ey - qy * ex) / denom
+            u = (qx * dy[j] - qy * dx[j]) / denom
+            hit = (t >= 0.0) & (u >= 0.0) & (u <= 1.0) & (t < best[j])
+            best[j] = t if hit else best[j]
+
+
+@njit(cache=True, error_model="numpy")
+def first_hits(walls, per, n, ox, oy, dx, dy, best):
+    """``best[:n]``: distance along each ray ``(o, d)`` to the first wall (``inf`` if none); as ``ray_distance``."""
+    for j in range(n):
+        best[j] = math.inf
+    if walls.shape[0] == 1:
+        _rays_against(walls[0], 0, n, ox, oy, dx, dy, best)
+    else:
+        for b in range(n // per):
+            _rays_against(walls[b], b * per, (b + 1) * per, ox, oy, dx, dy, best)
+
+
+@njit(cache=True, error_model="numpy")
+def _nearest_against(ws, lo, hi, px, py, best, index):
+    for k in range(ws.shape[0]):
+        if ws[k, _REAL] == 0.0:
+            continue
+        sx, sy, ex, ey, inv = ws[k, _SX], ws[k, _SY], ws[k, _VX], ws[k, _VY], ws[k, _INV]
+        for j in range(lo, hi):
+            along = min(max(((px[j] - sx) * ex + (py[j] - sy) * ey) * inv, 0.0), 1.0)
+            gx, gy = px[j] - (sx + along * ex), py[j] - (sy + along * ey)
+            d2 = gx * gx + gy * gy
+            better = d2 < best[j]
+            best[j] = d2 if better else best[j]
+            index[j] = k if better else index[j]
+
+
+@njit(cache=True, error_model="numpy")
+def nearest_squared(walls, per, n, px, py, best, index):
+    """``best[:n]``: squared distance from each point to the nearest wall, ``index[:n]`` that wall (as
+    ``nearest_point``, which also gives the foot)."""
+    for j in range(n):
+        best[j] = math.inf
+        index[j] = -1.0
+    if walls.shape[0] == 1:
+        _nearest_against(walls[0], 0, n, px, py, best, index)
+    else:
+        for b in range(n // per):
+            _nearest_against(walls[b], b * per, (b + 1) * per, px, py, best, index)
+
+
+@njit(cache=True, error_model="numpy")
+def _crossings_against(ws, lo, hi, ax, ay, bx, by, hit):
+    for k in range(ws.shape[0]):
+        if ws[k, _REAL] == 0.0:
+            continue
+        sx, sy, ex, ey = ws[k, _SX], ws[k, _SY], ws[k, _VX], ws[k, _VY]
+        for j in range(lo, hi):
+            mx, my = bx[j] - ax[j], by[j] - ay[j]
+            qx, qy = sx - ax[j], sy - ay[j]
+            denom = mx * ey - my * ex
+            t = (qx * ey - qy * ex) / denom
+            u = (qx * my - qy * mx) / denom
+            crossing = (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+            # Parallel and on the same line: they touch if their extents overlap along the motion.
+            length_sq = mx * mx + my * my
+            t0 = (qx * mx + qy * my) / length_sq
+            t1 = ((qx + ex) * mx + (qy + ey) * my) / length_sq
+            overlap = (denom == 0.0) & (qx * my - qy * mx == 0.0) & (max(t0, t1) >= 0.0) & (min(t0, t1) <= 1.0)
+            hit[j] = 1.0 if (hit[j] > 0.5) | crossing | overlap else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def crossings(walls, per, n, ax, ay, bx, by, hit):
+    """``hit[:n]``: 1 where the motion from a to b touches a wall, else 0 (as ``segment_crosses``)."""
+    for j in range(n):
+        hit[j] = 0.0
+    if walls.shape[0] == 1:
+        _crossings_against(walls[0], 0, n, ax, ay, bx, by, hit)
+    else:
+        for b in range(n // per):
+            _crossings_against(walls[b], b * per, (b + 1) * per, ax, ay, bx, by, hit)
