@@ -102,7 +102,10 @@ def test_observe_frees_up_to_half_a_cell_short_of_the_hit_and_marks_the_hit():
     too_close = np.ones(6, dtype=bool)
     too_close[2] = False
     reading = np.full(6, np.nan)
-    for x, y, slant in ((52.0, 73.0, 121.92), (41.0, 73.0, 121.92), (5.5, 73.0, 33.02), (5.5, 73.0, 182.88)):
+    # The hit in the second half of its cell (which the free part then reaches), in the first half (which it must
+    # not), at the shortest and at the longest valid reading.
+    cases = ((52.0, 73.0, 121.92), (45.0, 73.0, 121.92), (5.5, 73.0, 33.02), (5.5, 73.0, 182.88))
+    for x, y, slant in cases:
         grid.cells[:] = OccupancyGrid.UNKNOWN
         reading[2] = slant
         fresh = grid.observe((x, y), _facing_plus_x(2), reading, too_close, np.zeros(6, dtype=bool))

@@ -133,29 +133,41 @@ def _free_cells(cells, count_in, gx, gy, dx, dy, length):
     stays in range. Returns the cells newly freed where ``count_in`` is true.
     """
     rows, cols = cells.shape
+    inf = math.inf
+    # Reciprocals once: the clipping and the traversal below then need no further division.
+    ix = inf if dx == 0.0 else 1.0 / dx
+    iy = inf if dy == 0.0 else 1.0 / dy
     t0, t1 = 0.0, length
-    for axis in range(2):
-        g, d, n = (gx, dx, cols) if axis == 0 else (gy, dy, rows)
-        if d == 0.0:
-            if not (0.0 <= g < n):
-                return 0
-        else:
-            ta, tb = (0.0 - g) / d, (n - g) / d
-            t0 = max(t0, min(ta, tb))
-            t1 = min(t1, max(ta, tb))
+    if dx == 0.0:
+        if not (0.0 <= gx < cols):
+            return 0
+    else:
+        ta, tb = -gx * ix, (cols - gx) * ix
+        t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+    if dy == 0.0:
+        if not (0.0 <= gy < rows):
+            return 0
+    else:
+        ta, tb = -gy * iy, (rows - gy) * iy
+        t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
     if not t0 <= t1:  # also false for nan
         return 0
     # Restart from the entry point: every quantity below is then bounded by the grid's size.
     px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
     col, row = int(math.floor(px)), int(math.floor(py))
-    step_c = 1 if dx > 0.0 else -1
-    step_r = 1 if dy > 0.0 else -1
-    inf = math.inf
     # Distance along the beam to the next vertical / horizontal cell boundary, and between two of them.
-    next_c = inf if dx == 0.0 else ((col + 1 - px) / dx if dx > 0.0 else (col - px) / dx)
-    next_r = inf if dy == 0.0 else ((row + 1 - py) / dy if dy > 0.0 else (row - py) / dy)
-    delta_c = inf if dx == 0.0 else abs(1.0 / dx)
-    delta_r = inf if dy == 0.0 else abs(1.0 / dy)
+    if dx > 0.0:
+        step_c, next_c, delta_c = 1, (col + 1 - px) * ix, ix
+    elif dx < 0.0:
+        step_c, next_c, delta_c = -1, (col - px) * ix, -ix
+    else:
+        step_c, next_c, delta_c = 0, inf, inf
+    if dy > 0.0:
+        step_r, next_r, delta_r = 1, (row + 1 - py) * iy, iy
+    elif dy < 0.0:
+        step_r, next_r, delta_r = -1, (row - py) * iy, -iy
+    else:
+        step_r, next_r, delta_r = 0, inf, inf
     fresh = 0
     for _ in range(rows + cols + 4):  # a clipped segment crosses at most rows + cols boundaries
         if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
@@ -183,6 +195,7 @@ def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return
     ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
     rows, cols = cells.shape
     ch, sh = math.cos(heading), math.sin(heading)
+    inv_cell = 1.0 / cell
     fresh = 0
     for i in range(6):
         if too_close[i]:
@@ -195,10 +208,11 @@ def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return
             continue
         # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
         free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
-        fresh += _free_cells(cells, count_in, (sx - ox) / cell, (sy - oy) / cell, dx, dy, free_length / cell)
+        gx, gy = (sx - ox) * inv_cell, (sy - oy) * inv_cell
+        fresh += _free_cells(cells, count_in, gx, gy, dx, dy, free_length * inv_cell)
         if not no_return[i]:
             # Compare as floats before converting: a far-off hit must not overflow the integer cast.
-            hc, hr = (sx + length * dx - ox) / cell, (sy + length * dy - oy) / cell
+            hc, hr = gx + length * inv_cell * dx, gy + length * inv_cell * dy
             if 0.0 <= hc < cols and 0.0 <= hr < rows:
                 cells[int(hr), int(hc)] = 2
     return fresh
