@@ -122,7 +122,7 @@ class _RowReset:
     heading: float
     face: int
     task: Any
-    block: np.ndarray
+    reseeded: bool
 
 
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
@@ -286,7 +286,7 @@ class BuckybotEnv(gym.Env):
             rng, used_seed = seeding.np_random(seed)
         else:
             rng, used_seed = copy_generator(self.np_random), self._np_random_seed
-        self._commit_rows([self._prepare_row(0, rng, options)])
+        self._commit_rows([self._prepare_row(0, rng, options, reseeded=seed is not None)])
         self._np_random, self._np_random_seed = rng, used_seed
         return self._observations[0].copy(), self._get_info(0)
 
@@ -352,8 +352,9 @@ class BuckybotEnv(gym.Env):
             )
         return options
 
-    def _prepare_row(self, row: int, rng: np.random.Generator, options: dict) -> _RowReset:
-        """Draw and validate a new episode for ``row`` on ``rng``; writes nothing."""
+    def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
+        """Draw and validate a new episode for ``row`` on ``rng`` (a new seed's generator if ``reseeded``, else
+        a continuation of the row's own); writes nothing."""
         plan = self.floor_plan if self.floor_plan is not None else self._random_plan(rng)
         if "pose" in options:
             position, heading = self._option_pose(plan, options["pose"])
@@ -362,7 +363,7 @@ class BuckybotEnv(gym.Env):
             heading = rng.uniform(0.0, 2 * np.pi)
         face = self._option_face(options["face"]) if "face" in options else int(rng.integers(geo.N_FACES))
         task = self._task_sample(plan, position, rng, options)
-        return _RowReset(row, rng, plan, position, heading, face, task, self.sim.streams.draw_block(rng))
+        return _RowReset(row, rng, plan, position, heading, face, task, reseeded)
 
     def _commit_rows(self, resets: list[_RowReset]) -> None:
         """Install prepared episodes (nothing here raises), then sense and set up the task in one compiled call."""
@@ -372,9 +373,10 @@ class BuckybotEnv(gym.Env):
             if self._slot_plans[slot] is not r.plan:
                 self._install_plan(slot, r.plan)
             sim.place(r.row, r.position, r.face, r.heading)
-            sim.streams.restart(r.row, r.rng, r.block)
+            sim.streams.restart(r.row, r.rng, r.reseeded)
             self._task_commit(r.row, r.task)
         rows = self._row0 if len(resets) == 1 and resets[0].row == 0 else np.array([r.row for r in resets])
+        sim.streams.refill(rows)  # the first readings take a draw row
         self._reset_kernel(
             rows, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
             self._out, *self._kernel_arrays,

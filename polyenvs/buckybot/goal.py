@@ -162,7 +162,7 @@ class BuckybotGoalEnv(BuckybotEnv):
         if key not in plan._cache:
             g = plan.grid()
             eligible = (g.region == g.main_region) & (g.clearance >= self._goal_clearance() + g.cell_cm)
-            plan._cache[key] = g.centres()[eligible]
+            plan._cache[key] = np.ascontiguousarray(g.centres()[eligible])
         return plan._cache[key]
 
     def _task_plan_usable(self, plan: FloorPlan) -> bool:
@@ -193,14 +193,14 @@ class BuckybotGoalEnv(BuckybotEnv):
     def _sample_goal(self, plan: FloorPlan, position: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A uniform point of the room ``goal_distance_cm`` from the robot (or, in a room too small for that, from
         the farthest quarter of it), clear of the walls by the goal radius plus the body."""
-        centres = self._goal_candidates(plan)
-        distance = np.hypot(centres[:, 0] - position[0], centres[:, 1] - position[1])
+        cx, cy = self._goal_candidates(plan).T
+        distance_sq = (cx - position[0]) ** 2 + (cy - position[1]) ** 2
         low, high = self.goal_distance_cm
-        pool = np.flatnonzero((distance >= low) & (distance <= high))
+        pool = np.flatnonzero((distance_sq >= low * low) & (distance_sq <= high * high))
         if pool.size == 0:
-            pool = np.flatnonzero(distance >= np.quantile(distance, 0.75))
-        centre = centres[pool[rng.integers(pool.size)]]
-        return centre + rng.uniform(-0.5, 0.5, 2) * plan.grid().cell_cm
+            pool = np.flatnonzero(distance_sq >= np.quantile(distance_sq, 0.75))
+        pick = pool[rng.integers(pool.size)]
+        return np.array([cx[pick], cy[pick]]) + (rng.random(2) - 0.5) * plan.grid().cell_cm
 
     def _get_info(self, row):
         info = super()._get_info(row)

@@ -40,6 +40,8 @@ NOISE_SLOPE = 0.013
 NOISE_OFFSET_CM = 0.448
 
 _COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
+_PER_QUANTUM = 1.0 / RANGE_QUANTUM_CM
+_INCHES_AT_MAX = float(round(RANGE_MAX_CM / RANGE_QUANTUM_CM))  # 72: a reading of n inches observes as n / 72
 #: Azimuth separation from sensor i to sensor i+1 (cyclic): alternately 75.52° and 44.48°.
 SENSOR_PAIR_SEPARATION_RAD = np.diff(np.append(SENSOR_AZIMUTHS_RAD, SENSOR_AZIMUTHS_RAD[0] + 2 * np.pi))
 
@@ -85,14 +87,15 @@ def measure_one(d, normal, noise_scale):
     invalid cases, and the observation's value (reading / 182.88 cm, 0 when too close, 1 when no return).
     """
     noisy = d + (NOISE_SLOPE * d + NOISE_OFFSET_CM) * (noise_scale * normal)
-    r = np.round(noisy / RANGE_QUANTUM_CM) * RANGE_QUANTUM_CM  # the sensor reports whole inches
+    inches = np.floor(noisy * _PER_QUANTUM + 0.5)  # the sensor reports whole inches (nan, inf stay so)
+    r = inches * RANGE_QUANTUM_CM
     too_close = r < RANGE_MIN_CM - 1e-9
     no_return = not (r <= RANGE_MAX_CM + 1e-9)  # also true for inf and nan
     if too_close:
         return math.nan, True, False, 0.0
     if no_return:
         return math.nan, False, True, 1.0
-    return r, False, False, r / RANGE_MAX_CM
+    return r, False, False, inches / _INCHES_AT_MAX
 
 
 @njit(cache=True)

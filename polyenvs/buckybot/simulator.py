@@ -67,14 +67,15 @@ NO_RETURN = 20  # 6: 1 where nothing was seen within range
 ALLOWED = 26  # 3: 1 where a tip would not hit a wall
 FOOT_X, FOOT_Y, WALL_SEGMENT = 29, 30, 31
 BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 32, 33, 34, 35, 36
+HEADING_COS, HEADING_SIN = 37, 38  # of HEADING, kept from the last sense so a tip needs no trigonometry
 # The ground truth ``info`` publishes, in the units it publishes, contiguous so one copy serves every key.
-POSE_INFO = 37  # 3: x, y (cm), heading of frame direction 0 (deg)
-DR_POSE_INFO = 40  # 3: the dead-reckoned pose, the same way
-TIP_DIRECTIONS = 43  # 3: world azimuths (deg) of the three actions
-TRUE_RANGE = 46  # 6: slant range along each upper beam to the first wall (inf if none)
-WALL_DISTANCE = 52  # distance from the centre to the nearest wall
+POSE_INFO = 39  # 3: x, y (cm), heading of frame direction 0 (deg)
+DR_POSE_INFO = 42  # 3: the dead-reckoned pose, the same way
+TIP_DIRECTIONS = 45  # 3: world azimuths (deg) of the three actions
+TRUE_RANGE = 48  # 6: slant range along each upper beam to the first wall (inf if none)
+WALL_DISTANCE = 54  # distance from the centre to the nearest wall
 INFO_START, INFO_STOP = POSE_INFO, WALL_DISTANCE + 1
-STATE_COLUMNS = 53
+STATE_COLUMNS = 55
 
 # Entries of ``BuckybotSimulator.params``.
 P_FORWARD, P_FORWARD_SD, P_LATERAL, P_LATERAL_SD, P_TURN_SD, P_BODY_RADIUS, P_RANGE_NOISE = range(7)
@@ -234,6 +235,12 @@ class BuckybotSimulator:
 
 
 @njit(cache=True)
+def wrap_angle(angle):
+    """``angle`` in [0, 2π) (cheaper than Python's float modulo, which numba reproduces exactly)."""
+    return angle - _TWO_PI * math.floor(angle / _TWO_PI)
+
+
+@njit(cache=True)
 def tip_row(b, a, state, walls, params, z):
     """Tip robot ``b`` in frame direction ``a`` with draws ``z[0:3]``; returns whether it was blocked."""
     blocked = state[b, ALLOWED + a] < 0.5
@@ -241,23 +248,22 @@ def tip_row(b, a, state, walls, params, z):
         state[b, BLOCKED] = 1.0
         return True
     x, y, heading = state[b, X], state[b, Y], state[b, HEADING]
-    angle = heading + TIP_ANGLES_RAD[a]
-    c, s = math.cos(angle), math.sin(angle)
+    hc, hs = math.cos(heading), math.sin(heading)
+    c, s = hc * _TIP_COS[a] - hs * _TIP_SIN[a], hs * _TIP_COS[a] + hc * _TIP_SIN[a]  # the tip's direction
     forward = params[P_FORWARD] + params[P_FORWARD_SD] * z[0]
     lateral = params[P_LATERAL] + params[P_LATERAL_SD] * z[1]  # +lateral is to the right of the tip direction
     nx, ny = x + forward * c + lateral * s, y + forward * s - lateral * c
-    hc, hs = math.cos(heading), math.sin(heading)
     mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
     if segment_crosses(x, y, nx, ny, walls) or nearest_point(nx, ny, walls)[0] < 0.5 * params[P_BODY_RADIUS]:
         nx, ny = x + hc * mx - hs * my, y + hs * mx + hc * my  # contact stops the body at the checked landing
     state[b, X], state[b, Y] = nx, ny
-    state[b, HEADING] = (heading + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2]) % _TWO_PI
+    state[b, HEADING] = wrap_angle(heading + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2])
     # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
     dh = state[b, DR_HEADING]
     dc, ds = math.cos(dh), math.sin(dh)
     state[b, DR_X] += dc * mx - ds * my
     state[b, DR_Y] += ds * mx + dc * my
-    state[b, DR_HEADING] = (dh + params[P_FRAME_TURN + a]) % _TWO_PI
+    state[b, DR_HEADING] = wrap_angle(dh + params[P_FRAME_TURN + a])
     old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
     state[b, FACE] = _NEIGHBOR[old, edge]
     state[b, EDGE0] = _BACK_EDGE[old, edge]
@@ -271,6 +277,7 @@ def sense_row(b, state, walls, params, z, obs):
     sensor part of observation row ``obs[b]``."""
     px, py = state[b, X], state[b, Y]
     c, s = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+    state[b, HEADING_COS], state[b, HEADING_SIN] = c, s
     scale = params[P_RANGE_NOISE]
     for i in range(6):  # beams: slant range along the tilted beam = horizontal distance / cos(19.47°)
         dx, dy = c * _BEAM_COS[i] - s * _BEAM_SIN[i], s * _BEAM_COS[i] + c * _BEAM_SIN[i]
@@ -319,13 +326,12 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
             state[b, BLOCKED_TIPS] += 1.0
             state[b, LAST_TIP_MOVED] = 0.0
             continue
-        x, y, heading = state[b, X], state[b, Y], state[b, HEADING]
-        angle = heading + TIP_ANGLES_RAD[a]
-        c, s = math.cos(angle), math.sin(angle)
+        x, y = state[b, X], state[b, Y]
+        hc, hs = state[b, HEADING_COS], state[b, HEADING_SIN]
+        c, s = hc * _TIP_COS[a] - hs * _TIP_SIN[a], hs * _TIP_COS[a] + hc * _TIP_SIN[a]  # the tip's direction
         forward = params[P_FORWARD] + params[P_FORWARD_SD] * z[0]
         lateral = params[P_LATERAL] + params[P_LATERAL_SD] * z[1]  # +lateral is to the right of the tip direction
         nx, ny = x + forward * c + lateral * s, y + forward * s - lateral * c
-        hc, hs = math.cos(heading), math.sin(heading)
         mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
         scratch[TIP_NX, b], scratch[TIP_NY, b] = nx, ny
         scratch[TIP_MX, b], scratch[TIP_MY, b] = x + hc * mx - hs * my, y + hs * mx + hc * my
@@ -346,14 +352,14 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
             state[b, X], state[b, Y] = scratch[TIP_MX, b], scratch[TIP_MY, b]
         else:
             state[b, X], state[b, Y] = scratch[TIP_NX, b], scratch[TIP_NY, b]
-        state[b, HEADING] = (state[b, HEADING] + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2]) % _TWO_PI
+        state[b, HEADING] = wrap_angle(state[b, HEADING] + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2])
         # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
         dh = state[b, DR_HEADING]
         dc, ds = math.cos(dh), math.sin(dh)
         mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
         state[b, DR_X] += dc * mx - ds * my
         state[b, DR_Y] += ds * mx + dc * my
-        state[b, DR_HEADING] = (dh + params[P_FRAME_TURN + a]) % _TWO_PI
+        state[b, DR_HEADING] = wrap_angle(dh + params[P_FRAME_TURN + a])
         old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
         state[b, FACE] = _NEIGHBOR[old, edge]
         state[b, EDGE0] = _BACK_EDGE[old, edge]
@@ -364,7 +370,9 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
     # 4. Sensing geometry at the new poses: six beams, the three mean landings and the centre, three motions.
     for b in range(n):
         px, py = state[b, X], state[b, Y]
-        c, s = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+        if scratch[TIP_ACTIVE, b] > 0.5:
+            state[b, HEADING_COS], state[b, HEADING_SIN] = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+        c, s = state[b, HEADING_COS], state[b, HEADING_SIN]
         for i in range(6):
             dx, dy = c * _BEAM_COS[i] - s * _BEAM_SIN[i], s * _BEAM_COS[i] + c * _BEAM_SIN[i]
             j = 6 * b + i
@@ -419,9 +427,9 @@ def write_info(b, state):
     state[b, POSE_INFO], state[b, POSE_INFO + 1], state[b, POSE_INFO + 2] = state[b, X], state[b, Y], heading
     state[b, DR_POSE_INFO], state[b, DR_POSE_INFO + 1] = state[b, DR_X], state[b, DR_Y]
     state[b, DR_POSE_INFO + 2] = math.degrees(state[b, DR_HEADING])
-    state[b, TIP_DIRECTIONS] = heading
-    state[b, TIP_DIRECTIONS + 1] = (heading + 120.0) % 360.0
-    state[b, TIP_DIRECTIONS + 2] = (heading + 240.0) % 360.0
+    state[b, TIP_DIRECTIONS] = heading  # in [0, 360): the others need at most one turn off
+    state[b, TIP_DIRECTIONS + 1] = heading + 120.0 if heading < 240.0 else heading - 240.0
+    state[b, TIP_DIRECTIONS + 2] = heading + 240.0 if heading < 120.0 else heading - 120.0
 
 
 @njit(cache=True)

@@ -87,8 +87,9 @@ class BuckybotVectorEnv(VectorEnv):
         if self._closed:
             raise ClosedEnvironmentError("this vector env is closed")
 
-    def _row_generators(self, seed) -> list[np.random.Generator]:
-        """Row i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i."""
+    def _row_generators(self, seed) -> list[tuple[np.random.Generator, bool]]:
+        """Row i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i, and whether it is a
+        new seed's."""
         n = self.num_envs
         if seed is None:
             seeds = [None] * n
@@ -101,10 +102,10 @@ class BuckybotVectorEnv(VectorEnv):
         generators = []
         for row, s in enumerate(seeds):
             current = self._core.sim.streams.generators[row]
-            if s is None:
-                generators.append(copy_generator(current) if current is not None else seeding.np_random(None)[0])
+            if s is None and current is not None:
+                generators.append((copy_generator(current), False))
             else:
-                generators.append(seeding.np_random(s)[0])
+                generators.append((seeding.np_random(s)[0], True))
         return generators
 
     def reset(self, *, seed=None, options: dict[str, Any] | None = None):
@@ -112,7 +113,7 @@ class BuckybotVectorEnv(VectorEnv):
         core = self._core
         options = core._check_options(options)
         generators = self._row_generators(seed)
-        prepared = [core._prepare_row(row, rng, options) for row, rng in enumerate(generators)]  # may raise
+        prepared = [core._prepare_row(row, rng, options, new) for row, (rng, new) in enumerate(generators)]  # may raise
         core._commit_rows(prepared)
         self._needs_reset[:] = False
         self._started = True
@@ -136,7 +137,7 @@ class BuckybotVectorEnv(VectorEnv):
         if restart.any():
             rows = np.flatnonzero(restart)
             generators = core.sim.streams.generators
-            core._commit_rows([core._prepare_row(int(row), generators[row], {}) for row in rows])
+            core._commit_rows([core._prepare_row(int(row), generators[row], {}, False) for row in rows])
             self._actions[restart] = -1  # these robots start a new episode: they neither move nor score
         core._advance(self._actions)
         if core._trail is not None and not restart[0]:
@@ -166,40 +167,49 @@ class BuckybotVectorEnv(VectorEnv):
             self._closed = True
 
     def _info(self) -> dict[str, Any]:
-        """The single env's info for every row, in Gymnasium's vector convention."""
+        """The single env's info for every row, in Gymnasium's vector convention.
+
+        Array entries are views of two fresh arrays (the ground-truth block and the reward/metric block), and every
+        ``_key`` mask is the same read-only all-true array: every row reports every key at every step.
+        """
         core = self._core
-        state, out = core.sim.state, core._out
-        n = self.num_envs
+        state = core.sim.state
+        truth = state[:, S.INFO_START : S.INFO_STOP].copy()
+        scores = core._out[:, : core._reward_column].copy()
         face, edge0 = state[:, S.FACE].astype(np.intp), state[:, S.EDGE0].astype(np.intp)
-        heading_deg = np.degrees(state[:, S.HEADING])
+
+        def block(column: int, width: int = 0) -> np.ndarray:
+            start = column - S.INFO_START
+            return truth[:, start] if width == 0 else truth[:, start : start + width]
+
         values: dict[str, Any] = {
             "action_mask": state[:, S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
             "face": face + 1,
-            "heading_deg": heading_deg,
-            "tip_directions_deg": np.stack(
-                [heading_deg, (heading_deg + 120.0) % 360.0, (heading_deg + 240.0) % 360.0], 1
-            ),
+            "heading_deg": block(S.POSE_INFO + 2),
+            "tip_directions_deg": block(S.TIP_DIRECTIONS, 3),
             "actuators": _ACTUATOR_TABLE[face, edge0],
             "sensor_faces": _SENSOR_FACE_TABLE[face, edge0],
-            "pose": np.stack([state[:, S.X], state[:, S.Y], heading_deg], 1),
-            "dead_reckoned_pose": np.stack([state[:, S.DR_X], state[:, S.DR_Y], np.degrees(state[:, S.DR_HEADING])], 1),
-            "true_range_cm": state[:, S.TRUE_RANGE : S.TRUE_RANGE + 6].copy(),
-            "wall_distance_cm": state[:, S.WALL_DISTANCE].copy(),
+            "pose": block(S.POSE_INFO, 3),
+            "dead_reckoned_pose": block(S.DR_POSE_INFO, 3),
+            "true_range_cm": block(S.TRUE_RANGE, 6),
+            "wall_distance_cm": block(S.WALL_DISTANCE),
             "blocked": state[:, S.BLOCKED] > 0.5,
         }
-        for j, key in enumerate(core._reward_keys):
-            values[key] = out[:, j].copy()
-        values.update(core._vector_task_info())
         k = len(core._reward_keys)
+        for j, key in enumerate(core._reward_keys):
+            values[key] = scores[:, j]
+        values.update(core._vector_task_info())
+        every_row = np.ones(self.num_envs, dtype=bool)
+        every_row.flags.writeable = False
         metrics: dict[str, Any] = {}
-        for j, name in enumerate(core.all_metric_names):
-            metrics[name] = out[:, k + j].copy()
-            metrics[f"_{name}"] = np.ones(n, dtype=bool)
+        for j, name in enumerate(core._metric_names):
+            metrics[name] = scores[:, k + j]
+            metrics[f"_{name}"] = every_row
         values["episode_metrics"] = metrics
         info: dict[str, Any] = {}
         for key, value in values.items():
             info[key] = value
-            info[f"_{key}"] = np.ones(n, dtype=bool)
+            info[f"_{key}"] = every_row
         return info
 
 

@@ -79,7 +79,14 @@ def _step_kernel(
         task[b, _ERROR_SUM] += abs(error)
         if abs(error) <= tp[_TOLERANCE]:  # following: mark the nearest wall's bins within reach
             k = int(state[b, S.WALL_SEGMENT])
-            for i in range(seg_bins[w, k, 0], seg_bins[w, k, 1]):
+            first, stop = seg_bins[w, k, 0], seg_bins[w, k, 1]
+            # Bins sit evenly along the wall: only those within reach of the foot along it can be within reach.
+            wall = walls[w, k]
+            along = ((state[b, S.FOOT_X] - wall[0]) * wall[2] + (state[b, S.FOOT_Y] - wall[1]) * wall[3]) * wall[4]
+            spread = tp[_REACH] * math.sqrt(wall[4]) * (stop - first)  # reach in bins
+            centre = along * (stop - first) - 0.5
+            lo, hi = max(first, first + int(math.ceil(centre - spread))), min(stop, first + int(centre + spread) + 1)
+            for i in range(lo, hi):
                 if not followed[b, i] and math.hypot(bins[w, i, 0] - x, bins[w, i, 1] - y) <= tp[_REACH]:
                     followed[b, i] = True
                     task[b, _FOLLOWED] += bins[w, i, 2]

@@ -226,24 +226,19 @@ class FloorPlan:
         block = g.region[max(row - 1, 0) : row + 2, max(col - 1, 0) : col + 2]
         return bool((block == g.main_region).any())
 
-    def sample_start(
-        self, rng: np.random.Generator, min_clearance: float, cell_cm: float = 10.0, size: int | None = None
-    ) -> np.ndarray:
-        """Uniformly drawn points of the main region at least ``min_clearance`` from every wall: (2,), or
-        (size, 2) when ``size`` is given (drawn with the same calls, so ``size=1`` matches the single draw)."""
-        g = self.grid(cell_cm)
+    def sample_start(self, rng: np.random.Generator, min_clearance: float, cell_cm: float = 10.0) -> np.ndarray:
+        """A uniformly drawn point of the main region at least ``min_clearance`` from every wall: one cell among
+        the eligible ones, then a uniform point inside it (two generator calls)."""
         key = ("eligible", float(min_clearance), float(cell_cm))
         if key not in self._cache:
-            self._cache[key] = np.flatnonzero(
-                ((g.region == g.main_region) & (g.clearance >= min_clearance + cell_cm)).ravel()
-            )
-        eligible = self._cache[key]
+            g = self.grid(cell_cm)
+            eligible = np.flatnonzero(((g.region == g.main_region) & (g.clearance >= min_clearance + cell_cm)).ravel())
+            self._cache[key] = (eligible, g.shape[1], g.origin, g.cell_cm)
+        eligible, width, origin, cell = self._cache[key]
         if eligible.size == 0:
             raise ValueError(
                 f"floor_plan {self.name!r} has no free space at least {min_clearance:.1f} cm from every wall"
             )
-        n = 1 if size is None else int(size)
-        cell = eligible[rng.integers(eligible.size, size=n)]
-        row, col = np.divmod(cell, g.shape[1])
-        points = g.origin + (np.stack([col, row], axis=-1) + rng.uniform(0.0, 1.0, size=(n, 2))) * g.cell_cm
-        return points[0] if size is None else points
+        row, col = divmod(int(eligible[rng.integers(eligible.size)]), width)
+        u = rng.random(2)
+        return np.array([origin[0] + (col + u[0]) * cell, origin[1] + (row + u[1]) * cell])
