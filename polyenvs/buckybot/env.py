@@ -398,7 +398,7 @@ class BuckybotEnv(gym.Env):
         sim.streams.refill()
         self._step_kernel(
             actions, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
-            self._out, sim.scratch, *self._kernel_arrays,
+            self._out, sim.scratch, sim.groups, *self._kernel_arrays,
         )  # fmt: skip
 
     def _option_pose(self, plan: FloorPlan, pose) -> tuple[np.ndarray, float]:

@@ -68,8 +68,10 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, c
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, task, cells, free, grids, tp):
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch)
+def _step_kernel(
+    actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, cells, free, grids, tp
+):
+    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:

@@ -67,30 +67,37 @@ NO_RETURN = 20  # 6: 1 where nothing was seen within range
 ALLOWED = 26  # 3: 1 where a tip would not hit a wall
 FOOT_X, FOOT_Y, WALL_SEGMENT = 29, 30, 31
 BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 32, 33, 34, 35, 36
-HEADING_COS, HEADING_SIN = 37, 38  # of HEADING, kept from the last sense so a tip needs no trigonometry
+# Cosine and sine of HEADING (from the last sense) and DR_HEADING (turned by the fixed mean turn of each tip),
+# kept so that a tip needs no trigonometry of its own.
+HEADING_COS, HEADING_SIN, DR_COS, DR_SIN = 37, 38, 39, 40
 # The ground truth ``info`` publishes, in the units it publishes, contiguous so one copy serves every key.
-POSE_INFO = 39  # 3: x, y (cm), heading of frame direction 0 (deg)
-DR_POSE_INFO = 42  # 3: the dead-reckoned pose, the same way
-TIP_DIRECTIONS = 45  # 3: world azimuths (deg) of the three actions
-TRUE_RANGE = 48  # 6: slant range along each upper beam to the first wall (inf if none)
-WALL_DISTANCE = 54  # distance from the centre to the nearest wall
+POSE_INFO = 41  # 3: x, y (cm), heading of frame direction 0 (deg)
+DR_POSE_INFO = 44  # 3: the dead-reckoned pose, the same way
+TIP_DIRECTIONS = 47  # 3: world azimuths (deg) of the three actions
+TRUE_RANGE = 50  # 6: slant range along each upper beam to the first wall (inf if none)
+WALL_DISTANCE = 56  # distance from the centre to the nearest wall
 INFO_START, INFO_STOP = POSE_INFO, WALL_DISTANCE + 1
-STATE_COLUMNS = 55
+STATE_COLUMNS = 57
 
 # Entries of ``BuckybotSimulator.params``.
 P_FORWARD, P_FORWARD_SD, P_LATERAL, P_LATERAL_SD, P_TURN_SD, P_BODY_RADIUS, P_RANGE_NOISE = range(7)
 P_MEAN_OFFSETS = 7  # 6: (3, 2) mean displacement of each tip in the motion frame
-P_FRAME_TURN = 13  # 3: frame rotation of each tip (rad)
-N_PARAMS = 16
+P_FRAME_TURN = 13  # 3: mean frame rotation of each tip (rad)
+P_TURN_COS, P_TURN_SIN = 16, 19  # 3 each: its cosine and sine
+P_STEP_REACH = 22  # length of the mean tip displacement (the same for the three tips)
+N_PARAMS = 23
 
 # Rows of the step's scratch array ``(SCRATCH_ROWS, 6 * batch)``: flat query arrays for the batched geometry
-# kernels (rays: 6 per robot; points: 4 per robot, the three mean landings and the centre; paths: 3 per robot,
-# the three mean tip motions, or 1 per robot, the noisy tip motion), then per-robot tip proposals.
+# kernels. Rays: 6 per robot. Centres: 1 per robot. Landings and motions: 3 per robot near a wall (compacted; the
+# robot of each group is in ``groups[1]``), or 1 per tipping robot near a wall (``groups[0]``). Tip proposals.
 R_OX, R_OY, R_DX, R_DY, R_T = range(5)
 PT_X, PT_Y, PT_D2, PT_K = range(5, 9)
-MV_AX, MV_AY, MV_BX, MV_BY, MV_HIT = range(9, 14)
-TIP_NX, TIP_NY, TIP_MX, TIP_MY, TIP_ACTIVE = range(14, 19)
-SCRATCH_ROWS = 19
+C_X, C_Y, C_D2, C_K = range(9, 13)
+MV_AX, MV_AY, MV_BX, MV_BY, MV_HIT = range(13, 18)
+TIP_NX, TIP_NY, TIP_MX, TIP_MY, TIP_ACTIVE, TIP_SAFE = range(18, 24)
+SCRATCH_ROWS = 24
+# A query is skipped only when the triangle inequality settles it with this much to spare (cm).
+_MARGIN_CM = 1e-6
 
 # The sensor part of every Buckybot observation (the first 19 entries).
 OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = 0, 6, 12, 18
@@ -147,7 +154,10 @@ def pack_params(tip_model: TipModel, range_noise_scale: float, body_radius_cm: f
     params[P_TURN_SD] = np.radians(tip_model.heading_sd_deg)
     params[P_BODY_RADIUS], params[P_RANGE_NOISE] = body_radius_cm, range_noise_scale
     params[P_MEAN_OFFSETS : P_MEAN_OFFSETS + 6] = tip_model.mean_offsets().ravel()
-    params[P_FRAME_TURN : P_FRAME_TURN + 3] = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
+    turn = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
+    params[P_FRAME_TURN : P_FRAME_TURN + 3] = turn
+    params[P_TURN_COS : P_TURN_COS + 3], params[P_TURN_SIN : P_TURN_SIN + 3] = np.cos(turn), np.sin(turn)
+    params[P_STEP_REACH] = float(np.hypot(*tip_model.mean_offsets()[0]))
     return params
 
 
@@ -180,6 +190,9 @@ class BuckybotSimulator:
         self.streams = RowStreams(b, NORMALS_PER_STEP)
         self.observation = np.zeros((b, N_SENSOR_OBS), dtype=np.float32)
         self.scratch = np.zeros((SCRATCH_ROWS, 6 * b))
+        # Robot of each compacted query group: tipping robots near a wall, robots near a wall, every robot.
+        self.groups = np.zeros((3, b), dtype=np.int64)
+        self.groups[2] = np.arange(b)
 
     # Named views of the packed state (writable where that makes sense).
     position = property(lambda self: self.state[:, X : Y + 1])
@@ -211,6 +224,7 @@ class BuckybotSimulator:
         state[index, EDGE0] = 0
         state[index, HEADING] = np.mod(heading, _TWO_PI)
         state[index, DR_HEADING] = state[index, HEADING]
+        state[index, DR_COS], state[index, DR_SIN] = np.cos(state[index, HEADING]), np.sin(state[index, HEADING])
         state[index, BLOCKED : LAST_TIP_MOVED + 1] = 0.0
 
     # --- dynamics with explicit draws (analysis and tests) ----------------------------------------------------
@@ -241,6 +255,19 @@ def wrap_angle(angle):
 
 
 @njit(cache=True)
+def dead_reckon(b, a, state, params):
+    """The robot's own estimate after tip ``a`` succeeded: it replays the mean model (no trigonometry: the
+    heading's cosine and sine turn by the tip's fixed mean turn)."""
+    dc, ds = state[b, DR_COS], state[b, DR_SIN]
+    mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
+    state[b, DR_X] += dc * mx - ds * my
+    state[b, DR_Y] += ds * mx + dc * my
+    tc, ts = params[P_TURN_COS + a], params[P_TURN_SIN + a]
+    state[b, DR_COS], state[b, DR_SIN] = dc * tc - ds * ts, ds * tc + dc * ts
+    state[b, DR_HEADING] = wrap_angle(state[b, DR_HEADING] + params[P_FRAME_TURN + a])
+
+
+@njit(cache=True)
 def tip_row(b, a, state, walls, params, z):
     """Tip robot ``b`` in frame direction ``a`` with draws ``z[0:3]``; returns whether it was blocked."""
     blocked = state[b, ALLOWED + a] < 0.5
@@ -258,12 +285,7 @@ def tip_row(b, a, state, walls, params, z):
         nx, ny = x + hc * mx - hs * my, y + hs * mx + hc * my  # contact stops the body at the checked landing
     state[b, X], state[b, Y] = nx, ny
     state[b, HEADING] = wrap_angle(heading + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2])
-    # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
-    dh = state[b, DR_HEADING]
-    dc, ds = math.cos(dh), math.sin(dh)
-    state[b, DR_X] += dc * mx - ds * my
-    state[b, DR_Y] += ds * mx + dc * my
-    state[b, DR_HEADING] = wrap_angle(dh + params[P_FRAME_TURN + a])
+    dead_reckon(b, a, state, params)
     old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
     state[b, FACE] = _NEIGHBOR[old, edge]
     state[b, EDGE0] = _BACK_EDGE[old, edge]
@@ -302,24 +324,26 @@ def sense_row(b, state, walls, params, z, obs):
 
 
 @njit(cache=True, error_model="numpy")
-def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
+def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups):
     """One step of every robot whose action is >= 0: tip, update its records, sense; writes the sensor part of
     its observation row. Each consumes one draw row of its block.
 
-    The same physics as ``tip_row`` and ``sense_row``, with every wall query of the batch made by the batched
-    geometry kernels (walls outside, queries inside) instead of robot by robot: about twice as fast for many
-    robots, and the same numbers.
+    The same physics as ``tip_row`` and ``sense_row``, with the wall queries of the whole batch made by the
+    batched geometry kernels (walls outside, queries inside). Queries the triangle inequality settles are
+    skipped: a robot farther from every wall than a step plus the body radius can neither cross a wall nor land
+    against one, so only robots near walls check their motions and landings.
     """
     n = actions.shape[0]
-    # 1. Tip proposals: the noisy landing and the checked mean landing of every robot that tips.
+    radius, reach = params[P_BODY_RADIUS], params[P_STEP_REACH]
+    # 1. Tip proposals: the noisy landing and the checked mean landing of every robot that tips. The noisy motion
+    #    needs checking only if it could touch a wall or end within half the body radius of one.
+    near = 0
     for b in range(n):
         scratch[TIP_ACTIVE, b] = 0.0
-        scratch[MV_AX, b] = scratch[MV_BX, b] = scratch[PT_X, b] = state[b, X]
-        scratch[MV_AY, b] = scratch[MV_BY, b] = scratch[PT_Y, b] = state[b, Y]
         a = actions[b]
         if a < 0:
             continue
-        z = normals[b, cursor[b]]
+        c_b = cursor[b]  # index the draws directly: a view per robot would cost two atomic reference counts
         state[b, STEPS] += 1.0
         if state[b, ALLOWED + a] < 0.5:
             state[b, BLOCKED] = 1.0
@@ -329,37 +353,41 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
         x, y = state[b, X], state[b, Y]
         hc, hs = state[b, HEADING_COS], state[b, HEADING_SIN]
         c, s = hc * _TIP_COS[a] - hs * _TIP_SIN[a], hs * _TIP_COS[a] + hc * _TIP_SIN[a]  # the tip's direction
-        forward = params[P_FORWARD] + params[P_FORWARD_SD] * z[0]
-        lateral = params[P_LATERAL] + params[P_LATERAL_SD] * z[1]  # +lateral is to the right of the tip direction
-        nx, ny = x + forward * c + lateral * s, y + forward * s - lateral * c
+        forward = params[P_FORWARD] + params[P_FORWARD_SD] * normals[b, c_b, 0]
+        lateral = params[P_LATERAL] + params[P_LATERAL_SD] * normals[b, c_b, 1]  # +lateral: right of the tip
+        dx, dy = forward * c + lateral * s, forward * s - lateral * c
         mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
-        scratch[TIP_NX, b], scratch[TIP_NY, b] = nx, ny
+        scratch[TIP_NX, b], scratch[TIP_NY, b] = x + dx, y + dy
         scratch[TIP_MX, b], scratch[TIP_MY, b] = x + hc * mx - hs * my, y + hs * mx + hc * my
-        scratch[TIP_ACTIVE, b] = 1.0
-        scratch[MV_BX, b], scratch[MV_BY, b] = nx, ny
-        scratch[PT_X, b], scratch[PT_Y, b] = nx, ny
-    # 2. Is each noisy motion clear of the walls?
-    crossings(walls, 1, n, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT])
-    nearest_squared(walls, 1, n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
+        scratch[TIP_ACTIVE, b] = scratch[TIP_SAFE, b] = 1.0
+        if state[b, WALL_DISTANCE] < math.sqrt(dx * dx + dy * dy) + 0.5 * radius + _MARGIN_CM:
+            scratch[MV_AX, near], scratch[MV_AY, near] = x, y
+            scratch[MV_BX, near] = scratch[C_X, near] = x + dx
+            scratch[MV_BY, near] = scratch[C_Y, near] = y + dy
+            groups[0, near] = b
+            near += 1
+    # 2. Do those noisy motions touch a wall, or end too close to one?
+    crossings(
+        walls, groups[0], 1, near, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT]
+    )
+    nearest_squared(walls, groups[0], 1, near, scratch[C_X], scratch[C_Y], scratch[C_D2], scratch[C_K])
+    half_radius_sq = (0.5 * radius) ** 2
+    for g in range(near):
+        if scratch[MV_HIT, g] > 0.5 or scratch[C_D2, g] < half_radius_sq:
+            scratch[TIP_SAFE, groups[0, g]] = 0.0
     # 3. Move: the noisy landing, or the checked one where contact stops the body; dead reckoning; faces.
-    half_radius_sq = (0.5 * params[P_BODY_RADIUS]) ** 2
     for b in range(n):
         if scratch[TIP_ACTIVE, b] < 0.5:
             continue
         a = actions[b]
-        z = normals[b, cursor[b]]
-        if scratch[MV_HIT, b] > 0.5 or scratch[PT_D2, b] < half_radius_sq:
-            state[b, X], state[b, Y] = scratch[TIP_MX, b], scratch[TIP_MY, b]
-        else:
+        if scratch[TIP_SAFE, b] > 0.5:
             state[b, X], state[b, Y] = scratch[TIP_NX, b], scratch[TIP_NY, b]
-        state[b, HEADING] = wrap_angle(state[b, HEADING] + params[P_FRAME_TURN + a] + params[P_TURN_SD] * z[2])
-        # Dead reckoning: the robot replays the mean model for the tips it knows succeeded.
-        dh = state[b, DR_HEADING]
-        dc, ds = math.cos(dh), math.sin(dh)
-        mx, my = params[P_MEAN_OFFSETS + 2 * a], params[P_MEAN_OFFSETS + 2 * a + 1]
-        state[b, DR_X] += dc * mx - ds * my
-        state[b, DR_Y] += ds * mx + dc * my
-        state[b, DR_HEADING] = wrap_angle(dh + params[P_FRAME_TURN + a])
+        else:
+            state[b, X], state[b, Y] = scratch[TIP_MX, b], scratch[TIP_MY, b]
+        turn = params[P_FRAME_TURN + a] + params[P_TURN_SD] * normals[b, cursor[b], 2]
+        state[b, HEADING] = wrap_angle(state[b, HEADING] + turn)
+        state[b, HEADING_COS], state[b, HEADING_SIN] = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
+        dead_reckon(b, a, state, params)
         old, edge = int(state[b, FACE]), (int(state[b, EDGE0]) + a) % 3
         state[b, FACE] = _NEIGHBOR[old, edge]
         state[b, EDGE0] = _BACK_EDGE[old, edge]
@@ -367,39 +395,57 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
         if a == 0 and state[b, LAST_TIP_MOVED] > 0.5:
             state[b, OSCILLATIONS] += 1.0  # undid the previous tip: the robot alternates between two faces
         state[b, LAST_TIP_MOVED] = 1.0
-    # 4. Sensing geometry at the new poses: six beams, the three mean landings and the centre, three motions.
+    # 4. Sensing geometry at the new poses: six beams and the centre of every robot.
     for b in range(n):
         px, py = state[b, X], state[b, Y]
-        if scratch[TIP_ACTIVE, b] > 0.5:
-            state[b, HEADING_COS], state[b, HEADING_SIN] = math.cos(state[b, HEADING]), math.sin(state[b, HEADING])
         c, s = state[b, HEADING_COS], state[b, HEADING_SIN]
         for i in range(6):
             dx, dy = c * _BEAM_COS[i] - s * _BEAM_SIN[i], s * _BEAM_COS[i] + c * _BEAM_SIN[i]
             j = 6 * b + i
             scratch[R_OX, j], scratch[R_OY, j] = px + _SENSOR_OFFSET * dx, py + _SENSOR_OFFSET * dy
             scratch[R_DX, j], scratch[R_DY, j] = dx, dy
+        scratch[PT_X, b], scratch[PT_Y, b] = px, py
+    first_hits(walls, groups[2], 6, 6 * n, scratch[R_OX], scratch[R_OY], scratch[R_DX], scratch[R_DY], scratch[R_T])
+    nearest_squared(walls, groups[2], 1, n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
+    # 5. The action mask: robots near a wall check their three mean landings and motions.
+    near = 0
+    for b in range(n):
+        if actions[b] < 0 or math.sqrt(scratch[PT_D2, b]) >= reach + radius + _MARGIN_CM:
+            continue
+        px, py = state[b, X], state[b, Y]
+        c, s = state[b, HEADING_COS], state[b, HEADING_SIN]
         for j in range(3):
             mx, my = params[P_MEAN_OFFSETS + 2 * j], params[P_MEAN_OFFSETS + 2 * j + 1]
-            lx, ly = px + c * mx - s * my, py + s * mx + c * my
-            scratch[PT_X, 4 * b + j], scratch[PT_Y, 4 * b + j] = lx, ly
-            scratch[MV_AX, 3 * b + j], scratch[MV_AY, 3 * b + j] = px, py
-            scratch[MV_BX, 3 * b + j], scratch[MV_BY, 3 * b + j] = lx, ly
-        scratch[PT_X, 4 * b + 3], scratch[PT_Y, 4 * b + 3] = px, py
-    first_hits(walls, 6, 6 * n, scratch[R_OX], scratch[R_OY], scratch[R_DX], scratch[R_DY], scratch[R_T])
-    nearest_squared(walls, 4, 4 * n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
-    crossings(walls, 3, 3 * n, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT])
-    # 5. What the sensors report, the action mask, the nearest wall.
-    radius_sq = params[P_BODY_RADIUS] ** 2
+            q = 3 * near + j
+            scratch[MV_AX, q], scratch[MV_AY, q] = px, py
+            scratch[MV_BX, q] = scratch[C_X, q] = px + c * mx - s * my
+            scratch[MV_BY, q] = scratch[C_Y, q] = py + s * mx + c * my
+        groups[1, near] = b
+        near += 1
+    nearest_squared(walls, groups[1], 3, 3 * near, scratch[C_X], scratch[C_Y], scratch[C_D2], scratch[C_K])
+    crossings(
+        walls, groups[1], 3, 3 * near, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT]
+    )
+    for b in range(n):
+        if actions[b] >= 0:
+            state[b, ALLOWED], state[b, ALLOWED + 1], state[b, ALLOWED + 2] = 1.0, 1.0, 1.0
+    radius_sq = radius * radius
+    for g in range(near):
+        b = groups[1, g]
+        for j in range(3):
+            clear = scratch[C_D2, 3 * g + j] >= radius_sq and scratch[MV_HIT, 3 * g + j] < 0.5
+            state[b, ALLOWED + j] = 1.0 if clear else 0.0
+    # 6. What the sensors report, the nearest wall.
     scale = params[P_RANGE_NOISE]
     shared = walls.shape[0] == 1
     for b in range(n):
         if actions[b] < 0:
             continue
-        z = normals[b, cursor[b]]
+        c_b = cursor[b]
         cursor[b] += 1
         for i in range(6):
             d = scratch[R_T, 6 * b + i] / _COS_ELEVATION  # slant range along the tilted beam
-            reading, too_close, no_return, normalised = measure_one(d, z[3 + i], scale)
+            reading, too_close, no_return, normalised = measure_one(d, normals[b, c_b, 3 + i], scale)
             close, none = 1.0 if too_close else 0.0, 1.0 if no_return else 0.0
             state[b, TRUE_RANGE + i], state[b, READING + i] = d, reading
             state[b, TOO_CLOSE + i], state[b, NO_RETURN + i] = close, none
@@ -407,15 +453,11 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch):
             obs[b, OBS_TOO_CLOSE + i] = close
             obs[b, OBS_NO_RETURN + i] = none
         obs[b, OBS_TIP_FAILED] = state[b, BLOCKED]
-        for j in range(3):  # the action mask: the mean landing keeps the body off the walls, the motion crosses none
-            clear = scratch[PT_D2, 4 * b + j] >= radius_sq and scratch[MV_HIT, 3 * b + j] < 0.5
-            state[b, ALLOWED + j] = 1.0 if clear else 0.0
-        k = int(scratch[PT_K, 4 * b + 3])
-        ws = walls[0 if shared else b]
-        along = ((state[b, X] - ws[k, 0]) * ws[k, 2] + (state[b, Y] - ws[k, 1]) * ws[k, 3]) * ws[k, 4]
-        along = min(max(along, 0.0), 1.0)
-        state[b, WALL_DISTANCE] = math.sqrt(scratch[PT_D2, 4 * b + 3])
-        state[b, FOOT_X], state[b, FOOT_Y] = ws[k, 0] + along * ws[k, 2], ws[k, 1] + along * ws[k, 3]
+        k, w = int(scratch[PT_K, b]), 0 if shared else b
+        sx, sy, vx, vy = walls[w, k, 0], walls[w, k, 1], walls[w, k, 2], walls[w, k, 3]
+        along = min(max(((state[b, X] - sx) * vx + (state[b, Y] - sy) * vy) * walls[w, k, 4], 0.0), 1.0)
+        state[b, WALL_DISTANCE] = math.sqrt(scratch[PT_D2, b])
+        state[b, FOOT_X], state[b, FOOT_Y] = sx + along * vx, sy + along * vy
         state[b, WALL_SEGMENT] = k
         write_info(b, state)
 

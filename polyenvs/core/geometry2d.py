@@ -208,8 +208,8 @@ def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.nda
 
 
 # --- Batched, branch-free kernels: walls in the outer loop, queries inner, so the compiler vectorises them ------
-# Queries are flat arrays grouped by robot, ``per`` consecutive entries a robot. With one shared wall set
-# (W = 1) every query meets every wall in one sweep; with a wall set per robot, robot b's queries meet walls[b].
+# Queries are flat arrays in groups of ``per`` consecutive entries (a robot's rays, say). With one shared wall set
+# (W = 1) every query meets every wall in one sweep; with a wall set per robot, group g meets walls[owners[g]].
 # They give exactly the scalar kernels' numbers (same operations, same wall order, no fast-math).
 
 
@@ -229,15 +229,15 @@ def _rays_against(ws, lo, hi, ox, oy, dx, dy, best):
 
 
 @njit(cache=True, error_model="numpy")
-def first_hits(walls, per, n, ox, oy, dx, dy, best):
+def first_hits(walls, owners, per, n, ox, oy, dx, dy, best):
     """``best[:n]``: distance along each ray ``(o, d)`` to the first wall (``inf`` if none); as ``ray_distance``."""
     for j in range(n):
         best[j] = math.inf
     if walls.shape[0] == 1:
         _rays_against(walls[0], 0, n, ox, oy, dx, dy, best)
     else:
-        for b in range(n // per):
-            _rays_against(walls[b], b * per, (b + 1) * per, ox, oy, dx, dy, best)
+        for g in range(n // per):
+            _rays_against(walls[owners[g]], g * per, (g + 1) * per, ox, oy, dx, dy, best)
 
 
 @njit(cache=True, error_model="numpy")
@@ -256,7 +256,7 @@ def _nearest_against(ws, lo, hi, px, py, best, index):
 
 
 @njit(cache=True, error_model="numpy")
-def nearest_squared(walls, per, n, px, py, best, index):
+def nearest_squared(walls, owners, per, n, px, py, best, index):
     """``best[:n]``: squared distance from each point to the nearest wall, ``index[:n]`` that wall (as
     ``nearest_point``, which also gives the foot)."""
     for j in range(n):
@@ -265,8 +265,8 @@ def nearest_squared(walls, per, n, px, py, best, index):
     if walls.shape[0] == 1:
         _nearest_against(walls[0], 0, n, px, py, best, index)
     else:
-        for b in range(n // per):
-            _nearest_against(walls[b], b * per, (b + 1) * per, px, py, best, index)
+        for g in range(n // per):
+            _nearest_against(walls[owners[g]], g * per, (g + 1) * per, px, py, best, index)
 
 
 @njit(cache=True, error_model="numpy")
@@ -291,12 +291,12 @@ def _crossings_against(ws, lo, hi, ax, ay, bx, by, hit):
 
 
 @njit(cache=True, error_model="numpy")
-def crossings(walls, per, n, ax, ay, bx, by, hit):
+def crossings(walls, owners, per, n, ax, ay, bx, by, hit):
     """``hit[:n]``: 1 where the motion from a to b touches a wall, else 0 (as ``segment_crosses``)."""
     for j in range(n):
         hit[j] = 0.0
     if walls.shape[0] == 1:
         _crossings_against(walls[0], 0, n, ax, ay, bx, by, hit)
     else:
-        for b in range(n // per):
-            _crossings_against(walls[b], b * per, (b + 1) * per, ax, ay, bx, by, hit)
+        for g in range(n // per):
+            _crossings_against(walls[owners[g]], g * per, (g + 1) * per, ax, ay, bx, by, hit)
