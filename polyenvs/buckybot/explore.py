@@ -7,7 +7,7 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
-from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams, placement_gaps
+from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams_rotated, placement_gaps_rotated
 from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
@@ -27,16 +27,16 @@ _MAX_BATCH_CELLS = 500_000_000
 @njit(cache=True)
 def _observe(b, state, task, cells, free, grid, tp):
     """Mark row ``b``'s beams on its grid; returns the fraction of the free area newly observed."""
-    fresh = mark_beams(
-        cells[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING],
-        state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
+    fresh = mark_beams_rotated(
+        cells[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS],
+        state[b, S.HEADING_SIN], state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
         state[b, S.NO_RETURN : S.NO_RETURN + 6], free,
     )  # fmt: skip
     task[b, _SEEN] += fresh
     # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
-    total, count = placement_gaps(
-        state[b, S.X], state[b, S.Y], state[b, S.HEADING], state[b, S.DR_X], state[b, S.DR_Y],
-        state[b, S.DR_HEADING], state[b, S.READING : S.READING + 6],
+    total, count = placement_gaps_rotated(
+        state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS], state[b, S.HEADING_SIN], state[b, S.DR_X],
+        state[b, S.DR_Y], state[b, S.DR_COS], state[b, S.DR_SIN], state[b, S.READING : S.READING + 6],
     )  # fmt: skip
     task[b, _ERROR_SUM] += total
     task[b, _POINTS] += count

@@ -29,10 +29,14 @@ _RADIUS = 0
 def _goal_observation(b, state, task, obs):
     """The goal as the robot believes it: bearing (cos, sin) in the motion frame and tanh(distance / 200 cm)."""
     dx, dy = task[b, _GOAL_X] - state[b, S.DR_X], task[b, _GOAL_Y] - state[b, S.DR_Y]
-    bearing = math.atan2(dy, dx) - state[b, S.DR_HEADING]
-    obs[b, S.N_SENSOR_OBS] = math.cos(bearing)
-    obs[b, S.N_SENSOR_OBS + 1] = math.sin(bearing)
-    obs[b, S.N_SENSOR_OBS + 2] = math.tanh(math.hypot(dx, dy) / GOAL_DISTANCE_SCALE_CM)
+    distance = math.sqrt(dx * dx + dy * dy)
+    if distance > 0.0:  # rotate the direction into the frame with the kept cosine and sine of the heading
+        c, s = state[b, S.DR_COS], state[b, S.DR_SIN]
+        obs[b, S.N_SENSOR_OBS] = (dx * c + dy * s) / distance
+        obs[b, S.N_SENSOR_OBS + 1] = (dy * c - dx * s) / distance
+    else:
+        obs[b, S.N_SENSOR_OBS], obs[b, S.N_SENSOR_OBS + 1] = 1.0, 0.0
+    obs[b, S.N_SENSOR_OBS + 2] = math.tanh(distance / GOAL_DISTANCE_SCALE_CM)
 
 
 @njit(cache=True)

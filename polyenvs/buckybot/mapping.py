@@ -63,8 +63,15 @@ _SENSOR_COS, _SENSOR_SIN = np.cos(SENSOR_AZIMUTHS_RAD), np.sin(SENSOR_AZIMUTHS_R
 @njit(cache=True)
 def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
     """Compiled core of :func:`placement_error` for one pose pair."""
+    return placement_gaps_rotated(
+        xt, yt, math.cos(ht), math.sin(ht), xd, yd, math.cos(hd), math.sin(hd), reading
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def placement_gaps_rotated(xt, yt, cht, sht, xd, yd, chd, shd, reading):
+    """:func:`placement_gaps` with each heading given by its cosine and sine (a simulator that keeps them)."""
     ca, sa = _SENSOR_COS, _SENSOR_SIN
-    cht, sht, chd, shd = math.cos(ht), math.sin(ht), math.cos(hd), math.sin(hd)  # rotate, don't re-evaluate trig
     total, count = 0.0, 0
     for i in range(reading.shape[0]):
         if math.isnan(reading[i]):
@@ -72,7 +79,7 @@ def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
         r = (reading[i] + HEXAGON_INRADIUS_CM) * _COS_ELEVATION  # horizontal distance from the centre
         dx = xt - xd + r * ((cht * ca[i] - sht * sa[i]) - (chd * ca[i] - shd * sa[i]))
         dy = yt - yd + r * ((sht * ca[i] + cht * sa[i]) - (shd * ca[i] + chd * sa[i]))
-        total += math.hypot(dx, dy)
+        total += math.sqrt(dx * dx + dy * dy)
         count += 1
     return total, count
 
@@ -168,33 +175,41 @@ def _free_cells(cells, count_in, gx, gy, dx, dy, length):
         step_r, next_r, delta_r = -1, (row - py) * iy, -iy
     else:
         step_r, next_r, delta_r = 0, inf, inf
+    # The segment crosses exactly this many cell boundaries; counting them, rather than testing the distance
+    # travelled at every step, and choosing the axis without a branch make the walk a tight loop.
+    end_c = min(max(int(math.floor(px + span * dx)), 0), cols - 1)
+    end_r = min(max(int(math.floor(py + span * dy)), 0), rows - 1)
     fresh = 0
-    for _ in range(rows + cols + 4):  # a clipped segment crosses at most rows + cols boundaries
+    for _ in range(abs(end_c - col) + abs(end_r - row) + 1):
         if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
             cells[row, col] = 1
             if count_in[row, col]:
                 fresh += 1
-        if next_c < next_r:
-            if next_c > span:
-                break
-            col += step_c
-            next_c += delta_c
-        else:
-            if next_r > span:
-                break
-            row += step_r
-            next_r += delta_r
+        across = next_c < next_r
+        col += step_c if across else 0
+        row += 0 if across else step_r
+        next_c += delta_c if across else 0.0
+        next_r += 0.0 if across else delta_r
     return fresh
 
 
 @njit(cache=True)
 def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return, count_in):
     """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
-    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(heading)):
+    if not math.isfinite(heading):
+        return 0
+    return mark_beams_rotated(
+        cells, ox, oy, cell, x, y, math.cos(heading), math.sin(heading), reading, too_close, no_return, count_in
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def mark_beams_rotated(cells, ox, oy, cell, x, y, ch, sh, reading, too_close, no_return, count_in):
+    """:func:`mark_beams` with the heading given by its cosine and sine (a simulator that keeps them)."""
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(ch) and math.isfinite(sh)):
         return 0
     ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
     rows, cols = cells.shape
-    ch, sh = math.cos(heading), math.sin(heading)
     inv_cell = 1.0 / cell
     fresh = 0
     for i in range(6):
