@@ -10,38 +10,11 @@ and is cleared where ``episode_start`` is true.
 from __future__ import annotations
 
 import copy
-import numbers
 
 import numpy as np
 from gymnasium import spaces
 
-from polyenvs.core.validation import check_finite, check_in_range
-
-__all__ = ["Policy", "RandomPolicy", "check_flag", "check_parameter"]
-
-
-def check_parameter(name: str, value, low: float, high: float, *, low_open: bool = False) -> float:
-    """A baseline parameter: a real number (not a bool, not a string), finite, in ``[low, high]``.
-
-    ``low_open`` excludes ``low`` itself (``(low, high]``). Raises ``ValueError`` naming the parameter. The type
-    check is done here, as well as in :mod:`polyenvs.core.validation`, so that ``True`` or ``"50"`` from a JSON
-    ``--policy-kwargs`` is refused whatever version of those helpers is installed.
-    """
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    if low_open:
-        value = check_finite(name, value)
-        if not low < value <= high:
-            raise ValueError(f"{name} must be in ({low:g}, {high:g}], got {value!r}")
-        return value
-    return check_in_range(name, value, low, high)
-
-
-def check_flag(name: str, value) -> bool:
-    """A baseline switch: ``True`` or ``False`` (not 0/1 and not the string "false", which ``bool`` calls true)."""
-    if not isinstance(value, bool | np.bool_):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
-    return bool(value)
+__all__ = ["Policy", "RandomPolicy"]
 
 
 class Policy:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.base import Policy, check_flag, check_parameter
+from baselines.base import Policy
 from polyenvs.buckybot.env import SENSOR_OBSERVATION_STRUCTURE
 from polyenvs.buckybot.geometry import BODY_RADIUS_CM, STEP_LENGTH_CM
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_MIN_CM, horizontal_range, walls_from_readings
 from polyenvs.buckybot.simulator import TIP_ANGLES_RAD
+from polyenvs.core.validation import check_bool, check_in_range
 
 __all__ = ["GoalSeeker", "WallFollower", "WallFollowExplorer", "decode_readings"]
 
@@ -79,12 +80,12 @@ class WallFollower(Policy):
         avoid_failed_tip: bool = False,
     ):
         # Validate everything before keeping anything.
-        d_star_cm = check_parameter("d_star_cm", d_star_cm, BODY_RADIUS_CM, RANGE_MAX_CM)
-        x_s_cm = check_parameter("x_s_cm", x_s_cm, 0.0, RANGE_MAX_CM)
-        too_close_cm = check_parameter("too_close_cm", too_close_cm, 0.0, RANGE_MIN_CM, low_open=True)
-        no_backtrack = check_flag("no_backtrack", no_backtrack)
-        clockwise_exception = check_flag("clockwise_exception", clockwise_exception)
-        avoid_failed_tip = check_flag("avoid_failed_tip", avoid_failed_tip)
+        d_star_cm = check_in_range("d_star_cm", d_star_cm, BODY_RADIUS_CM, RANGE_MAX_CM)
+        x_s_cm = check_in_range("x_s_cm", x_s_cm, 0.0, RANGE_MAX_CM)
+        too_close_cm = check_in_range("too_close_cm", too_close_cm, 0.0, RANGE_MIN_CM, low_open=True)
+        no_backtrack = check_bool("no_backtrack", no_backtrack)
+        clockwise_exception = check_bool("clockwise_exception", clockwise_exception)
+        avoid_failed_tip = check_bool("avoid_failed_tip", avoid_failed_tip)
         super().__init__(observation_space, action_space)
         self.d_star_cm, self.x_s_cm, self.too_close_cm = d_star_cm, x_s_cm, too_close_cm
         self.no_backtrack, self.clockwise_exception = no_backtrack, clockwise_exception
@@ -173,7 +174,7 @@ class GoalSeeker(Policy):
     memory_size = 1  # has moved
 
     def __init__(self, observation_space, action_space, clearance_cm: float = 40.0):
-        clearance_cm = check_parameter("clearance_cm", clearance_cm, 0.0, RANGE_MAX_CM, low_open=True)
+        clearance_cm = check_in_range("clearance_cm", clearance_cm, 0.0, RANGE_MAX_CM, low_open=True)
         super().__init__(observation_space, action_space)
         self.clearance_cm = clearance_cm
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 
-__all__ = ["ENV_IDS", "EnvEntry", "REGISTRY", "VECTOR_BENCHMARKS", "register_all"]
+__all__ = ["ENV_IDS", "EnvEntry", "REGISTRY", "register_all"]
 
 
 @dataclass(frozen=True)
@@ -53,17 +53,6 @@ REGISTRY: tuple[EnvEntry, ...] = (
 )
 
 ENV_IDS: list[str] = [entry.id for entry in REGISTRY]
-
-
-def _make_native_vector(env_id: str):
-    def make(num_envs: int):
-        return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
-
-    return make
-
-
-#: Native vector envs measured by ``benchmarks/throughput.py``: id -> make(num_envs).
-VECTOR_BENCHMARKS = {entry.id: _make_native_vector(entry.id) for entry in REGISTRY if entry.vector_entry_point}
 
 
 def register_all() -> None:

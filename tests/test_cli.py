@@ -20,6 +20,7 @@ import pytest
 import polyenvs
 from baselines import make_policy
 from polyenvs.cli import ProgressBar, main
+from tests.cli_helpers import run_main
 
 ROOT = Path(__file__).resolve().parent.parent
 GOAL, WALL, EXPLORE = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0"
@@ -29,16 +30,6 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "polyenvs.cli", *args], capture_output=True, text=True, timeout=300, cwd=ROOT
     )
-
-
-def run_main(args: list[str], capsys) -> tuple[int, str, str]:
-    """``main(args)`` in this process: (exit code, stdout, stderr), argparse's exits included."""
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def assert_one_line_error(code: int, err: str, fragment: str) -> None:

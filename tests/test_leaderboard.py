@@ -17,6 +17,7 @@ import polyenvs.evaluation
 import polyenvs.leaderboard
 from polyenvs.cli import main
 from polyenvs.leaderboard import load_result, result_path
+from tests.cli_helpers import run_main
 
 ROOT = Path(__file__).resolve().parent.parent
 GOAL, WALL = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0"
@@ -32,15 +33,6 @@ def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
         str(tmp_path / "LEADERBOARD.md"),
         *extra,
     ]
-
-
-def run_main(args: list[str], capsys) -> tuple[int, str, str]:
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def assert_one_line_error(code, err, fragment):

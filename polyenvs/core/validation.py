@@ -17,7 +17,16 @@ import numbers
 
 import numpy as np
 
-__all__ = ["check_action", "check_choice", "check_finite", "check_in_range", "check_int", "check_positive", "show"]
+__all__ = [
+    "check_action",
+    "check_bool",
+    "check_choice",
+    "check_finite",
+    "check_in_range",
+    "check_int",
+    "check_positive",
+    "show",
+]
 
 
 def show(value) -> str:
@@ -45,12 +54,19 @@ def check_positive(name: str, value, *, allow_zero: bool = False) -> float:
     return value
 
 
-def check_in_range(name: str, value, low: float, high: float) -> float:
-    """A finite number in the closed range ``[low, high]``."""
+def check_in_range(name: str, value, low: float, high: float, *, low_open: bool = False) -> float:
+    """A finite number in ``[low, high]`` (``(low, high]`` with ``low_open``)."""
     value = check_finite(name, value)
-    if not low <= value <= high:
-        raise ValueError(f"{name} must be in [{low:g}, {high:g}], got {value!r}")
+    if not (low < value if low_open else low <= value) or not value <= high:
+        raise ValueError(f"{name} must be in {'(' if low_open else '['}{low:g}, {high:g}], got {value!r}")
     return value
+
+
+def check_bool(name: str, value) -> bool:
+    """A switch: ``True`` or ``False`` (not 0/1, and not the string "false", which ``bool`` calls true)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be true or false, got {show(value)}")
+    return bool(value)
 
 
 def check_int(name: str, value, low: int, high: int | None = None) -> int:
