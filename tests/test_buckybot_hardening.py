@@ -301,7 +301,14 @@ def test_clear_errors_for_render_before_reset_and_odd_options():
     assert "got 10.0" in str(error.value) and "np.float64" not in str(error.value)
 
 
-def test_actions_are_an_int_enum_and_play_has_keys():
+def test_actions_are_an_int_enum_and_play_has_keys(monkeypatch):
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pytest.importorskip("pygame")
+    from gymnasium.utils.play import PlayableGame
+
+    game_env = gym.make(IDS[0], render_mode="rgb_array")
+    game_env.reset(seed=0)
+    assert PlayableGame(game_env).relevant_keys == {ord("a"), ord("d"), ord("s")}
     env = gym.make(IDS[0], noise_scale=0.0)
     env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0), "face": 1})
     *_, info = env.step(BuckybotAction.FORWARD_LEFT)
