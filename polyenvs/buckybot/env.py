@@ -372,7 +372,7 @@ class BuckybotEnv(gym.Env):
             slot = self._slot(r.row)
             if self._slot_plans[slot] is not r.plan:
                 self._install_plan(slot, r.plan)
-            sim.place(r.row, r.position, r.face, r.heading)
+            sim.place_one(r.row, r.position, r.face, r.heading)
             sim.streams.restart(r.row, r.rng, r.reseeded)
             self._task_commit(r.row, r.task)
         rows = self._row0 if len(resets) == 1 and resets[0].row == 0 else np.array([r.row for r in resets])

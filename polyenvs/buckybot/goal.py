@@ -196,15 +196,26 @@ class BuckybotGoalEnv(BuckybotEnv):
 
     def _sample_goal(self, plan: FloorPlan, position: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A uniform point of the room ``goal_distance_cm`` from the robot (or, in a room too small for that, from
-        the farthest quarter of it), clear of the walls by the goal radius plus the body."""
-        cx, cy = self._goal_candidates(plan).T
-        distance_sq = (cx - position[0]) ** 2 + (cy - position[1]) ** 2
+        the farthest quarter of it), clear of the walls by the goal radius plus the body.
+
+        A uniform candidate cell is drawn until one lies in range (usually the first or second), which is the same
+        distribution as drawing from the cells in range; after 16 misses the range is computed for every cell."""
+        centres = self._goal_candidates(plan)
         low, high = self.goal_distance_cm
-        pool = np.flatnonzero((distance_sq >= low * low) & (distance_sq <= high * high))
-        if pool.size == 0:
-            pool = np.flatnonzero(distance_sq >= np.quantile(distance_sq, 0.75))
-        pick = pool[rng.integers(pool.size)]
-        return np.array([cx[pick], cy[pick]]) + (rng.random(2) - 0.5) * plan.grid().cell_cm
+        x, y = float(position[0]), float(position[1])
+        for _ in range(16):
+            cx, cy = centres[rng.integers(len(centres))].tolist()
+            if low * low <= (cx - x) ** 2 + (cy - y) ** 2 <= high * high:
+                break
+        else:
+            distance_sq = (centres[:, 0] - x) ** 2 + (centres[:, 1] - y) ** 2
+            pool = np.flatnonzero((distance_sq >= low * low) & (distance_sq <= high * high))
+            if pool.size == 0:
+                pool = np.flatnonzero(distance_sq >= np.quantile(distance_sq, 0.75))
+            cx, cy = centres[pool[rng.integers(pool.size)]].tolist()
+        u = rng.random(2)
+        cell = plan.grid().cell_cm
+        return np.array([cx + (u[0] - 0.5) * cell, cy + (u[1] - 0.5) * cell])
 
     def _get_info(self, row):
         info = super()._get_info(row)

@@ -215,6 +215,10 @@ class BuckybotSimulator:
             raise ValueError(f"walls of shape {packed.shape} do not fit a batch of {self.batch_size}")
         self.walls = np.ascontiguousarray(packed)
 
+    def place_one(self, row: int, position, face: int, heading: float) -> None:
+        """:meth:`place` for one robot, in one compiled call (a vector env resets a few robots every step)."""
+        _place_row(self.state, row, float(position[0]), float(position[1]), face, heading)
+
     def place(self, index, position, face, heading) -> None:
         """Put robots ``index`` at a pose (true and dead-reckoned pose agree at the start) and clear their records."""
         state = self.state
@@ -246,6 +250,17 @@ class BuckybotSimulator:
         draws = np.zeros((len(rows), NORMALS_PER_STEP))
         draws[:, 3:] = normals
         _sense_rows(rows, draws, self.state, self.walls, self.params, self.observation)
+
+
+@njit(cache=True)
+def _place_row(state, b, x, y, face, heading):
+    heading = wrap_angle(heading)
+    state[b, X], state[b, Y], state[b, DR_X], state[b, DR_Y] = x, y, x, y
+    state[b, FACE], state[b, EDGE0] = face, 0.0
+    state[b, HEADING] = state[b, DR_HEADING] = heading
+    state[b, DR_COS], state[b, DR_SIN] = math.cos(heading), math.sin(heading)
+    for column in range(BLOCKED, LAST_TIP_MOVED + 1):
+        state[b, column] = 0.0
 
 
 @njit(cache=True)
