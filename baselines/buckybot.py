@@ -58,15 +58,17 @@ class WallFollower(Policy):
         too_close_cm: the range assumed for a sensor that did not settle (it is near an obstacle): in
             (0, 30.48] cm, i.e. at most the sonar's minimum range ``RANGE_MIN_CM``.
         avoid_failed_tip: not in the paper: after a blocked tip (the accelerometer reports the same face), do not
-            repeat it; try the next-best direction instead of pushing against the wall again.
+            repeat any tip that failed since the last one that succeeded; try the next-best direction instead of
+            pushing against the wall again, and tip back (even with ``no_backtrack``) once both forward tips
+            failed, as at a door jamb.
 
     Numbers must be finite real numbers in their range and switches ``True``/``False``; anything else raises
     ``ValueError`` naming the parameter.
     """
 
     # sense (+1 counter-clockwise), last wall normal azimuth (frame), has a last wall, last action, has acted,
-    # has moved (a tip succeeded, so direction 0 now means "back")
-    memory_size = 6
+    # has moved (a tip succeeded, so direction 0 now means "back"), tips failed since the last success (bits)
+    memory_size = 7
 
     def __init__(
         self,
@@ -102,19 +104,23 @@ class WallFollower(Policy):
         }
 
     def initial_memory(self):
-        return np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        return np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 
     def act(self, observation, memory):
         reading, too_close, tip_failed = decode_readings(observation, self.too_close_cm)
-        sense, last_normal, has_wall, last_action, acted, has_moved = memory
+        sense, last_normal, has_wall, last_action, acted, has_moved, failed = memory
+        failed = int(failed)
         if acted and not tip_failed:
-            has_moved = 1.0
+            has_moved, failed = 1.0, 0
             last_normal -= _FRAME_TURN[int(last_action)]  # carry the remembered wall into the new frame
+        elif acted:
+            failed |= 1 << int(last_action)
         distance, normal_az = walls_from_readings(reading)
         if np.isnan(distance).all():
             # No wall in sight (one sensor alone is an object, not a wall): head for the most open direction.
             reach = np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading)[_FLANKING_SENSORS].min(axis=1)
             cost = -reach
+            back = cost[0]
             if has_moved:
                 cost[0] = np.inf  # keep going rather than turn back
             has_wall = 0.0
@@ -127,15 +133,18 @@ class WallFollower(Policy):
             along = sense * np.array([-normal[1], normal[0]])
             target = (d - self.d_star_cm) * normal + self.x_s_cm * along
             cost = np.hypot(*(_TIP_VECTORS - target).T)
+            back = cost[0]
             if self.no_backtrack and has_moved and not too_close[_FLANKING_SENSORS[1:]].any(axis=1).all():
                 cost[0] = np.inf
             last_normal, has_wall = az, 1.0
-        if self.avoid_failed_tip and tip_failed and acted:
-            cost[int(last_action)] = np.inf
+        if self.avoid_failed_tip and failed:
+            if failed & 0b110 == 0b110:  # both forward tips are blocked here: back off
+                cost[0] = back
+            cost[[j for j in range(3) if failed >> j & 1]] = np.inf
         if np.isinf(cost).all():
             cost = np.zeros(3)
         action = int(np.argmin(cost))
-        memory[:] = (sense, last_normal, has_wall, action, 1.0, has_moved)
+        memory[:] = (sense, last_normal, has_wall, action, 1.0, has_moved, failed)
         return action
 
 
