@@ -2,6 +2,11 @@
 
 The same seeds for every policy make comparisons paired; per-episode returns and task metrics (from
 ``info["episode_metrics"]``) are kept so a leaderboard can compute any statistic later.
+
+Conventions every command and family inherits from here: user input that cannot work raises ``InputError`` (a
+``ValueError``) before any episode runs; every result file is written through ``atomic_path`` (a hidden,
+gitignored temp file in the same folder, renamed into place, with the usual file mode), so an interrupted run
+never leaves a half-written file under its real name.
 """
 
 from __future__ import annotations

@@ -11,11 +11,12 @@ Paper: "Buckybot: preliminary control and mapping algorithms" (``../shared/seeds
 | ``mapping`` | occupancy grids from true or dead-reckoned poses (the paper's Figure 8) |
 | ``env``, ``wall_follow``, ``explore``, ``goal`` | the Gymnasium environments |
 | ``rendering`` | top-down frames |
-| ``analysis`` | the paper's dead-reckoning Monte Carlo |
+| ``analysis`` | the paper's dead-reckoning Monte Carlo and Figure 8 (``python -m polyenvs.buckybot.analysis``) |
 """
 
+from polyenvs.buckybot.env import BuckybotAction
 from polyenvs.buckybot.explore import BuckybotExploreEnv
 from polyenvs.buckybot.goal import BuckybotGoalEnv
 from polyenvs.buckybot.wall_follow import BuckybotWallFollowEnv
 
-__all__ = ["BuckybotExploreEnv", "BuckybotGoalEnv", "BuckybotWallFollowEnv"]
+__all__ = ["BuckybotAction", "BuckybotExploreEnv", "BuckybotGoalEnv", "BuckybotWallFollowEnv"]

@@ -360,8 +360,8 @@ class BuckybotEnv(gym.Env):
             position, heading = self._option_pose(plan, options["pose"])
         else:
             position = plan.sample_start(rng, self.start_clearance_cm)
-            heading = rng.uniform(0.0, 2 * np.pi)
-        face = self._option_face(options["face"]) if "face" in options else int(rng.integers(geo.N_FACES))
+            heading = 2 * np.pi * rng.random()
+        face = self._option_face(options["face"]) if "face" in options else int(geo.N_FACES * rng.random())
         task = self._task_sample(plan, position, rng, options)
         return _RowReset(row, rng, plan, position, heading, face, task, reseeded)
 

@@ -204,7 +204,7 @@ class BuckybotGoalEnv(BuckybotEnv):
         low, high = self.goal_distance_cm
         x, y = float(position[0]), float(position[1])
         for _ in range(16):
-            cx, cy = centres[rng.integers(len(centres))].tolist()
+            cx, cy = centres[int(rng.random() * len(centres))].tolist()
             if low * low <= (cx - x) ** 2 + (cy - y) ** 2 <= high * high:
                 break
         else:

@@ -57,9 +57,13 @@ class RowStreams:
             if self.cursor[0] >= BLOCK_STEPS:
                 self._refill_row(0)
             return
-        cursor = self.cursor if rows is None else self.cursor[rows]
-        for i in np.flatnonzero(cursor >= BLOCK_STEPS):
-            self._refill_row(int(i) if rows is None else int(rows[i]))
+        if rows is None:
+            for row in np.flatnonzero(self.cursor >= BLOCK_STEPS).tolist():
+                self._refill_row(row)
+            return
+        for row in rows.tolist():  # a few rows that were just reset
+            if self.cursor[row] >= BLOCK_STEPS:
+                self._refill_row(row)
 
     def _refill_row(self, row: int) -> None:
         self.normals[row] = self.generators[row].standard_normal((BLOCK_STEPS, self.draws_per_step))
