@@ -31,8 +31,7 @@ def test_wall_follower_laps_a_rectangular_room_counter_clockwise():
 def test_corner_oscillation_is_observable_and_reduced_by_the_rules():
     """Paper: at 90° corners the follower alternates between faces; larger x_s and no backtracking help.
 
-    Oscillation varies a lot between episodes (x_s = 40: 0 to 179 per episode), so the means take 20 episodes
-    (they were 145, 54 and 0 when this was written)."""
+    Oscillation varies a lot between episodes (x_s = 40: 0 to 179 per episode), so the means take 20 episodes."""
     plain = _summary(WALL, "wall_follower", "corner", episodes=20)["summary"]["oscillation_events"]
     larger_xs = _summary(WALL, "wall_follower", "corner", episodes=20, x_s_cm=40.0)["summary"]["oscillation_events"]
     no_backtrack = _summary(WALL, "wall_follower", "corner", episodes=20, no_backtrack=True)["summary"][
@@ -45,10 +44,13 @@ def test_corner_oscillation_is_observable_and_reduced_by_the_rules():
 
 def test_hallway_oscillation_is_observable_and_reduced_by_the_rules():
     """Paper: nearly equidistant from two walls the follower alternates; the clockwise exception (with the
-    other rules) stops it, at the price of travelling clockwise, which the paper also warns about."""
-    plain = _summary(WALL, "wall_follower", "hallway")["summary"]
-    rules = _summary(WALL, "wall_follower_rules", "hallway")["summary"]
-    exception_only = _summary(WALL, "wall_follower", "hallway", clockwise_exception=True)["summary"]
+    other rules) stops it, at the price of travelling clockwise, which the paper also warns about.
+
+    Per episode the oscillation ranges from 1 to 171, so the means take 20 episodes (plain 76.7, the exception
+    alone 65.9, all rules 1.6 when this was written)."""
+    plain = _summary(WALL, "wall_follower", "hallway", episodes=20)["summary"]
+    rules = _summary(WALL, "wall_follower_rules", "hallway", episodes=20)["summary"]
+    exception_only = _summary(WALL, "wall_follower", "hallway", episodes=20, clockwise_exception=True)["summary"]
     assert plain["oscillation_events"] > 30
     assert exception_only["oscillation_events"] < plain["oscillation_events"]
     assert rules["oscillation_events"] < 5
