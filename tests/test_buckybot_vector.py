@@ -5,6 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.vector import AutoresetMode
 
 import polyenvs
 
@@ -33,21 +34,29 @@ def _assert_same(a, b, where=""):
         for i, (x, y) in enumerate(zip(a, b, strict=True)):
             _assert_same(x, y, f"{where}[{i}]")
     elif isinstance(a, np.ndarray) and a.dtype == object:
-        assert a.tolist() == b.tolist(), where
+        assert a.shape == b.shape, where
+        for i, (x, y) in enumerate(zip(a.tolist(), b.tolist(), strict=True)):
+            if isinstance(x, np.ndarray):
+                _assert_same(x, y, f"{where}[{i}]")
+            else:
+                assert x == y, where
     else:
         a, b = np.asarray(a), np.asarray(b)
         assert a.dtype == b.dtype and a.shape == b.shape, f"{where}: {a.dtype}{a.shape} vs {b.dtype}{b.shape}"
         assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where
 
 
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 @pytest.mark.parametrize("floor_plan", [None, "random"])
 @pytest.mark.parametrize("env_id", IDS)
-def test_native_vector_env_matches_sync_vector_env(env_id, floor_plan):
-    """Sub-env i reset with seed s is gym.make(id) reset with seed s + i, bit for bit, through autoresets."""
+def test_native_vector_env_matches_sync_vector_env(env_id, floor_plan, mode):
+    """Sub-env i reset with seed s is gym.make(id) reset with seed s + i, bit for bit, through autoresets, in both
+    of Gymnasium's autoreset modes (same-step: with final_obs and final_info)."""
     kwargs = {} if floor_plan is None else {"floor_plan": floor_plan}
     make = {"num_envs": 4, "max_episode_steps": 30, **kwargs}
-    native = gym.make_vec(env_id, vectorization_mode="vector_entry_point", **make)
-    sync = gym.make_vec(env_id, vectorization_mode="sync", **make)
+    native = gym.make_vec(env_id, vectorization_mode="vector_entry_point", autoreset_mode=mode, **make)
+    sync = gym.make_vec(env_id, vectorization_mode="sync", vector_kwargs={"autoreset_mode": mode}, **make)
+    assert native.metadata["autoreset_mode"] == mode
     _assert_same(native.reset(seed=11), sync.reset(seed=11), "reset")
     rng = np.random.default_rng(0)
     ended = 0
@@ -116,6 +125,7 @@ def test_vector_env_is_deterministic_and_stays_in_its_space():
         ({"num_envs": True}, "num_envs"),
         ({"max_episode_steps": 0}, "max_episode_steps"),
         ({"render_mode": "human"}, "render_mode"),
+        ({"autoreset_mode": "sometimes"}, "autoreset_mode"),
         ({"noise_scale": -1}, "noise_scale"),
     ],
 )

@@ -3,10 +3,12 @@
 ``gym.make_vec("polyenvs/BuckybotWallFollow-v0", num_envs=1024)`` builds one: the task class itself, constructed
 with 1024 rows (see :mod:`polyenvs.buckybot.env`), behind Gymnasium's ``VectorEnv`` API with next-step autoreset.
 
-It gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit: row ``i`` reset with seed ``s`` draws from
-the generator a single env reset with seed ``s + i`` would have (:mod:`polyenvs.core.streams`), through
-autoresets; ``info`` carries the single env's keys in the vector convention (an array per key, with its ``_key``
-mask; ``episode_metrics`` is a dict of arrays); ``floor_plan="random"`` draws a room per row. Only the speed differs.
+It gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit, in either of Gymnasium's autoreset modes
+(``autoreset_mode=AutoresetMode.NEXT_STEP``, the default, or ``SAME_STEP``, with ``info["final_obs"]`` and
+``info["final_info"]``, which Stable-Baselines3-style training needs): row ``i`` reset with seed ``s`` draws from the
+generator a single env reset with seed ``s + i`` would have (:mod:`polyenvs.core.streams`), through autoresets;
+``info`` carries the single env's keys in the vector convention (an array per key, with its ``_key`` mask;
+``episode_metrics`` is a dict of arrays); ``floor_plan="random"`` draws a room per row. Only the speed differs.
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ class BuckybotVectorEnv(VectorEnv):
         num_envs: number of robots (sub-environments).
         max_episode_steps: truncate each robot's episode after this many steps (``None``: never).
         render_mode: ``"rgb_array"`` renders sub-environment 0.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (a finished robot restarts at the next step, which then only
+            resets it) or ``AutoresetMode.SAME_STEP`` (it restarts within the step that finished it; the last
+            observation and info are in ``info["final_obs"]`` and ``info["final_info"]``).
         **kwargs: the task's constructor arguments.
 
     Observations ``(num_envs, D)``, rewards, terminated and truncated ``(num_envs,)``; ``info`` as described above.
@@ -58,9 +63,20 @@ class BuckybotVectorEnv(VectorEnv):
     env_class: type[BuckybotEnv] = BuckybotEnv
 
     def __init__(
-        self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **kwargs
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs,
     ):
         num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+        try:
+            autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}") from None
+        if autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}")
         if max_episode_steps is not None:
             max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -70,6 +86,8 @@ class BuckybotVectorEnv(VectorEnv):
         core._batch_size = num_envs
         core.__init__(render_mode=render_mode, **kwargs)
         self._core = core
+        self.metadata = {**self.metadata, "autoreset_mode": autoreset_mode}
+        self.autoreset_mode = autoreset_mode
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
         self.render_mode = render_mode
@@ -149,8 +167,21 @@ class BuckybotVectorEnv(VectorEnv):
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (core.sim.state[:, S.STEPS] >= self.max_episode_steps) & ~terminated & ~restart
-        self._needs_reset = terminated | truncated
-        return core._observations.copy(), rewards, terminated, truncated, self._info()
+        done = terminated | truncated
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
+            self._needs_reset = done
+            return core._observations.copy(), rewards, terminated, truncated, self._info()
+        # Same-step autoreset: keep what the finished robots saw, restart them now, report both.
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for row in np.flatnonzero(done).tolist():
+            final_obs[row] = core._observations[row].copy()
+        final_info = _only_rows(self._info(), done)
+        generators = core.sim.streams.generators
+        core._commit_rows([core._prepare_row(row, generators[row], {}, False) for row in np.flatnonzero(done).tolist()])
+        info = self._info()
+        info["final_obs"], info["_final_obs"] = final_obs, done.copy()
+        info["final_info"], info["_final_info"] = final_info, done.copy()
+        return core._observations.copy(), rewards, terminated, truncated, info
 
     def render(self):
         """Sub-environment 0's frame."""
@@ -211,6 +242,23 @@ class BuckybotVectorEnv(VectorEnv):
             info[key] = value
             info[f"_{key}"] = every_row
         return info
+
+
+def _only_rows(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:
+    """``info`` (vector convention) for ``rows`` only, as ``SyncVectorEnv`` collects a same-step ``final_info``:
+    other rows zero (``None`` in object arrays) and every ``_key`` mask equal to ``rows``."""
+    kept: dict[str, Any] = {}
+    for key, value in info.items():
+        if key.startswith("_"):
+            continue
+        if isinstance(value, dict):
+            kept[key] = _only_rows(value, rows)
+        else:
+            array = np.full(value.shape, None, dtype=object) if value.dtype == object else np.zeros_like(value)
+            array[rows] = value[rows]
+            kept[key] = array
+        kept[f"_{key}"] = rows.copy()
+    return kept
 
 
 class BuckybotWallFollowVectorEnv(BuckybotVectorEnv):
