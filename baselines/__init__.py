@@ -1,11 +1,14 @@
 """The papers' hand algorithms as policies with Stable-Baselines3's ``predict`` interface.
 
 ``make_policy(name, env)`` builds any policy registered for an environment id: ``"random"``, every hand baseline
-of that environment, and ``"paper"``, an alias for the environment's main paper algorithm.
+of that environment, and ``"paper"``, an alias for the environment's main paper algorithm; or, given a path (a
+training directory or a ``.zip``), a trained Stable-Baselines3 model behind the same interface
+(:mod:`baselines.trained`).
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 
 from baselines.base import Policy, RandomPolicy
@@ -56,8 +59,18 @@ def available_policies(env_id: str) -> list[str]:
 
 
 def make_policy(name: str, env_id: str, observation_space, action_space, seed: int | None = None, **kwargs) -> Policy:
-    """Build policy ``name`` for ``env_id``; raises ``ValueError`` naming the choices for an unknown name."""
+    """Build policy ``name`` for ``env_id``; raises ``ValueError`` naming the choices for an unknown name.
+
+    ``name`` may also be a trained model's path (a training directory or a ``.zip``): see
+    :func:`baselines.trained.load_trained_policy`, whose errors (``TrainedModelError``) are ``ValueError`` too.
+    """
     env_id = _bare_id(env_id)
+    name = os.fspath(name)
+    if name not in available_policies(env_id):
+        from baselines.trained import is_model_path, load_trained_policy
+
+        if is_model_path(name):
+            return load_trained_policy(name, env_id, observation_space, action_space, **kwargs)
     if name == "paper":
         if env_id not in PAPER_POLICY:
             raise ValueError(f"{env_id} has no paper baseline; choose from {available_policies(env_id)}")
@@ -68,7 +81,10 @@ def make_policy(name: str, env_id: str, observation_space, action_space, seed: i
         return RandomPolicy(observation_space, action_space, seed=seed)
     factories = POLICIES.get(env_id, {})
     if name not in factories:
-        raise ValueError(f"unknown policy {name!r} for {env_id}; choose from {available_policies(env_id)}")
+        raise ValueError(
+            f"unknown policy {name!r} for {env_id}; choose from {available_policies(env_id)} "
+            "or give a trained model's path (a training directory or a .zip)"
+        )
     try:
         return factories[name](observation_space, action_space, **kwargs)
     except TypeError as exc:

@@ -1,8 +1,9 @@
 """The ``polyenvs`` command line: list environments, evaluate policies, build the leaderboard, record episodes.
 
-Expected failures (a bad flag value, an unknown id or policy, bad JSON or keyword arguments, an output path that
-cannot be written) print one line on stderr and exit 2, before any evaluation runs. Anything else is a bug and
-shows its traceback.
+Every ``--policy`` takes a baseline name or a trained model's path alike (a training directory or a ``.zip``).
+Expected failures (a bad flag value, an unknown id or policy, bad JSON or keyword arguments, a missing, corrupt or
+mismatched model, an output path that cannot be written) print one line on stderr and exit 2, before any
+evaluation runs. Anything else is a bug and shows its traceback.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ DEFAULT_LEADERBOARD_DIR = Path("runs/leaderboard")
 #: The committed reference results, rewritten only by ``polyenvs leaderboard --update-reference``.
 REFERENCE_RESULTS_DIR = Path("benchmarks/results")
 REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
+#: Committed trained agents (``<env id with / as __>/<algo>/seed<N>/``), evaluated by the leaderboard.
+AGENTS_DIR = Path("benchmarks/agents")
 #: Output formats of ``polyenvs record``: suffix -> what writing it needs.
 RECORD_FORMATS = {".gif": "imageio", ".mp4": "imageio-ffmpeg"}
 
@@ -202,13 +205,16 @@ def _format_value(value) -> str:
 
 
 def describe_policy(env_id: str, policy: str, description: dict) -> str:
-    """``wall_follower (d_star_cm=50, x_s_cm=20, ...)``; ``paper = goal_seeker (clearance_cm=40)`` for the alias."""
+    """``wall_follower (d_star_cm=50, x_s_cm=20, ...)``; ``paper = goal_seeker (clearance_cm=40)`` for the alias;
+    ``ppo model runs/ppo_wall (training_seed=0, timesteps=250000, normalize=true)`` for a trained model."""
     from baselines import PAPER_POLICY
 
-    name = policy
+    name, hidden = policy, {"name"}
     if policy == "paper" and env_id in PAPER_POLICY:
         name = f"paper = {PAPER_POLICY[env_id]}"
-    params = ", ".join(f"{k}={_format_value(v)}" for k, v in description.items() if k != "name")
+    if "algo" in description and "path" in description:
+        name, hidden = f"{description['algo']} model {description['path']}", {"name", "algo", "path", "sha256"}
+    params = ", ".join(f"{k}={_format_value(v)}" for k, v in description.items() if k not in hidden)
     return f"{name} ({params})" if params else name
 
 
@@ -294,6 +300,7 @@ def _cmd_evaluate(args) -> int:
 def _cmd_leaderboard(args) -> int:
     from polyenvs.leaderboard import (
         PROTOCOL_EPISODES,
+        plot_path,
         run_leaderboard,
         stored_results,
         write_leaderboard,
@@ -313,6 +320,11 @@ def _cmd_leaderboard(args) -> int:
                 f"--update-reference writes {REFERENCE_RESULTS_DIR} and {REFERENCE_TABLE}: "
                 "do not combine it with --results-dir or --output"
             )
+        if args.agents_dir is not None or args.policy:
+            raise CliError(
+                f"--update-reference evaluates the committed agents in {AGENTS_DIR}: "
+                "do not combine it with --agents-dir or --policy"
+            )
         if not REFERENCE_RESULTS_DIR.is_dir():
             raise CliError(
                 f"--update-reference: no {REFERENCE_RESULTS_DIR} directory here; run it from the repository root"
@@ -321,6 +333,9 @@ def _cmd_leaderboard(args) -> int:
     else:
         results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
         output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
+    agents_dir = Path(args.agents_dir) if args.agents_dir is not None else AGENTS_DIR
+    if args.agents_dir is not None and not agents_dir.is_dir():
+        raise CliError(f"--agents-dir {agents_dir}: no such directory")
     env_ids = [e for e in ENV_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
@@ -328,6 +343,8 @@ def _cmd_leaderboard(args) -> int:
     _check_output_file(output, "--output")
     if results_dir.absolute() == output.absolute():
         raise CliError(f"--output {output} is the results directory")
+    for env_id in env_ids:  # the plots go beside the table
+        _check_output_file(plot_path(output, env_id), "--output")
 
     bar = ProgressBar("episodes")
     try:
@@ -339,23 +356,32 @@ def _cmd_leaderboard(args) -> int:
             progress=bar.message,
             on_plan=bar.start,
             on_episode=lambda _: bar.advance(),
+            agents_dir=agents_dir,
+            extra_agents=args.policy or (),
         )
     finally:
         bar.close()
     # The table shows every environment with results in the directory, not only the ones just evaluated.
-    others = stored_results([e for e in ENV_IDS if e not in env_ids], results_dir, progress=bar.message)
+    others = stored_results(
+        [e for e in ENV_IDS if e not in env_ids], results_dir, progress=bar.message, agents_dir=agents_dir
+    )
     order = {env_id: i for i, env_id in enumerate(ENV_IDS)}
     documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
     text = write_leaderboard(documents, output)
     print(text)
-    print(f"wrote {output} ({len(documents)} results from {results_dir})", file=sys.stderr)
+    plots = sorted({plot_path(output, d["env_id"]).name for d in documents})
+    print(
+        f"wrote {output} ({len(documents)} results from {results_dir}) and {len(plots)} plot"
+        f"{'s' if len(plots) != 1 else ''} beside it",
+        file=sys.stderr,
+    )
     return 0
 
 
 def _cmd_record(args) -> int:
     import numpy as np
 
-    from polyenvs.evaluation import atomic_path, make_agent, make_env
+    from polyenvs.evaluation import atomic_path, make_agent, make_env, policy_action
 
     output = Path(args.output)
     suffix = output.suffix.lower()
@@ -382,11 +408,11 @@ def _cmd_record(args) -> int:
     try:
         env_id = args.env_id.split(":", 1)[-1]
         policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
-        obs, _ = env.reset(seed=args.seed)
+        obs, info = env.reset(seed=args.seed)
         frames, state, start = [env.render()], None, True
         for _ in range(args.max_steps):
-            action, state = policy.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
-            obs, _, terminated, truncated, _ = env.step(action)
+            action, state = policy_action(policy, obs, state, start, info)
+            obs, _, terminated, truncated, info = env.step(action)
             frames.append(env.render())
             start = False
             if terminated or truncated:
@@ -422,7 +448,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("evaluate", help="run a policy on fixed seeds and print its returns and task metrics")
     p.add_argument("env_id")
-    p.add_argument("--policy", default="paper", help="'random', a hand baseline's name, or 'paper' (default)")
+    p.add_argument(
+        "--policy",
+        default="paper",
+        help="'random', a hand baseline's name, 'paper' (default), or a trained model: a training directory "
+        "(model.zip, vecnormalize.pkl, run.json) or a .zip",
+    )
     p.add_argument("--episodes", type=episodes_type, default=10, help="number of episodes, >= 1 (default 10)")
     p.add_argument("--seed", type=seed_type, default=0, help="first seed, >= 0; episodes use seed, seed+1, ...")
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
@@ -432,10 +463,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "leaderboard",
-        help="evaluate every baseline on every environment; write the table",
-        description=f"Evaluate random and every hand baseline on every environment and write the table. By default "
-        f"results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); --update-reference refreshes the committed "
-        f"{REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
+        help="evaluate every baseline and trained agent on every environment; write the table and plots",
+        description=f"Evaluate random, every hand baseline and every committed trained agent "
+        f"({AGENTS_DIR}/<env>/<algo>/seed<N>/) on every environment and write the table, with one PNG per "
+        f"environment beside it. By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
+        f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
     p.add_argument(
         "--episodes", type=episodes_type, default=None, help="episodes per policy (default 50, 5 with --quick)"
@@ -450,6 +482,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
     p.add_argument(
+        "--agents-dir",
+        default=None,
+        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {AGENTS_DIR})",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        metavar="PATH",
+        help="also evaluate this trained model (a training directory or a .zip with a run.json beside it naming "
+        "its environment); its row is labelled by the path; repeatable",
+    )
+    p.add_argument(
         "--update-reference",
         action="store_true",
         help=f"re-evaluate and overwrite the committed reference results ({REFERENCE_RESULTS_DIR}/, "
@@ -459,7 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("record", help="record a GIF or MP4 of a policy (needs polyenvs[render])")
     p.add_argument("env_id")
-    p.add_argument("--policy", default="paper")
+    p.add_argument("--policy", default="paper", help="a baseline's name, 'paper' (default), or a trained model's path")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")
     p.add_argument("--max-steps", type=steps_type, default=300, help="at most this many steps, >= 1 (default 300)")

@@ -4,7 +4,9 @@ The same seeds for every policy make comparisons paired; per-episode returns and
 ``info["episode_metrics"]``) are kept so a leaderboard can compute any statistic later.
 
 Conventions every command and family inherits from here: user input that cannot work raises ``InputError`` (a
-``ValueError``) before any episode runs; every result file is written through ``atomic_path`` (a hidden,
+``ValueError``) before any episode runs (a trained model's path is checked against the environment then too);
+policies whose ``predict`` takes ``action_masks`` (MaskablePPO models) get ``info["action_mask"]`` at every step,
+others never see it; every result file is written through ``atomic_path`` (a hidden,
 gitignored temp file in the same folder, renamed into place, with the usual file mode), so an interrupted run
 never leaves a half-written file under its real name.
 """
@@ -12,6 +14,7 @@ never leaves a half-written file under its real name.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import json
 import os
 import secrets
@@ -28,9 +31,12 @@ __all__ = [
     "atomic_path",
     "check_count",
     "evaluate",
+    "interquartile_mean",
     "iqm_with_ci",
+    "iqm_with_stratified_ci",
     "make_agent",
     "make_env",
+    "policy_action",
     "temp_path_for",
     "write_json_atomic",
     "write_text_atomic",
@@ -75,7 +81,11 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra) -> gym.Env:
 
 
 def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, policy_kwargs: dict | None = None):
-    """``baselines.make_policy`` for ``env``; an unknown policy or a rejected parameter raises :class:`InputError`."""
+    """``baselines.make_policy`` for ``env``; an unknown policy or a rejected parameter raises :class:`InputError`.
+
+    ``policy`` may be a trained model's path (a training directory or a ``.zip``); a missing, corrupt or mismatched
+    model raises :class:`InputError` too.
+    """
     from baselines import make_policy
 
     try:
@@ -125,7 +135,7 @@ def evaluate(
         summary[key] = float(np.mean([r["metrics"][key] for r in results]))
     return {
         "env_id": env_id,
-        "policy": policy,
+        "policy": os.fspath(policy),
         "policy_description": agent.describe(),
         "env_kwargs": env_kwargs or {},
         "seeds": seeds,
@@ -134,11 +144,32 @@ def evaluate(
     }
 
 
+def _takes_action_masks(agent) -> bool:
+    try:
+        return "action_masks" in inspect.signature(agent.predict).parameters
+    except (TypeError, ValueError):  # builtins without a signature
+        return False
+
+
+def policy_action(agent, obs, state, episode_start: bool, info: dict, deterministic: bool = True):
+    """``agent.predict`` for one step: ``(action, state)``.
+
+    ``info["action_mask"]`` goes to policies whose ``predict`` takes ``action_masks`` (MaskablePPO and the trained
+    policy wrapper); the hand baselines never see it (they act on the observation alone).
+    """
+    kwargs = {}
+    if "action_mask" in info and _takes_action_masks(agent):
+        kwargs["action_masks"] = np.asarray(info["action_mask"]).astype(bool)
+    return agent.predict(
+        obs, state=state, episode_start=np.array([episode_start]), deterministic=deterministic, **kwargs
+    )
+
+
 def _run_episode(env: gym.Env, agent, seed: int) -> dict[str, Any]:
     obs, info = env.reset(seed=seed)
     state, start, total, length = None, True, 0.0, 0
     while True:
-        action, state = agent.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
+        action, state = policy_action(agent, obs, state, start, info)
         obs, reward, terminated, truncated, info = env.step(action)
         total += float(reward)
         length += 1
@@ -149,19 +180,47 @@ def _run_episode(env: gym.Env, agent, seed: int) -> dict[str, Any]:
     return {"seed": seed, "return": total, "length": length, "metrics": metrics}
 
 
-def iqm_with_ci(values, n_boot: int = 2000, seed: int = 0) -> tuple[float, float, float]:
-    """Interquartile mean and its 95% bootstrap confidence interval."""
-    x = np.sort(np.asarray(values, dtype=np.float64))
+def _iqm_of_sorted(sorted_x: np.ndarray) -> np.ndarray:
+    """IQM along the last axis of sorted data: the mean of the middle half, ``floor(n/4)`` cut from each end (the
+    same as ``scipy.stats.trim_mean(x, 0.25)``, which rliable uses)."""
+    n = sorted_x.shape[-1]
+    lo, hi = int(np.floor(0.25 * n)), int(np.ceil(0.75 * n))
+    return sorted_x[..., lo:hi].mean(axis=-1)
 
-    def iqm(sorted_x):
-        n = sorted_x.shape[-1]
-        lo, hi = int(np.floor(0.25 * n)), int(np.ceil(0.75 * n))
-        return sorted_x[..., lo:hi].mean(axis=-1)
 
+def interquartile_mean(values) -> float:
+    """The interquartile mean of ``values`` (the mean of the middle 50%)."""
+    x = np.sort(np.asarray(values, dtype=np.float64).ravel())
+    if x.size == 0:
+        raise ValueError("the IQM of no values is undefined")
+    return float(_iqm_of_sorted(x))
+
+
+def iqm_with_stratified_ci(
+    groups, n_boot: int = 2000, seed: int = 0, confidence: float = 0.95
+) -> tuple[float, float, float]:
+    """IQM of all values pooled over ``groups`` (runs) and its stratified bootstrap interval (percentile method).
+
+    Each bootstrap sample resamples every group's values with replacement within that group (its own count), as
+    rliable's ``StratifiedBootstrap`` does with runs x tasks, so every run keeps its weight and the interval
+    reflects the spread within runs, not the choice of which runs to keep. With one group this is the plain
+    bootstrap of :func:`iqm_with_ci`. Returns ``(iqm, low, high)``.
+    """
+    runs = [np.sort(np.asarray(g, dtype=np.float64).ravel()) for g in groups]  # sorted: reproduces iqm_with_ci
+    if not runs or any(r.size == 0 for r in runs):
+        raise ValueError("every group needs at least one value")
     rng = np.random.default_rng(seed)
-    boots = np.sort(rng.choice(x, size=(n_boot, x.size), replace=True), axis=1)
-    dist = iqm(boots)
-    return float(iqm(x)), float(np.quantile(dist, 0.025)), float(np.quantile(dist, 0.975))
+    boots = np.concatenate([r[rng.integers(0, r.size, size=(n_boot, r.size))] for r in runs], axis=1)
+    boots.sort(axis=1)
+    dist = _iqm_of_sorted(boots)
+    tail = (1.0 - confidence) / 2
+    point = interquartile_mean(np.concatenate(runs))
+    return point, float(np.quantile(dist, tail)), float(np.quantile(dist, 1.0 - tail))
+
+
+def iqm_with_ci(values, n_boot: int = 2000, seed: int = 0) -> tuple[float, float, float]:
+    """Interquartile mean and its 95% bootstrap confidence interval (one run: no strata)."""
+    return iqm_with_stratified_ci([values], n_boot=n_boot, seed=seed)
 
 
 def temp_path_for(path: str | os.PathLike, keep_suffix: bool = False) -> Path:

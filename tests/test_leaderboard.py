@@ -22,6 +22,7 @@ from tests.cli_helpers import run_main
 ROOT = Path(__file__).resolve().parent.parent
 GOAL, WALL = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0"
 GOAL_FILES = ["polyenvs__BuckybotGoal-v0__goal_seeker.json", "polyenvs__BuckybotGoal-v0__random.json"]
+GOAL_PLOT = "LEADERBOARD_polyenvs__BuckybotGoal-v0.png"  # beside the table
 
 
 def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
@@ -61,6 +62,7 @@ def test_leaderboard_writes_results_and_table(tmp_path: Path):
     text = table.read_text()
     assert "| goal_seeker | polyenvs/BuckybotGoal-v0 |" in text and "Quick mode" in text
     assert "1.00" in text  # the paper baseline's normalised score is 1 by construction
+    assert f"]({GOAL_PLOT})" in text and (tmp_path / GOAL_PLOT).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]  # atomic writes leave no temp files
     before = (results / files[0]).stat().st_mtime_ns
     assert main(args) == 0  # a re-run skips what is done
@@ -114,7 +116,7 @@ def test_temporary_names_are_hidden_predictable_and_gitignored(tmp_path, monkeyp
 
     monkeypatch.setattr(polyenvs.evaluation.os, "replace", spy)
     assert main(leaderboard(tmp_path, "--episodes", "1", "--only", "Goal")) == 0
-    assert {dst.name for _, dst in renamed} == {*GOAL_FILES, "LEADERBOARD.md"}
+    assert {dst.name for _, dst in renamed} == {*GOAL_FILES, "LEADERBOARD.md", GOAL_PLOT}
     for src, dst in renamed:
         assert src.parent == dst.parent
         assert re.fullmatch(rf"\.{re.escape(dst.name)}\.[0-9a-f]+\.tmp", src.name), src.name
@@ -136,7 +138,7 @@ def test_results_get_the_usual_file_mode(tmp_path, umask):
     finally:
         os.umask(old)
     expected = 0o666 & ~umask
-    for path in [tmp_path / "LEADERBOARD.md", *(tmp_path / "results").iterdir()]:
+    for path in [tmp_path / "LEADERBOARD.md", tmp_path / GOAL_PLOT, *(tmp_path / "results").iterdir()]:
         assert path.stat().st_mode & 0o777 == expected, path
 
 
@@ -233,6 +235,8 @@ def test_update_reference_refreshes_the_committed_files(tmp_path, monkeypatch, c
         (["--episodes", "10"], "--episodes"),
         (["--results-dir", "elsewhere"], "--results-dir"),
         (["--output", "elsewhere.md"], "--output"),
+        (["--agents-dir", "elsewhere"], "--agents-dir"),
+        (["--policy", "runs/ppo"], "--policy"),
     ],
 )
 def test_update_reference_refuses_other_protocols(tmp_path, monkeypatch, capsys, no_evaluation, extra, fragment):

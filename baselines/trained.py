@@ -1,0 +1,317 @@
+"""Trained Stable-Baselines3 models as policies, with the same ``predict`` interface as the hand baselines.
+
+A trained model is named by a path: a training directory or a ``.zip``. A training directory (what
+``polyenvs train`` writes) holds
+
+- ``model.zip``: the model, ``model.save(...)`` of Stable-Baselines3 or sb3-contrib;
+- ``vecnormalize.pkl`` (optional): the ``VecNormalize`` statistics the model was trained with;
+- ``run.json``: ``{"env_id", "algo", "seed", "timesteps", "requested_timesteps", "n_envs", "env_kwargs",
+  "hyperparams", "command", "versions", "git_commit", "wall_clock_s", "completed"}``.
+
+For a bare ``.zip``, a ``run.json`` beside it is used when there is one, and the normalisation statistics are looked
+for beside it (``vecnormalize.pkl``) and where RL Zoo keeps them (``<name>/vecnormalize.pkl`` for ``<name>.zip``);
+without a ``run.json`` the algorithm is read from the saved policy class and confirmed by loading.
+
+:class:`TrainedPolicy` applies the saved observation normalisation (``VecNormalize.normalize_obs``; rewards are not
+normalised, the statistics are never updated) and passes the action mask to a ``MaskablePPO`` model when the caller
+supplies one (``predict(..., action_masks=...)``; the evaluation loop passes ``info["action_mask"]``).
+
+Everything that can be wrong with a model (a missing path, a corrupt zip, a ``run.json`` for another environment,
+observation or action spaces that do not match) raises :class:`TrainedModelError` (a ``ValueError``) with one line,
+when the policy is built: before any episode runs. Stable-Baselines3 is imported only when a model is loaded.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+__all__ = [
+    "ALGORITHMS",
+    "TrainedModelError",
+    "TrainedPolicy",
+    "is_model_path",
+    "load_trained_policy",
+    "model_checksum",
+    "read_run_info",
+    "resolve_model_files",
+]
+
+#: algorithm name (as in run.json and ``benchmarks/agents/<env>/<algo>/``) -> (module, class).
+ALGORITHMS: dict[str, tuple[str, str]] = {
+    "ppo": ("stable_baselines3", "PPO"),
+    "dqn": ("stable_baselines3", "DQN"),
+    "maskable_ppo": ("sb3_contrib", "MaskablePPO"),
+    "sac": ("stable_baselines3", "SAC"),
+    "td3": ("stable_baselines3", "TD3"),
+}
+#: The module of a saved policy class -> the algorithm to try first when no run.json says which.
+_POLICY_MODULES = {
+    "sb3_contrib.common.maskable.policies": "maskable_ppo",
+    "stable_baselines3.common.policies": "ppo",
+    "stable_baselines3.dqn.policies": "dqn",
+    "stable_baselines3.sac.policies": "sac",
+    "stable_baselines3.td3.policies": "td3",
+}
+#: Schedules are pickled closures that need not load in another Python or package version; inference never uses
+#: them (the same replacements as RL Zoo's ``enjoy``).
+_CUSTOM_OBJECTS = {
+    "learning_rate": 0.0,
+    "lr_schedule": lambda _: 0.0,
+    "clip_range": lambda _: 0.0,
+    "exploration_schedule": lambda _: 0.0,
+}
+MODEL_FILE, NORMALIZE_FILE, RUN_FILE = "model.zip", "vecnormalize.pkl", "run.json"
+
+
+class TrainedModelError(ValueError):
+    """A trained model that cannot be used here; the message is one line naming the path."""
+
+
+def is_model_path(name: str) -> bool:
+    """Whether a ``--policy`` value names a file or directory rather than a baseline: it exists, ends in ``.zip``,
+    or contains a path separator."""
+    name = os.fspath(name)
+    return name.endswith(".zip") or os.sep in name or "/" in name or Path(name).exists()
+
+
+def resolve_model_files(path: str | os.PathLike) -> tuple[Path, Path | None, Path | None]:
+    """``(model.zip, vecnormalize.pkl or None, run.json or None)`` for a training directory or a ``.zip``."""
+    path = Path(path)
+    if path.is_dir():
+        model = path / MODEL_FILE
+        if not model.is_file():
+            raise TrainedModelError(f"{path}: a training directory must hold {MODEL_FILE}, and this one does not")
+        normalize = path / NORMALIZE_FILE
+        run = path / RUN_FILE
+        return model, (normalize if normalize.is_file() else None), (run if run.is_file() else None)
+    if not path.exists():
+        raise TrainedModelError(f"{path}: no such training directory or model file")
+    if not path.is_file():
+        raise TrainedModelError(f"{path}: not a training directory or a model file")
+    candidates = [path.parent / NORMALIZE_FILE, path.with_suffix("") / NORMALIZE_FILE]  # beside it; RL Zoo's place
+    normalize = next((p for p in candidates if p.is_file()), None)
+    run = path.parent / RUN_FILE
+    return path, normalize, (run if run.is_file() else None)
+
+
+def read_run_info(run_file: Path | None) -> dict[str, Any]:
+    """The run.json document (``{}`` without one); a file that is not a JSON object raises."""
+    if run_file is None:
+        return {}
+    try:
+        info = json.loads(Path(run_file).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise TrainedModelError(f"{run_file}: cannot be read ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise TrainedModelError(f"{run_file}: not valid JSON ({exc})") from None
+    if not isinstance(info, dict):
+        raise TrainedModelError(f"{run_file}: must be a JSON object")
+    algo = info.get("algo")
+    if algo is not None and algo not in ALGORITHMS:
+        raise TrainedModelError(f"{run_file}: unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
+    return info
+
+
+def model_checksum(model_file: Path, normalize_file: Path | None = None) -> str:
+    """SHA-256 of the model and its normalisation statistics: a result names the exact model it evaluated."""
+    digest = hashlib.sha256()
+    for file in (model_file, normalize_file):
+        if file is not None:
+            digest.update(Path(file).read_bytes())
+    return digest.hexdigest()
+
+
+def _bare_id(env_id: str | None) -> str | None:
+    return None if env_id is None else str(env_id).split(":", 1)[-1]
+
+
+def _space_text(space: spaces.Space) -> str:
+    if isinstance(space, spaces.Box):
+        return f"Box{space.shape}"
+    return str(space)
+
+
+def _same_space(a: spaces.Space, b: spaces.Space) -> bool:
+    """Same kind and size (bounds may differ with environment keywords; SB3 clips or rescales to its own)."""
+    if type(a) is not type(b) or a.shape != b.shape:
+        return False
+    if isinstance(a, spaces.Discrete):
+        return a.n == b.n and a.start == b.start
+    if isinstance(a, spaces.MultiDiscrete):
+        return np.array_equal(a.nvec, b.nvec)
+    if isinstance(a, spaces.Dict):
+        return a.keys() == b.keys() and all(_same_space(a[k], b[k]) for k in a.keys())
+    return True
+
+
+def _algorithm_class(algo: str):
+    module_name, class_name = ALGORITHMS[algo]
+    try:
+        module = __import__(module_name, fromlist=[class_name])
+    except ImportError:
+        package = {"stable_baselines3": "Stable-Baselines3", "sb3_contrib": "sb3-contrib"}[module_name]
+        raise TrainedModelError(f'a trained {algo} model needs {package}: pip install "polyenvs[train]"') from None
+    return getattr(module, class_name)
+
+
+def _saved_policy_algo(model_file: Path) -> str | None:
+    """The algorithm a saved zip's policy class belongs to, read from its ``data`` entry (no unpickling)."""
+    try:
+        with zipfile.ZipFile(model_file) as archive:
+            data = json.loads(archive.read("data"))
+        return _POLICY_MODULES.get(data["policy_class"]["__module__"])
+    except (KeyError, TypeError, ValueError, OSError, zipfile.BadZipFile):
+        return None
+
+
+def _check_archive(model_file: Path) -> None:
+    try:
+        with zipfile.ZipFile(model_file) as archive:
+            names = archive.namelist()
+            bad = archive.testzip()
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        raise TrainedModelError(
+            f"{model_file}: not a Stable-Baselines3 model (not a readable zip file: {exc})"
+        ) from None
+    if "data" not in names or "policy.pth" not in names:
+        raise TrainedModelError(f"{model_file}: not a Stable-Baselines3 model (no data or policy.pth inside)")
+    if bad is not None:
+        raise TrainedModelError(f"{model_file}: corrupt zip file ({bad} fails its CRC check)")
+
+
+def _load_model(model_file: Path, algo: str | None):
+    """``(model, algo)``: with ``algo`` that class only; without, the saved policy's algorithm first, then the rest."""
+    _check_archive(model_file)
+    if algo is not None:
+        order = [algo]
+    else:
+        hint = _saved_policy_algo(model_file)
+        order = ([hint] if hint else []) + [a for a in ALGORITHMS if a != hint]
+    failures = []
+    for name in order:
+        try:
+            cls = _algorithm_class(name)
+        except TrainedModelError as exc:
+            failures.append(str(exc))
+            continue
+        try:
+            return cls.load(model_file, device="cpu", custom_objects=_CUSTOM_OBJECTS), name
+        except Exception as exc:  # noqa: BLE001 - any failure to unpickle or build the model is a bad file here
+            failures.append(f"as {name}: {type(exc).__name__}: {exc}".replace("\n", " "))
+    if algo is not None:
+        raise TrainedModelError(f"{model_file}: cannot load it as {algo} ({failures[0]})")
+    raise TrainedModelError(f"{model_file}: cannot load it as any of {', '.join(order)} ({failures[0]})")
+
+
+def _load_normalization(normalize_file: Path, observation_space: spaces.Space):
+    try:
+        with open(normalize_file, "rb") as fh:
+            stats = pickle.load(fh)
+    except Exception as exc:  # noqa: BLE001 - unpickling can raise anything for a corrupt file
+        raise TrainedModelError(f"{normalize_file}: cannot load it ({type(exc).__name__}: {exc})") from None
+    if not hasattr(stats, "normalize_obs") or not hasattr(stats, "obs_rms"):
+        raise TrainedModelError(f"{normalize_file}: does not hold VecNormalize statistics")
+    stats.training = False  # never update the statistics while evaluating
+    stats.norm_reward = False
+    if stats.norm_obs and not isinstance(observation_space, spaces.Dict):
+        shape = np.shape(getattr(stats.obs_rms, "mean", None))
+        if shape != observation_space.shape:
+            raise TrainedModelError(
+                f"{normalize_file}: statistics for observations of shape {shape}, "
+                f"but the environment gives {_space_text(observation_space)}"
+            )
+    return stats
+
+
+def _normalize_requested(run: dict) -> bool:
+    hyperparams = run.get("hyperparams")
+    value = hyperparams.get("normalize", False) if isinstance(hyperparams, dict) else False
+    return bool(value) and str(value).strip().lower() not in ("false", "0", "none")
+
+
+class TrainedPolicy:
+    """A loaded Stable-Baselines3 model behind the hand baselines' ``predict`` interface.
+
+    Use :func:`load_trained_policy` to build one; it checks the model against the environment.
+    """
+
+    def __init__(self, model, algo: str, path: str, normalization=None, run: dict | None = None, checksum=None):
+        self.model = model
+        self.algo = algo
+        self.path = str(path)
+        self.normalization = normalization
+        self.run = dict(run or {})
+        self.checksum = checksum
+        self.observation_space = model.observation_space
+        self.action_space = model.action_space
+        self.uses_action_masks = algo == "maskable_ppo"
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True, action_masks=None):
+        """``(action, state)`` for one observation or a batch, as SB3's ``predict``; ``action_masks`` (a bool or
+        0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others."""
+        obs = observation
+        if self.normalization is not None:
+            obs = self.normalization.normalize_obs(np.asarray(observation))
+        kwargs = {}
+        if self.uses_action_masks and action_masks is not None:
+            kwargs["action_masks"] = np.asarray(action_masks).astype(bool)
+        return self.model.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic, **kwargs)
+
+    def describe(self) -> dict:
+        """Algorithm, training seed, timesteps and the path (stored with evaluation results)."""
+        timesteps = self.run.get("timesteps", getattr(self.model, "num_timesteps", None))
+        description = {
+            "name": self.algo,
+            "algo": self.algo,
+            "path": self.path,
+            "training_seed": self.run.get("seed", getattr(self.model, "seed", None)),
+            "timesteps": timesteps,
+            "normalize": self.normalization is not None,
+        }
+        if self.uses_action_masks:
+            description["action_masks"] = True
+        if self.run.get("completed") is False:
+            description["completed"] = False
+            description["requested_timesteps"] = self.run.get("requested_timesteps")
+        if self.checksum is not None:
+            description["sha256"] = self.checksum
+        return description
+
+
+def load_trained_policy(
+    path: str | os.PathLike, env_id: str, observation_space: spaces.Space, action_space: spaces.Space, **kwargs
+) -> TrainedPolicy:
+    """Load the model at ``path`` (a training directory or a ``.zip``) for ``env_id`` and check it fits.
+
+    Raises :class:`TrainedModelError` (one line) for a missing path, a corrupt model, a run.json for another
+    environment id, normalisation statistics of another shape, or spaces that do not match the environment's.
+    """
+    if kwargs:
+        raise TrainedModelError(f"{path}: a trained model takes no parameters, got {sorted(kwargs)}")
+    model_file, normalize_file, run_file = resolve_model_files(path)
+    run = read_run_info(run_file)
+    trained_on, env_id = _bare_id(run.get("env_id")), _bare_id(env_id)
+    if trained_on is not None and trained_on != env_id:
+        raise TrainedModelError(f"{path}: trained on {trained_on} ({run_file}), not {env_id}")
+    if normalize_file is None and _normalize_requested(run):
+        raise TrainedModelError(f"{path}: {run_file} says it trained with normalize, but there is no {NORMALIZE_FILE}")
+    model, algo = _load_model(model_file, run.get("algo"))
+    for what, theirs, ours in (
+        ("observations", model.observation_space, observation_space),
+        ("actions", model.action_space, action_space),
+    ):
+        if not _same_space(theirs, ours):
+            raise TrainedModelError(
+                f"{path}: the model's {what} are {_space_text(theirs)}, but {env_id} has {_space_text(ours)}"
+            )
+    normalization = _load_normalization(normalize_file, observation_space) if normalize_file is not None else None
+    return TrainedPolicy(model, algo, path, normalization, run, model_checksum(model_file, normalize_file))
