@@ -1,0 +1,64 @@
+"""The algorithms ``polyenvs train`` knows: their classes (imported on use) and the action spaces they accept."""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from gymnasium import spaces
+
+from polyenvs.evaluation import InputError
+
+__all__ = ["ALGOS", "AlgoInfo", "algo_class", "check_action_space", "get_algo"]
+
+
+@dataclass(frozen=True)
+class AlgoInfo:
+    name: str
+    module: str
+    class_name: str
+    #: Action space types the algorithm accepts.
+    action_spaces: tuple[type[spaces.Space], ...]
+    #: How the accepted spaces are described in errors.
+    kind: str
+
+
+ALGOS: dict[str, AlgoInfo] = {
+    a.name: a
+    for a in (
+        AlgoInfo("ppo", "stable_baselines3", "PPO",
+                 (spaces.Discrete, spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary), "any action space"),
+        AlgoInfo("dqn", "stable_baselines3", "DQN", (spaces.Discrete,), "discrete actions (Discrete)"),
+        AlgoInfo("maskable_ppo", "sb3_contrib", "MaskablePPO",
+                 (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary), "discrete actions"),
+        AlgoInfo("sac", "stable_baselines3", "SAC", (spaces.Box,), "continuous actions (Box)"),
+        AlgoInfo("td3", "stable_baselines3", "TD3", (spaces.Box,), "continuous actions (Box)"),
+    )
+}  # fmt: skip
+
+
+def get_algo(name: str) -> AlgoInfo:
+    """The table row of ``name``; an unknown name raises :class:`~polyenvs.evaluation.InputError`."""
+    if not isinstance(name, str) or name not in ALGOS:
+        raise InputError(f"unknown algorithm {name!r}; expected one of {', '.join(ALGOS)}")
+    return ALGOS[name]
+
+
+def algo_class(name: str) -> type:
+    """The Stable-Baselines3 / sb3-contrib class (imports torch)."""
+    info = get_algo(name)
+    try:
+        module = importlib.import_module(info.module)
+    except ImportError as exc:
+        raise InputError(f'{name} needs {info.module.replace("_", "-")}: pip install "polyenvs[train]"') from exc
+    return getattr(module, info.class_name)
+
+
+def check_action_space(name: str, env_id: str, action_space: spaces.Space) -> None:
+    """Raise :class:`~polyenvs.evaluation.InputError` where ``name`` cannot act in ``action_space``."""
+    info = get_algo(name)
+    if not isinstance(action_space, info.action_spaces):
+        fits = [a for a, i in ALGOS.items() if isinstance(action_space, i.action_spaces)]
+        raise InputError(
+            f"{name} needs {info.kind}, but {env_id} has {action_space}; algorithms that fit: {', '.join(fits)}"
+        )
