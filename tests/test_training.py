@@ -1,36 +1,38 @@
-"""Training configs in RL Zoo's format, and Stable-Baselines3 training on every environment (a few hundred steps)."""
+"""Stable-Baselines3 on every environment, and ``polyenvs.training.train``: a few hundred steps into a run directory.
+
+The configs themselves are tested in ``test_training_config.py``, the VecEnv adapter in ``test_training_adapter.py``
+and the ``polyenvs train`` command in ``test_training_command.py``.
+"""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import polyenvs
 
+torch = pytest.importorskip("torch")
+sb3 = pytest.importorskip("stable_baselines3")
+contrib = pytest.importorskip("sb3_contrib")
+
+from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+
+from polyenvs.evaluation import InputError  # noqa: E402
+from polyenvs.training.train import TrainingInterrupted, train  # noqa: E402
+
+WALL = "polyenvs/BuckybotWallFollow-v0"
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-RL_ZOO_KEYS = {
-    "n_envs", "n_timesteps", "policy", "n_steps", "batch_size", "gae_lambda", "gamma", "n_epochs", "ent_coef",
-    "learning_rate", "clip_range", "policy_kwargs", "normalize", "env_wrapper", "buffer_size", "learning_starts",
-    "target_update_interval", "train_freq", "gradient_steps", "exploration_fraction", "exploration_final_eps",
-    "vf_coef", "max_grad_norm",
+RUN_KEYS = {
+    "env_id", "algo", "seed", "timesteps", "requested_timesteps", "n_envs", "env_kwargs", "hyperparams", "command",
+    "versions", "git_commit", "wall_clock_s", "completed",
 }  # fmt: skip
-
-
-@pytest.mark.parametrize("algo", ["ppo", "dqn"])
-def test_configs_cover_every_discrete_id(algo):
-    yaml = pytest.importorskip("yaml")
-    config = yaml.safe_load((CONFIGS / f"{algo}.yml").read_text())
-    for env_id in polyenvs.ENV_IDS:
-        assert env_id in config, f"configs/{algo}.yml has no entry for {env_id}"
-        assert set(config[env_id]) <= RL_ZOO_KEYS
-        assert config[env_id]["policy"] == "MlpPolicy"
 
 
 @pytest.mark.parametrize("env_id", polyenvs.ENV_IDS)
 def test_ppo_trains_a_few_steps(env_id):
-    torch = pytest.importorskip("torch")
-    sb3 = pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_util import make_vec_env
 
     torch.set_num_threads(1)  # two threads on these 2-core machines are intermittently 10-100x slower
@@ -42,8 +44,6 @@ def test_ppo_trains_a_few_steps(env_id):
 
 
 def test_maskable_ppo_uses_the_action_mask():
-    torch = pytest.importorskip("torch")
-    contrib = pytest.importorskip("sb3_contrib")
     import gymnasium as gym
 
     torch.set_num_threads(1)
@@ -55,3 +55,164 @@ def test_maskable_ppo_uses_the_action_mask():
     for _ in range(20):
         action, _ = model.predict(obs, action_masks=env.unwrapped.action_masks())
         assert action != 1
+
+
+# ------------------------------------------------------------------------------------------- polyenvs train
+
+
+def _run(out: Path) -> dict:
+    return json.loads((out / "run.json").read_text())
+
+
+@pytest.mark.parametrize(("algo", "cls"), [("ppo", sb3.PPO), ("maskable_ppo", contrib.MaskablePPO)])
+def test_train_writes_the_run_directory(tmp_path, algo, cls):
+    out = tmp_path / "run"
+    result = train(
+        WALL, algo, config=CONFIGS / f"{algo}.yml", timesteps=256, n_envs=2, seed=3, out_dir=out,
+        env_kwargs={"floor_plan": "corner", "max_episode_steps": 50}, command="polyenvs train test",
+    )  # fmt: skip
+    assert result == out
+    assert {p.name for p in out.iterdir()} == {"model.zip", "vecnormalize.pkl", "run.json", "tb"}
+    assert list((out / "tb").rglob("events.out.tfevents.*"))
+    run = _run(out)
+    assert RUN_KEYS <= set(run)
+    assert run["env_id"] == WALL and run["algo"] == algo and run["seed"] == 3
+    assert run["requested_timesteps"] == 256 and run["timesteps"] == 512  # one rollout: n_steps 256 x 2 envs
+    assert run["n_envs"] == 2 and run["env_kwargs"] == {"floor_plan": "corner", "max_episode_steps": 50}
+    assert run["completed"] is True and run["wall_clock_s"] > 0
+    assert run["command"] == "polyenvs train test"
+    assert run["vec_env"] == "NativeVecEnvAdapter"
+    assert set(run["versions"]) == {"python", "polyenvs", "gymnasium", "stable_baselines3", "sb3_contrib", "torch",
+                                    "numpy"}  # fmt: skip
+    assert run["git_commit"] is None or len(run["git_commit"]) == 40
+    hyper = run["hyperparams"]
+    assert hyper["policy"] == "MlpPolicy" and hyper["n_envs"] == 2 and hyper["n_timesteps"] == 256
+    assert hyper["normalize"] == {"gamma": 0.99} and hyper["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert set(run["episode_metrics"]) >= {"perimeter_fraction"}  # 50-step episodes finished
+    # The model loads back and acts; the normalisation statistics load back.
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    model = cls.load(out / "model.zip", device="cpu")
+    assert model.num_timesteps == 512
+    import gymnasium as gym
+
+    stats = VecNormalize.load(str(out / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make(WALL)]))
+    obs = stats.normalize_obs(stats.reset())
+    action, _ = model.predict(obs, deterministic=True)
+    assert action.shape == (1,)
+
+
+def test_train_logs_the_task_metrics_to_tensorboard(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out = train(WALL, "ppo", timesteps=256, n_envs=2, out_dir=tmp_path / "run", env_kwargs={"max_episode_steps": 20})
+    (events,) = (out / "tb").rglob("events.out.tfevents.*")
+    acc = EventAccumulator(str(events.parent))
+    acc.Reload()
+    tags = set(acc.Tags()["scalars"])
+    assert {"rollout/ep_rew_mean", "episode_metrics/perimeter_fraction"} <= tags, tags
+
+
+def test_train_rerun_skips_a_finished_run_and_refuses_other_directories(tmp_path):
+    out = tmp_path / "run"
+    kwargs = {"timesteps": 64, "n_envs": 1, "tensorboard": False}
+    train(WALL, "dqn", out_dir=out, seed=1, **kwargs)
+    before = (out / "model.zip").stat().st_mtime_ns, (out / "run.json").read_text()
+    assert train(WALL, "dqn", out_dir=out, seed=1, **kwargs) == out  # finished: nothing to do
+    assert ((out / "model.zip").stat().st_mtime_ns, (out / "run.json").read_text()) == before
+    with pytest.raises(InputError, match="holds a finished run of polyenvs/BuckybotWallFollow-v0 dqn seed 1"):
+        train(WALL, "dqn", out_dir=out, seed=2, **kwargs)
+    with pytest.raises(InputError, match="holds a finished run"):
+        train(WALL, "ppo", out_dir=out, seed=1, **kwargs)
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="holds files and no run.json; choose another --out or remove it"):
+        train(WALL, "dqn", out_dir=other, **kwargs)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(InputError, match="is a file"):
+        train(WALL, "dqn", out_dir=tmp_path / "file", **kwargs)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert train(WALL, "dqn", out_dir=empty, **kwargs) == empty  # an empty directory is fine
+
+
+class _Interrupt(BaseCallback):
+    """Ctrl-C after ``after`` calls to step."""
+
+    def __init__(self, after: int):
+        super().__init__()
+        self.after = after
+
+    def _on_step(self) -> bool:
+        if self.n_calls >= self.after:
+            raise KeyboardInterrupt
+        return True
+
+
+def test_ctrl_c_saves_the_partial_model(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(TrainingInterrupted) as info:
+        train(
+            WALL, "ppo", timesteps=100_000, n_envs=2, out_dir=out, callbacks=[_Interrupt(after=300)],
+            tensorboard=False,
+        )  # fmt: skip
+    assert isinstance(info.value, KeyboardInterrupt)
+    assert info.value.out_dir == out and info.value.timesteps == 600  # 300 steps of 2 envs
+    run = _run(out)
+    assert run["completed"] is False and run["timesteps"] == 600 and run["requested_timesteps"] == 100_000
+    assert (out / "model.zip").is_file() and (out / "vecnormalize.pkl").is_file()
+    assert sb3.PPO.load(out / "model.zip", device="cpu").num_timesteps == 600
+    # An interrupted run is not finished: a re-run refuses the directory instead of skipping it.
+    with pytest.raises(InputError, match="holds an unfinished or interrupted run"):
+        train(WALL, "ppo", timesteps=64, n_envs=2, out_dir=out)
+
+
+def test_native_and_dummy_training_give_the_same_model(tmp_path):
+    """The adapter gives DummyVecEnv's experience bit for bit, so PPO learns the same weights on either."""
+    common = {"timesteps": 256, "n_envs": 2, "seed": 4, "tensorboard": False, "env_kwargs": {"max_episode_steps": 30}}
+    a = train(WALL, "ppo", out_dir=tmp_path / "native", vec_env="native", **common)
+    b = train(WALL, "ppo", out_dir=tmp_path / "dummy", vec_env="dummy", **common)
+    assert _run(a)["vec_env"] == "NativeVecEnvAdapter" and _run(b)["vec_env"] == "DummyVecEnv"
+    params_a = sb3.PPO.load(a / "model.zip", device="cpu").policy.state_dict()
+    params_b = sb3.PPO.load(b / "model.zip", device="cpu").policy.state_dict()
+    for key in params_a:
+        assert torch.equal(params_a[key], params_b[key]), key
+
+
+def test_action_space_mismatch_and_bad_arguments(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(InputError, match=r"sac needs continuous actions \(Box\), but .* has Discrete\(3\); "
+                       r"algorithms that fit: ppo, dqn, maskable_ppo"):  # fmt: skip
+        train(WALL, "sac", config=CONFIGS / "ppo.yml", out_dir=out)
+    with pytest.raises(InputError, match="unknown algorithm 'a2c'; expected one of ppo, dqn, maskable_ppo, sac, td3"):
+        train(WALL, "a2c", out_dir=out)
+    with pytest.raises(InputError, match="unknown environment id 'polyenvs/Nope-v0'"):
+        train("polyenvs/Nope-v0", "ppo", out_dir=out)
+    with pytest.raises(InputError, match="timesteps must be >= 1"):
+        train(WALL, "ppo", timesteps=0, out_dir=out)
+    with pytest.raises(InputError, match="seed must be an integer"):
+        train(WALL, "ppo", seed=1.5, out_dir=out)
+    with pytest.raises(InputError, match="bad environment keyword arguments .*floor_plan"):
+        train(WALL, "ppo", env_kwargs={"floor_plan": "nowhere"}, out_dir=out)
+    bad = tmp_path / "bad.yml"
+    bad.write_text(f"{WALL}:\n  n_timesteps: 100\n  batch_size: 1\n")
+    with pytest.raises(InputError, match=r"bad\.yml: polyenvs/BuckybotWallFollow-v0: PPO rejected the hyper"):
+        train(WALL, "ppo", config=bad, out_dir=out)
+    assert not out.exists()  # nothing was written for any of these
+
+
+def test_sac_trains_on_a_continuous_env(tmp_path):
+    """The continuous algorithms work end to end (on Pendulum until a polyenvs family has continuous actions)."""
+    config = tmp_path / "sac.yml"
+    config.write_text("Pendulum-v1:\n  n_timesteps: 200\n  policy: 'MlpPolicy'\n  learning_starts: 50\n"
+                      "  normalize: \"{'norm_obs': True, 'norm_reward': False}\"\n"
+                      "  policy_kwargs: \"dict(net_arch=[16, 16])\"\n")  # fmt: skip
+    out = train("Pendulum-v1", "sac", config=config, out_dir=tmp_path / "run", tensorboard=False)
+    run = _run(out)
+    assert run["completed"] and run["timesteps"] == 200 and run["vec_env"] == "DummyVecEnv"
+    assert run["hyperparams"]["normalize"] == {"norm_obs": True, "norm_reward": False}
+    model = sb3.SAC.load(out / "model.zip", device="cpu")
+    assert model.predict(np.zeros(3, dtype=np.float32))[0].shape == (1,)
+    with pytest.raises(InputError, match="dqn needs discrete actions"):
+        train("Pendulum-v1", "dqn", config=config, out_dir=tmp_path / "dqn")
