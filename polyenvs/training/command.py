@@ -1,0 +1,146 @@
+"""The ``polyenvs train`` subcommand.
+
+``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
+[--out DIR] [--progress/--no-progress]``
+
+Every flag is checked before any work: a bad value raises :class:`~polyenvs.evaluation.InputError`, which the
+command line prints as one line (exit 2). Wired into ``polyenvs.cli`` with::
+
+    from polyenvs.training.command import add_parser as add_train_parser
+    add_train_parser(sub)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from polyenvs.evaluation import InputError
+
+__all__ = ["add_parser", "default_out_dir", "run"]
+
+#: Where ``polyenvs train`` writes by default (gitignored, like every run's output).
+DEFAULT_TRAIN_DIR = Path("runs/train")
+
+
+def default_out_dir(env_id: str, algo: str, seed: int) -> Path:
+    """``runs/train/<EnvName>/<algo>/seed<S>`` (``EnvName``: the id without its namespace)."""
+    return DEFAULT_TRAIN_DIR / env_id.split(":", 1)[-1].split("/")[-1] / algo / f"seed{seed}"
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``train`` subcommand to an ``argparse`` subparsers object; ``args.func`` is :func:`run`."""
+    from polyenvs.training.algos import ALGOS
+
+    p = subparsers.add_parser(
+        "train",
+        help="train an agent with Stable-Baselines3 (needs polyenvs[train])",
+        description="Train an agent with Stable-Baselines3 / sb3-contrib on hyperparameters from an RL Zoo-format "
+        "config, on the id's native vector env where it has one. Writes DIR/model.zip, DIR/vecnormalize.pkl (when "
+        "the config normalises), DIR/run.json (config, seed, command, versions, git commit) and TensorBoard logs "
+        "in DIR/tb. Ctrl-C saves the model trained so far (run.json: completed false). A DIR that holds a finished "
+        "run of the same id, algorithm and seed is left as it is.",
+    )
+    p.add_argument("env_id", help="environment id (polyenvs list)")
+    p.add_argument("--algo", required=True, help=f"one of {', '.join(ALGOS)}")
+    p.add_argument("--config", default=None, help="RL Zoo-format YAML file (default configs/ALGO.yml)")
+    p.add_argument("--timesteps", default=None, help="training steps, >= 1 (default: the config's n_timesteps)")
+    p.add_argument("--seed", default="0", help="training seed, >= 0 (default 0)")
+    p.add_argument("--n-envs", default=None, help="parallel environments, >= 1 (default: the config's n_envs)")
+    p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    p.add_argument("--out", default=None, help=f"output directory (default {DEFAULT_TRAIN_DIR}/ENV/ALGO/seedS)")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="show a progress bar (default: when stderr is a terminal)",
+    )
+    p.set_defaults(func=run)
+    return p
+
+
+def _int_flag(flag: str, text: str | None, minimum: int) -> int | None:
+    if text is None:
+        return None
+    try:
+        value = int(str(text).replace("_", ""))
+    except ValueError:
+        try:  # 1e6, as configs write it
+            number = float(text)
+        except ValueError:
+            raise InputError(f"{flag} must be an integer, got {text!r}") from None
+        if not number.is_integer():
+            raise InputError(f"{flag} must be an integer, got {text!r}") from None
+        value = int(number)
+    if value < minimum:
+        raise InputError(f"{flag} must be >= {minimum}, got {value}")
+    return value
+
+
+def _json_flag(flag: str, text: str) -> dict:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{flag} is not valid JSON: {exc.msg} (got {text!r})") from None
+    if not isinstance(value, dict):
+        raise InputError(f"{flag} must be a JSON object, got {text!r}")
+    return value
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``polyenvs train`` for parsed ``args``; 0 when trained (or already finished), 130 after Ctrl-C."""
+    from polyenvs.training.algos import get_algo
+
+    get_algo(args.algo)
+    timesteps = _int_flag("--timesteps", args.timesteps, 1)
+    seed = _int_flag("--seed", args.seed, 0)
+    n_envs = _int_flag("--n-envs", args.n_envs, 1)
+    env_kwargs = _json_flag("--env-kwargs", args.env_kwargs)
+    out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
+    progress = args.progress if args.progress is not None else _isatty(sys.stderr)
+
+    from polyenvs.training.train import TrainingInterrupted, finished_run, train
+
+    if finished_run(out_dir, args.env_id, args.algo, seed) is not None:
+        print(f"{out_dir} already holds a finished run of {args.env_id} {args.algo} seed {seed}: nothing to do")
+        return 0
+    start = time.monotonic()
+    try:
+        train(
+            args.env_id,
+            args.algo,
+            config=args.config,
+            timesteps=timesteps,
+            seed=seed,
+            n_envs=n_envs,
+            env_kwargs=env_kwargs,
+            out_dir=out_dir,
+            progress_bar=progress,
+        )
+    except TrainingInterrupted as stop:
+        print(
+            f"polyenvs train: interrupted after {stop.timesteps} timesteps; saved the partial model in "
+            f"{stop.out_dir} (run.json: completed false)",
+            file=sys.stderr,
+        )
+        return 130
+    from polyenvs.training.train import read_run
+
+    doc = read_run(out_dir) or {}
+    steps, seconds = doc.get("timesteps", 0), doc.get("wall_clock_s", time.monotonic() - start)
+    rate = f", {steps / seconds:,.0f} steps/s" if seconds else ""
+    print(f"trained {args.algo} on {doc.get('env_id', args.env_id)}: {steps} timesteps in {seconds:.1f} s{rate}")
+    for name, value in (doc.get("episode_metrics") or {}).items():
+        print(f"  {name} (last episodes' mean): {value:.4g}")
+    print(f"wrote {out_dir}")
+    return 0
