@@ -87,7 +87,9 @@ def test_train_writes_the_run_directory(tmp_path, algo, cls):
     assert run["git_commit"] is None or len(run["git_commit"]) == 40
     hyper = run["hyperparams"]
     assert hyper["policy"] == "MlpPolicy" and hyper["n_envs"] == 2 and hyper["n_timesteps"] == 256
-    assert hyper["normalize"] == {"gamma": 0.99} and hyper["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert hyper["normalize"] == {"norm_obs": True, "norm_reward": True, "gamma": 0.99} and hyper["policy_kwargs"] == {
+        "net_arch": [64, 64]
+    }
     assert set(run["episode_metrics"]) >= {"perimeter_fraction"}  # 50-step episodes finished
     # The model loads back and acts; the normalisation statistics load back.
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize

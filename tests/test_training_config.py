@@ -138,6 +138,9 @@ def test_normalize_forms(tmp_path):
     ]:
         config = load_config(_write(tmp_path, {**BASE, "normalize": value}), WALL, "ppo")
         assert (config.normalize, config.normalize_kwargs) == expected
+        # run.json's record: VecNormalize's arguments in full (never an empty, falsy dict), or False
+        resolved = config.resolved()["normalize"]
+        assert resolved == ({"norm_obs": True, "norm_reward": True, **expected[1]} if expected[0] else False)
 
 
 def test_env_wrapper_forms(tmp_path):

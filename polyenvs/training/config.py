@@ -98,7 +98,8 @@ class TrainConfig:
     def resolved(self) -> dict[str, Any]:
         """Every setting as used, JSON-able: schedules as RL Zoo writes them, classes by dotted name."""
         doc: dict[str, Any] = {"policy": self.policy, "n_envs": self.n_envs, "n_timesteps": self.n_timesteps}
-        doc["normalize"] = dict(self.normalize_kwargs) if self.normalize else False
+        # VecNormalize's arguments in full (never an empty, falsy dict), or false.
+        doc["normalize"] = {"norm_obs": True, "norm_reward": True, **self.normalize_kwargs} if self.normalize else False
         if self.env_wrappers:
             doc["env_wrapper"] = [{path: kw} if kw else path for path, kw in self.env_wrappers]
         if self.frame_stack is not None:
