@@ -14,6 +14,7 @@ never leaves a half-written file under its real name.
 from __future__ import annotations
 
 import contextlib
+import functools
 import inspect
 import json
 import os
@@ -144,11 +145,20 @@ def evaluate(
     }
 
 
-def _takes_action_masks(agent) -> bool:
+@functools.lru_cache(maxsize=256)
+def _signature_takes_action_masks(function) -> bool:
     try:
-        return "action_masks" in inspect.signature(agent.predict).parameters
+        return "action_masks" in inspect.signature(function).parameters
     except (TypeError, ValueError):  # builtins without a signature
         return False
+
+
+def _takes_action_masks(agent) -> bool:
+    predict = agent.predict
+    function = getattr(predict, "__func__", None)  # a method: look its function up once, not at every step
+    if function is None:
+        return _signature_takes_action_masks.__wrapped__(predict)
+    return _signature_takes_action_masks(function)
 
 
 def policy_action(agent, obs, state, episode_start: bool, info: dict, deterministic: bool = True):

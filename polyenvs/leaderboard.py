@@ -169,7 +169,9 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     if not base.is_dir():
         return []
     agents = []
-    for algo_dir in sorted(p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")):
+    order = {name: i for i, name in enumerate(trained.ALGORITHMS)}  # ppo, dqn, maskable_ppo, sac, td3
+    algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
+    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(p.name, len(order)), p.name)):
         algo = algo_dir.name
         if algo not in trained.ALGORITHMS:
             raise InputError(f"{algo_dir}: unknown algorithm directory; known: {', '.join(trained.ALGORITHMS)}")
@@ -534,7 +536,7 @@ _FONT_ROWS = {
     "_": "...|...|...|...|###", "-": "...|...|###|...|...", ".": "...|...|...|...|.#.", "/": "..#|..#|.#.|#..|#..",
     "[": "##.|#..|#..|#..|##.", "]": ".##|..#|..#|..#|.##", "(": ".#.|#..|#..|#..|.#.", ")": ".#.|..#|..#|..#|.#.",
     ",": "...|...|...|.#.|#..", ":": "...|.#.|...|.#.|...", "%": "#.#|..#|.#.|#..|#.#", "=": "...|###|...|###|...",
-    "+": "...|.#.|###|.#.|...", " ": "...|...|...|...|...",
+    "+": "...|.#.|###|.#.|...", "'": ".#.|.#.|...|...|...", " ": "...|...|...|...|...",
 }  # fmt: skip
 _FONT = {ch: np.array([[c == "#" for c in row] for row in rows.split("|")]) for ch, rows in _FONT_ROWS.items()}
 _COLOURS = {
@@ -636,7 +638,12 @@ def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndar
     for t in ticks:
         text = _format_number(float(t)) if abs(t) > 1e-9 * (hi - lo) else "0"
         _draw_text(image, round(x_px(t) - _text_width(text, scale) / 2), plot_bottom + 8, text, (60, 60, 60), scale)
-    legend = [("random", "random"), ("paper", "paper's baseline"), ("baseline", "other hand baselines"), ("agent", "trained agent")]
+    legend = [
+        ("random", "random"),
+        ("paper", "paper's baseline"),
+        ("baseline", "other hand baselines"),
+        ("agent", "trained agent"),
+    ]
     x = 16
     for kind, name in legend:
         image[height - 18 : height - 8, x : x + 10] = _COLOURS[kind]

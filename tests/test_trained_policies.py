@@ -478,6 +478,13 @@ def test_leaderboard_evaluates_and_aggregates_trained_agents(agents_dir, tmp_pat
     assert code == 0, err
     assert "ppo seed0: redoing" in err and "SHA-256 differs" in err and "ppo seed1: done before" in err
 
+    # Evaluating another environment keeps the agents' rows of this one in the table (stored results).
+    code, _, err = run_main(leaderboard_args(tmp_path, agents_dir, "--episodes", "1", "--only", "Goal"), capsys)
+    assert code == 0, err
+    text = (tmp_path / "LEADERBOARD.md").read_text()
+    assert f"| ppo | {WALL} |" in text and f"| goal_seeker | {GOAL} |" in text
+    assert (tmp_path / "LEADERBOARD_polyenvs__BuckybotGoal-v0.png").is_file()
+
 
 def test_leaderboard_policy_flag_adds_a_model_by_path(ppo_run, tmp_path, capsys):
     empty = tmp_path / "no_agents"
@@ -486,6 +493,12 @@ def test_leaderboard_policy_flag_adds_a_model_by_path(ppo_run, tmp_path, capsys)
     assert code == 0, err
     assert f"| {ppo_run} | {WALL} |" in out
     assert any(p.name.startswith(f"{WALL_SLUG}__agent__") for p in (tmp_path / "results").iterdir())
+
+    # A model for an environment that --only leaves out is one line, before any evaluation.
+    args = leaderboard_args(tmp_path, empty, "--episodes", "1", "--policy", str(ppo_run))
+    args[args.index("WallFollow")] = "Goal"
+    code, _, err = run_main(args, capsys)
+    assert_one_line_error(code, err, "not among the environments")
 
 
 @pytest.mark.parametrize(
