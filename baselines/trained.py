@@ -233,9 +233,18 @@ def _load_normalization(normalize_file: Path, observation_space: spaces.Space):
 
 
 def _normalize_requested(run: dict) -> bool:
+    """Whether run.json says observations were normalised: ``normalize`` true, a non-empty string (RL Zoo's
+    ``"dict(...)"``), or VecNormalize's arguments without ``norm_obs: false``."""
     hyperparams = run.get("hyperparams")
     value = hyperparams.get("normalize", False) if isinstance(hyperparams, dict) else False
-    return bool(value) and str(value).strip().lower() not in ("false", "0", "none")
+    if isinstance(value, dict):
+        return value.get("norm_obs", True) is not False
+    if isinstance(value, str):
+        return (
+            value.strip().lower() not in ("", "false", "0", "none")
+            and "norm_obs=false" not in value.replace(" ", "").lower()
+        )
+    return bool(value)
 
 
 class TrainedPolicy:

@@ -46,7 +46,10 @@ def write_run_json(directory: Path, algo: str, seed: int = 0, env_id: str = WALL
         "requested_timesteps": STEPS,
         "n_envs": 1,
         "env_kwargs": {},
-        "hyperparams": {"normalize": algo == "ppo", "policy": "MlpPolicy"},
+        "hyperparams": {  # normalize as polyenvs train records it: VecNormalize's arguments, or false
+            "normalize": {"norm_obs": True, "norm_reward": True, "gamma": 0.99} if algo == "ppo" else False,
+            "policy": "MlpPolicy",
+        },
         "command": f"polyenvs train {env_id} --algo {algo} --timesteps {STEPS} --seed {seed}",
         "versions": {"stable_baselines3": sb3.__version__},
         "git_commit": None,
@@ -332,6 +335,32 @@ def _bad_model(kind: str, ppo_run: Path, tmp_path: Path) -> tuple[str, str, str]
         (run / "vecnormalize.pkl").write_bytes(b"garbage")
         return WALL, str(run), "vecnormalize.pkl: cannot load it"
     raise AssertionError(kind)
+
+
+@pytest.mark.parametrize(
+    "normalize, requested",
+    [
+        (True, True),
+        (False, False),
+        ({}, True),
+        ({"norm_obs": True, "gamma": 0.99}, True),
+        ({"norm_obs": False, "norm_reward": True}, False),
+        ("dict(gamma=0.99)", True),
+        ("dict(norm_obs=False, norm_reward=True)", False),
+        (None, False),
+    ],
+)
+def test_normalize_forms_in_run_json(normalize, requested, ppo_run, tmp_path):
+    """Without vecnormalize.pkl, a run.json that says observations were normalised is refused."""
+    run = copy_run(ppo_run, tmp_path / "run", hyperparams={"normalize": normalize})
+    (run / "vecnormalize.pkl").unlink()
+    env = gym.make(WALL)
+    if requested:
+        with pytest.raises(TrainedModelError, match="no vecnormalize.pkl"):
+            make_policy(str(run), WALL, env.observation_space, env.action_space)
+    else:
+        assert make_policy(str(run), WALL, env.observation_space, env.action_space).describe()["normalize"] is False
+    env.close()
 
 
 BAD_MODELS = [
