@@ -440,6 +440,9 @@ def _cmd_record(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="polyenvs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    from polyenvs.training.command import add_parser as add_train_parser  # imports nothing heavy until it runs
+
+    add_train_parser(sub)
     episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
 
     p = sub.add_parser("list", help="every environment id with its spaces and a one-line description")
