@@ -12,9 +12,10 @@ import argparse
 import json
 import math
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+from polyenvs.evaluation import check_writable_directory, parse_json_object
 
 __all__ = ["main"]
 
@@ -67,51 +68,11 @@ def _positive_finite(text: str) -> float:
     return value
 
 
-def _json_arg(text: str, name: str) -> dict:
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CliError(f"{name} is not valid JSON: {exc.msg} (got {text!r})") from None
-    if not isinstance(value, dict):
-        raise CliError(f"{name} must be a JSON object, got {text!r}")
-    return value
-
-
-# ----------------------------------------------------------------------------------------------- output paths
-
-
-def _nearest_existing(path: Path) -> Path:
-    path = Path(path).absolute()
-    while not path.exists() and path != path.parent:
-        path = path.parent
-    return path
-
-
-def _check_dir_writable(directory: Path, flag: str, shown: Path | None = None) -> None:
-    """``directory`` exists and we can create files in it, or it can be created: else a :class:`CliError`.
-
-    Creates nothing: a non-existent directory is judged by its nearest existing ancestor, and writability by
-    creating (and at once deleting) an anonymous file, which also works where permission bits do not tell
-    (root, read-only or virtual file systems such as /proc).
-    """
-    directory = Path(directory)
-    if directory.exists() and not directory.is_dir():
-        raise CliError(f"{flag} {shown or directory}: {directory} is not a directory")
-    existing = _nearest_existing(directory)
-    if not existing.is_dir():
-        raise CliError(f"{flag} {shown or directory}: cannot create {directory}: {existing} is not a directory")
-    try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as exc:
-        raise CliError(f"{flag} {shown or directory}: cannot write in {existing}: {exc.strerror or exc}") from None
-
-
 def _check_output_file(path: Path, flag: str) -> None:
     path = Path(path)
     if path.is_dir():
         raise CliError(f"{flag} {path}: is a directory; give a file name")
-    _check_dir_writable(path.parent, flag, shown=path)
+    check_writable_directory(path.parent, flag, shown=path)
 
 
 # -------------------------------------------------------------------------------------------- progress display
@@ -260,8 +221,8 @@ def _cmd_list(args) -> int:
 def _cmd_evaluate(args) -> int:
     from polyenvs.evaluation import evaluate
 
-    env_kwargs = _json_arg(args.env_kwargs, "--env-kwargs")
-    policy_kwargs = _json_arg(args.policy_kwargs, "--policy-kwargs")
+    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
+    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
     bar = ProgressBar("episodes")
     bar.start(args.episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
     try:
@@ -339,7 +300,7 @@ def _cmd_leaderboard(args) -> int:
     env_ids = [e for e in ENV_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
-    _check_dir_writable(results_dir, "--results-dir")
+    check_writable_directory(results_dir, "--results-dir")
     _check_output_file(output, "--output")
     if results_dir.absolute() == output.absolute():
         raise CliError(f"--output {output} is the results directory")
@@ -401,8 +362,8 @@ def _cmd_record(args) -> int:
                 f'--output {output}: writing .mp4 needs imageio-ffmpeg: pip install "polyenvs[render]"'
             ) from None
     _check_output_file(output, "--output")
-    env_kwargs = _json_arg(args.env_kwargs, "--env-kwargs")
-    policy_kwargs = _json_arg(args.policy_kwargs, "--policy-kwargs")
+    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
+    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
 
     env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
     try:

@@ -19,6 +19,7 @@ import inspect
 import json
 import os
 import secrets
+import tempfile
 from collections.abc import Callable, Iterator
 from numbers import Integral
 from pathlib import Path
@@ -31,12 +32,14 @@ __all__ = [
     "InputError",
     "atomic_path",
     "check_count",
+    "check_writable_directory",
     "evaluate",
     "interquartile_mean",
     "iqm_with_ci",
     "iqm_with_stratified_ci",
     "make_agent",
     "make_env",
+    "parse_json_object",
     "policy_action",
     "temp_path_for",
     "write_json_atomic",
@@ -50,6 +53,39 @@ class InputError(ValueError):
     Distinct from a ``ValueError`` raised while an environment runs, which is a bug: the command line prints an
     ``InputError`` as one line and lets anything else show its traceback.
     """
+
+
+def parse_json_object(text: str, name: str) -> dict:
+    """A command-line flag's JSON object (``--env-kwargs``, ``--policy-kwargs``); else an :class:`InputError`."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{name} is not valid JSON: {exc.msg} (got {text!r})") from None
+    if not isinstance(value, dict):
+        raise InputError(f"{name} must be a JSON object, got {text!r}")
+    return value
+
+
+def check_writable_directory(directory: Path, flag: str, shown: Path | None = None) -> None:
+    """``directory`` exists and we can create files in it, or it can be created: else an :class:`InputError`.
+
+    Creates nothing: a non-existent directory is judged by its nearest existing ancestor, and writability by
+    creating (and at once deleting) an anonymous file, which also works where permission bits do not tell
+    (root, read-only or virtual file systems such as /proc).
+    """
+    directory = Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise InputError(f"{flag} {shown or directory}: {directory} is not a directory")
+    existing = directory.absolute()
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"{flag} {shown or directory}: cannot create {directory}: {existing} is not a directory")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise InputError(f"{flag} {shown or directory}: cannot write in {existing}: {exc.strerror or exc}") from None
 
 
 def check_count(name: str, value, minimum: int) -> int:

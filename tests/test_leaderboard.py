@@ -26,12 +26,18 @@ GOAL_PLOT = "LEADERBOARD_polyenvs__BuckybotGoal-v0.png"  # beside the table
 
 
 def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
+    """``polyenvs leaderboard`` into ``tmp_path``, over the hand baselines only (an empty agents directory: the
+    committed agents have tests of their own, in test_trained_policies.py)."""
+    no_agents = tmp_path / "no-agents"
+    no_agents.mkdir(exist_ok=True)
+    agents = [] if "--agents-dir" in extra else ["--agents-dir", str(no_agents)]
     return [
         "leaderboard",
         "--results-dir",
         str(tmp_path / "results"),
         "--output",
         str(tmp_path / "LEADERBOARD.md"),
+        *agents,
         *extra,
     ]
 

@@ -13,12 +13,11 @@ command line prints as one line (exit 2). Wired into ``polyenvs.cli`` with::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import InputError
+from polyenvs.evaluation import InputError, parse_json_object
 
 __all__ = ["add_parser", "default_out_dir", "run"]
 
@@ -80,16 +79,6 @@ def _int_flag(flag: str, text: str | None, minimum: int) -> int | None:
     return value
 
 
-def _json_flag(flag: str, text: str) -> dict:
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{flag} is not valid JSON: {exc.msg} (got {text!r})") from None
-    if not isinstance(value, dict):
-        raise InputError(f"{flag} must be a JSON object, got {text!r}")
-    return value
-
-
 def _isatty(stream) -> bool:
     try:
         return bool(stream.isatty())
@@ -105,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     timesteps = _int_flag("--timesteps", args.timesteps, 1)
     seed = _int_flag("--seed", args.seed, 0)
     n_envs = _int_flag("--n-envs", args.n_envs, 1)
-    env_kwargs = _json_flag("--env-kwargs", args.env_kwargs)
+    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
     progress = args.progress if args.progress is not None else _isatty(sys.stderr)
 

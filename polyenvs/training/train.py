@@ -18,13 +18,12 @@ import platform
 import shlex
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import InputError, atomic_path, check_count, write_json_atomic
+from polyenvs.evaluation import InputError, atomic_path, check_count, check_writable_directory, write_json_atomic
 
 __all__ = ["RUN_FILE", "TrainingInterrupted", "finished_run", "read_run", "train"]
 
@@ -82,16 +81,7 @@ def _check_out_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> bool:
         else:
             what = f"holds a finished run of {run.get('env_id')} {run.get('algo')} seed {run.get('seed')}"
         raise InputError(f"output directory {out_dir} {what}; choose another --out or remove it")
-    existing = out_dir.absolute()
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        raise InputError(f"output directory {out_dir}: cannot create it: {existing} is not a directory")
-    try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as exc:
-        raise InputError(f"output directory {out_dir}: cannot write in {existing}: {exc.strerror or exc}") from None
+    check_writable_directory(out_dir, "output directory")
     return False
 
 
