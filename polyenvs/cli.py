@@ -404,6 +404,9 @@ def build_parser() -> argparse.ArgumentParser:
     from polyenvs.training.command import add_parser as add_train_parser  # imports nothing heavy until it runs
 
     add_train_parser(sub)
+    from polyenvs.sweep import add_parser as add_sweep_parser  # imports nothing heavy until it runs
+
+    add_sweep_parser(sub)
     episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
 
     p = sub.add_parser("list", help="every environment id with its spaces and a one-line description")

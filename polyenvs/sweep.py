@@ -1,0 +1,404 @@
+"""``polyenvs sweep``: train and evaluate every (environment, algorithm, seed) as independent jobs.
+
+``polyenvs sweep --envs ID... --algos ALGO... --seeds S... [--timesteps N] [--config-dir DIR] [--backend local|ray]
+[--address ADDR] [--jobs N] [--out DIR] [--episodes N]``
+
+A job is :func:`polyenvs.training.train.train` into ``<out>/agents/<env id with / as __>/<algo>/seed<N>/`` (the
+layout of ``benchmarks/agents``) followed by :func:`polyenvs.evaluation.evaluate` of that model on the leaderboard's
+evaluation seeds, written atomically to ``<out>/results/<env id with / as __>__agent__<algo>__seed<N>.json`` (the
+leaderboard's result file for that agent). The jobs run on a local process pool (``--jobs`` workers, one torch thread
+each) or, with ``--backend ray``, as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a
+running cluster; the pool or Ray schedules them. Jobs are reproducible from their seeds, and a re-run skips what is
+done: ``train`` returns a finished run without training, and a readable result file for the same number of episodes
+is kept.
+
+Every flag is checked before any job starts (one-line :class:`~polyenvs.evaluation.InputError`, exit 2). A failing
+job is reported with its error in one line and the command exits 1 once the others finish; Ctrl-C stops the jobs
+(a run interrupted mid-training keeps its partial model, ``run.json``: completed false) and exits 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from polyenvs.evaluation import InputError, check_writable_directory
+
+__all__ = ["DEFAULT_SWEEP_DIR", "Job", "add_parser", "plan_jobs", "run", "run_job", "run_sweep"]
+
+#: Where ``polyenvs sweep`` writes by default (gitignored, like every run's output).
+DEFAULT_SWEEP_DIR = Path("runs/sweep")
+BACKENDS = ("local", "ray")
+RAY_HINT = 'the ray backend needs Ray: pip install "polyenvs[distributed]"'
+
+
+@dataclass(frozen=True)
+class Job:
+    """One (environment, algorithm, seed): where it trains, where its evaluation goes, and how."""
+
+    env_id: str
+    algo: str
+    seed: int
+    config: str
+    timesteps: int | None
+    episodes: int
+    out_dir: str
+    result_file: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.env_id} {self.algo} seed{self.seed}"
+
+    def command(self) -> str:
+        """The ``polyenvs train`` command that trains this job alone (recorded in run.json)."""
+        argv = ["polyenvs", "train", self.env_id, "--algo", self.algo, "--config", self.config]
+        if self.timesteps is not None:
+            argv += ["--timesteps", str(self.timesteps)]
+        return shlex.join([*argv, "--seed", str(self.seed), "--out", self.out_dir, "--no-progress"])
+
+
+# ------------------------------------------------------------------------------------------------------- jobs
+
+
+def _one_line(exc: BaseException) -> str:
+    message = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
+
+
+def _init_worker() -> None:
+    try:
+        import torch
+    except ImportError:  # pragma: no cover - the train extra is checked before any job starts
+        return
+    torch.set_num_threads(1)
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """Train ``job`` (or find it finished), evaluate it (or find its result) and return what happened.
+
+    Runs in a worker process. Returns ``{"job", "trained", "train_s", "evaluated", "iqm", "mean", "episodes"}``,
+    or ``{"job", "error"}`` with the error in one line; Ctrl-C propagates.
+    """
+    from polyenvs.evaluation import evaluate, interquartile_mean, write_json_atomic
+    from polyenvs.leaderboard import EVAL_SEED, _provenance, load_result
+    from polyenvs.training.train import finished_run, read_run, train
+
+    _init_worker()
+    out_dir, result_file = Path(job.out_dir), Path(job.result_file)
+    try:
+        trained = finished_run(out_dir, job.env_id, job.algo, job.seed) is None
+        train(
+            job.env_id,
+            job.algo,
+            config=job.config,
+            timesteps=job.timesteps,
+            seed=job.seed,
+            out_dir=out_dir,
+            tensorboard=False,
+            command=job.command(),
+        )
+        run_doc = read_run(out_dir) or {}
+        doc, _ = load_result(result_file, job.env_id, str(out_dir), job.episodes)
+        evaluated = doc is None
+        if doc is None:
+            doc = evaluate(job.env_id, str(out_dir), episodes=job.episodes, seed=EVAL_SEED)
+            doc["n_episodes"] = job.episodes
+            doc["agent"] = {
+                "algo": job.algo,
+                "label": job.algo,
+                "training_seed": job.seed,
+                "timesteps": run_doc.get("timesteps"),
+                "requested_timesteps": run_doc.get("requested_timesteps"),
+                "completed": run_doc.get("completed"),
+            }
+            doc.update(_provenance())
+            write_json_atomic(result_file, doc)
+        returns = [float(e["return"]) for e in doc["episodes"]]
+    except Exception as exc:  # reported by the driver, which carries on with the other jobs
+        return {"job": asdict(job), "error": _one_line(exc)}
+    return {
+        "job": asdict(job),
+        "trained": trained,
+        "train_s": float(run_doc.get("wall_clock_s", 0.0)),
+        "evaluated": evaluated,
+        "iqm": interquartile_mean(returns),
+        "mean": sum(returns) / len(returns),
+        "episodes": len(returns),
+    }
+
+
+# -------------------------------------------------------------------------------------------------- checking
+
+
+def _slug(env_id: str) -> str:
+    return env_id.replace("/", "__")
+
+
+def plan_jobs(
+    envs: list[str],
+    algos: list[str],
+    seeds: list[int],
+    *,
+    out: Path,
+    config_dir: Path | None = None,
+    timesteps: int | None = None,
+    episodes: int = 10,
+) -> list[Job]:
+    """Check everything about a sweep (ids, algorithms, configs, output directories) and list its jobs.
+
+    Raises :class:`InputError` (one line) for anything that cannot work, before any job starts.
+    """
+    import polyenvs  # noqa: F401  (registers the ids)
+    from polyenvs.evaluation import make_env
+    from polyenvs.registry import ENV_IDS
+    from polyenvs.training.algos import check_action_space, get_algo
+    from polyenvs.training.config import default_config_path, load_config
+    from polyenvs.training.train import _check_out_dir
+
+    ids = []
+    for env_id in envs:
+        bare = env_id.split(":", 1)[-1]
+        if bare not in ENV_IDS:
+            raise InputError(f"--envs: unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
+        ids.append(bare)
+    for algo in algos:
+        try:
+            get_algo(algo)
+        except InputError as exc:
+            raise InputError(f"--algos: {exc}") from None
+    if config_dir is not None and not Path(config_dir).is_dir():
+        raise InputError(f"--config-dir {config_dir}: no such directory")
+    configs = {}
+    for algo in dict.fromkeys(algos):
+        path = Path(config_dir) / f"{algo}.yml" if config_dir is not None else default_config_path(algo)
+        if not path.is_file():
+            raise InputError(f"--config-dir: config file {path} does not exist (one <algo>.yml per algorithm)")
+        configs[algo] = path.absolute()
+    for env_id in dict.fromkeys(ids):
+        probe = make_env(env_id)
+        try:
+            for algo in dict.fromkeys(algos):
+                check_action_space(algo, env_id, probe.action_space)
+                load_config(configs[algo], env_id, algo)  # a missing entry or a bad value: InputError
+        finally:
+            probe.close()
+    out = Path(out).absolute()
+    check_writable_directory(out, "--out")
+    jobs = []
+    for env_id in dict.fromkeys(ids):
+        for algo in dict.fromkeys(algos):
+            for seed in dict.fromkeys(seeds):
+                out_dir = out / "agents" / _slug(env_id) / algo / f"seed{seed}"
+                try:
+                    _check_out_dir(out_dir, env_id, algo, seed)
+                except InputError as exc:
+                    raise InputError(str(exc).replace("choose another --out or remove it", "remove it")) from None
+                result = out / "results" / f"{_slug(env_id)}__agent__{algo}__seed{seed}.json"
+                jobs.append(Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result)))
+    return jobs
+
+
+# ------------------------------------------------------------------------------------------------- backends
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise InputError(RAY_HINT) from None
+    return ray
+
+
+def _run_local(jobs: list[Job], workers: int, report) -> None:
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    context = multiprocessing.get_context("spawn")  # the parent has torch and numba loaded: fork is not safe
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context, initializer=_init_worker)
+    futures = {pool.submit(run_job, job): job for job in jobs}
+    try:
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                job = futures[future]
+                try:
+                    report(future.result())
+                except Exception as exc:  # the worker died (killed, out of memory)
+                    report({"job": asdict(job), "error": _one_line(exc)})
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _run_ray(jobs: list[Job], workers: int, address: str | None, report) -> None:
+    ray = _import_ray()
+    started = not ray.is_initialized()
+    if started:
+        if address is None:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        else:
+            try:
+                ray.init(address=address, log_to_driver=False)
+            except (ConnectionError, RuntimeError, ValueError) as exc:
+                raise InputError(f"--address {address}: cannot join the Ray cluster: {_one_line(exc)}") from None
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=0)(run_job)
+        refs = {remote.remote(job): job for job in jobs}
+        pending = list(refs)
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    try:
+                        report(ray.get(ref))
+                    except Exception as exc:  # the worker died
+                        report({"job": asdict(refs[ref]), "error": _one_line(exc)})
+        except BaseException:
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise
+    finally:
+        if started:
+            ray.shutdown()
+
+
+# -------------------------------------------------------------------------------------------------- the sweep
+
+
+def _format_table(header: list[str], rows: list[list[str]]) -> list[str]:
+    cells = [header, *rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    return ["  ".join(f"{c:<{w}}" for c, w in zip(r, widths, strict=True)).rstrip() for r in cells]
+
+
+def _describe(result: dict) -> str:
+    job = result["job"]
+    name = f"{job['env_id']} {job['algo']} seed{job['seed']}"
+    if "error" in result:
+        return f"{name}: FAILED: {result['error']}"
+    trained = f"trained in {result['train_s']:.1f} s" if result["trained"] else "trained before"
+    evaluated = "evaluated" if result["evaluated"] else "evaluated before"
+    return (
+        f"{name}: {trained}; {evaluated}: IQM return {result['iqm']:.4g}, mean {result['mean']:.4g} "
+        f"({result['episodes']} episodes)"
+    )
+
+
+def run_sweep(
+    jobs: list[Job], *, backend: str = "local", workers: int = 1, address: str | None = None, printer=print
+) -> list[dict]:
+    """Run ``jobs`` on ``backend``; print one line per finished job; return their results in ``jobs``' order."""
+    results: dict[tuple, dict] = {}
+
+    def report(result: dict) -> None:
+        job = result["job"]
+        results[(job["env_id"], job["algo"], job["seed"])] = result
+        printer(_describe(result))
+
+    if backend == "ray":
+        _run_ray(jobs, workers, address, report)
+    else:
+        _run_local(jobs, workers, report)
+    return [results[(j.env_id, j.algo, j.seed)] for j in jobs if (j.env_id, j.algo, j.seed) in results]
+
+
+def summary_table(results: list[dict]) -> list[str]:
+    rows = []
+    for r in results:
+        job = r["job"]
+        if "error" in r:
+            status, train_s, iqm, mean = "FAILED", "-", "-", "-"
+        else:
+            status = "trained" if r["trained"] else "done before"
+            train_s = f"{r['train_s']:.1f}" if r["trained"] else "-"
+            iqm, mean = f"{r['iqm']:.4g}", f"{r['mean']:.4g}"
+        rows.append([job["env_id"], job["algo"], str(job["seed"]), status, train_s, iqm, mean])
+    return _format_table(["environment", "algo", "seed", "status", "train s", "IQM return", "mean return"], rows)
+
+
+# ---------------------------------------------------------------------------------------------- command line
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``sweep`` subcommand to an ``argparse`` subparsers object; ``args.func`` is :func:`run`."""
+    p = subparsers.add_parser(
+        "sweep",
+        help="train and evaluate every (environment, algorithm, seed) in parallel (needs polyenvs[train])",
+        description="Train every (environment, algorithm, seed) and evaluate it on the leaderboard's seeds, as "
+        "independent jobs on a local process pool (--jobs workers) or on Ray (--backend ray; needs "
+        "polyenvs[distributed]). Writes OUT/agents/<env>/<algo>/seed<N>/ (as benchmarks/agents) and "
+        "OUT/results/<env>__agent__<algo>__seed<N>.json; a re-run skips finished jobs. On a Ray cluster OUT must "
+        "be on a file system every node shares.",
+    )
+    p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids (polyenvs list)")
+    p.add_argument("--algos", nargs="+", required=True, metavar="ALGO", help="algorithms (ppo, maskable_ppo, ...)")
+    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help="training seeds, >= 0")
+    p.add_argument("--timesteps", default=None, help="training steps per job, >= 1 (default: the config's)")
+    p.add_argument("--config-dir", default=None, help="directory of <algo>.yml configs (default configs/)")
+    p.add_argument("--backend", default="local", help="local (a process pool, default) or ray")
+    p.add_argument(
+        "--address", default=None, help="with --backend ray: a running cluster's address (ray://... or auto)"
+    )
+    p.add_argument("--jobs", default=None, help="parallel jobs, >= 1 (default: the CPU count; a local Ray's CPUs)")
+    p.add_argument("--out", default=str(DEFAULT_SWEEP_DIR), help=f"output directory (default {DEFAULT_SWEEP_DIR})")
+    p.add_argument("--episodes", default="10", help="evaluation episodes per job, >= 1 (default 10)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``polyenvs sweep`` for parsed ``args``: 0 when every job finished, 1 if any failed, 130 after Ctrl-C."""
+    from polyenvs.training.command import _int_flag
+
+    seeds = [_int_flag("--seeds", s, 0) for s in args.seeds]
+    timesteps = _int_flag("--timesteps", args.timesteps, 1)
+    episodes = _int_flag("--episodes", args.episodes, 1)
+    workers = _int_flag("--jobs", args.jobs, 1) if args.jobs is not None else (os.cpu_count() or 1)
+    if args.backend not in BACKENDS:
+        raise InputError(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
+    if args.address is not None and args.backend != "ray":
+        raise InputError("--address joins a Ray cluster: it needs --backend ray")
+    if args.backend == "ray":
+        _import_ray()
+    jobs = plan_jobs(
+        args.envs,
+        args.algos,
+        seeds,
+        out=Path(args.out),
+        config_dir=Path(args.config_dir) if args.config_dir is not None else None,
+        timesteps=timesteps,
+        episodes=episodes,
+    )
+    where = f"Ray ({args.address or f'a local instance, {workers} CPUs'})" if args.backend == "ray" else None
+    print(f"{len(jobs)} job{'s' if len(jobs) != 1 else ''} on {where or f'{min(workers, len(jobs))} local workers'}")
+    results: list[dict] = []
+    start = time.monotonic()
+    try:
+        results = run_sweep(jobs, backend=args.backend, workers=workers, address=args.address)
+    except KeyboardInterrupt:
+        print(
+            "polyenvs sweep: interrupted; finished jobs are kept (a re-run skips them); a run stopped mid-training "
+            "keeps its partial model (run.json: completed false): remove its directory to train it again",
+            file=sys.stderr,
+        )
+        return 130
+    print()
+    for line in summary_table(results):
+        print(line)
+    failed = [r for r in results if "error" in r]
+    print(f"{len(results) - len(failed)} of {len(jobs)} jobs finished in {time.monotonic() - start:.1f} s; "
+          f"agents in {Path(args.out) / 'agents'}, results in {Path(args.out) / 'results'}")  # fmt: skip
+    if failed:
+        print(f"polyenvs sweep: {len(failed)} job{'s' if len(failed) != 1 else ''} failed:", file=sys.stderr)
+        for r in failed:
+            print(f"  {_describe(r)}", file=sys.stderr)
+        return 1
+    return 0

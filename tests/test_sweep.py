@@ -1,0 +1,150 @@
+"""``polyenvs sweep``: flags checked before any job (one line each), a local 2-job sweep, its re-run, Ray."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("sb3_contrib")
+
+from polyenvs.cli import main  # noqa: E402
+
+WALL = "polyenvs/BuckybotWallFollow-v0"
+SLUG = "polyenvs__BuckybotWallFollow-v0"
+TINY = """\
+polyenvs/BuckybotWallFollow-v0:
+  n_envs: 2
+  n_timesteps: 256
+  policy: 'MlpPolicy'
+  normalize: true
+  n_steps: 64
+  batch_size: 64
+  n_epochs: 1
+  policy_kwargs: "dict(net_arch=[16])"
+"""
+
+
+@pytest.fixture
+def config_dir(tmp_path) -> Path:
+    directory = tmp_path / "configs"
+    directory.mkdir()
+    (directory / "ppo.yml").write_text(TINY)
+    return directory
+
+
+def _argv(config_dir: Path, out: Path, *extra: str) -> list[str]:
+    return [
+        "sweep", "--envs", WALL, "--algos", "ppo", "--seeds", "0", "1", "--timesteps", "256",
+        "--config-dir", str(config_dir), "--out", str(out), "--episodes", "1", "--jobs", "2", *extra,
+    ]  # fmt: skip
+
+
+def _check_outputs(out: Path) -> dict[int, float]:
+    mtimes = {}
+    for seed in (0, 1):
+        agent = out / "agents" / SLUG / "ppo" / f"seed{seed}"
+        run = json.loads((agent / "run.json").read_text())
+        assert run["completed"] is True and run["seed"] == seed and run["timesteps"] >= 256
+        assert run["command"].startswith(f"polyenvs train {WALL} --algo ppo --config ")
+        assert not (agent / "tb").exists()
+        result = json.loads((out / "results" / f"{SLUG}__agent__ppo__seed{seed}.json").read_text())
+        assert result["n_episodes"] == 1 and result["seeds"] == [1000] and result["agent"]["training_seed"] == seed
+        mtimes[seed] = (agent / "model.zip").stat().st_mtime_ns
+    return mtimes
+
+
+def test_local_sweep_runs_two_jobs_then_skips_them(tmp_path, config_dir, capsys):
+    out = tmp_path / "out"
+    assert main(_argv(config_dir, out)) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("trained in") == 2 and "IQM return" in printed and "2 of 2 jobs finished" in printed
+    mtimes = _check_outputs(out)
+    results = {p: p.stat().st_mtime_ns for p in (out / "results").iterdir()}
+
+    assert main(_argv(config_dir, out)) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("trained before; evaluated before") == 2 and "done before" in printed
+    assert _check_outputs(out) == mtimes  # no retraining
+    assert {p: p.stat().st_mtime_ns for p in (out / "results").iterdir()} == results
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"--envs": ["polyenvs/Nope-v0"]}, "--envs: unknown environment id 'polyenvs/Nope-v0'"),
+        ({"--algos": ["a2c"]}, "--algos: unknown algorithm 'a2c'"),
+        ({"--seeds": ["0", "-1"]}, "--seeds must be >= 0, got -1"),
+        ({"--seeds": ["x"]}, "--seeds must be an integer, got 'x'"),
+        ({"--jobs": ["0"]}, "--jobs must be >= 1, got 0"),
+        ({"--timesteps": ["0"]}, "--timesteps must be >= 1, got 0"),
+        ({"--episodes": ["0"]}, "--episodes must be >= 1, got 0"),
+        ({"--backend": ["slurm"]}, "--backend must be one of local, ray, got 'slurm'"),
+        ({"--address": ["auto"]}, "--address joins a Ray cluster: it needs --backend ray"),
+        ({"--algos": ["dqn"]}, "dqn.yml does not exist"),
+        ({"--envs": ["polyenvs/BuckybotGoal-v0"]}, "has no entry for polyenvs/BuckybotGoal-v0"),
+        ({"--config-dir": ["/nonexistent/configs"]}, "--config-dir /nonexistent/configs: no such directory"),
+        ({"--out": ["/proc/polyenvs-sweep"]}, "--out /proc/polyenvs-sweep: cannot write in /proc"),
+    ],
+)
+def test_bad_flags_are_one_line_before_any_job(tmp_path, config_dir, capsys, monkeypatch, change, message):
+    import polyenvs.sweep as sweep
+
+    monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: pytest.fail("a job started before the flags were checked"))
+    argv = _argv(config_dir, tmp_path / "out")
+    for flag, values in change.items():
+        if flag in argv:
+            i = argv.index(flag)
+            end = i + 1
+            while end < len(argv) and not argv[end].startswith("--"):
+                end += 1
+            argv[i + 1 : end] = values
+        else:
+            argv += [flag, *values]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("polyenvs sweep: error: ") and message in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_unfinished_run_in_the_way_is_one_line(tmp_path, config_dir, capsys):
+    out = tmp_path / "out"
+    busy = out / "agents" / SLUG / "ppo" / "seed1"
+    busy.mkdir(parents=True)
+    (busy / "run.json").write_text(json.dumps({"env_id": WALL, "algo": "ppo", "seed": 1, "completed": False}))
+    assert main(_argv(config_dir, out)) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "holds an unfinished or interrupted run; remove it" in err
+    assert not (out / "agents" / SLUG / "ppo" / "seed0").exists()
+
+
+def test_a_failing_job_is_reported_and_the_others_finish(tmp_path, config_dir, capsys):
+    out = tmp_path / "out"
+    blocked = out / "results" / f"{SLUG}__agent__ppo__seed1.json"
+    blocked.mkdir(parents=True)  # a directory where the result file goes: its evaluation cannot be written
+    assert main(_argv(config_dir, out)) == 1
+    captured = capsys.readouterr()
+    assert "1 of 2 jobs finished" in captured.out
+    failures = [line for line in captured.err.splitlines() if "FAILED" in line]
+    assert len(failures) == 1 and f"{WALL} ppo seed1: FAILED: " in failures[0]
+    assert (out / "results" / f"{SLUG}__agent__ppo__seed0.json").is_file()
+
+
+def test_missing_ray_gives_the_install_hint(tmp_path, config_dir, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    assert main(_argv(config_dir, tmp_path / "out", "--backend", "ray")) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == 'polyenvs sweep: error: the ray backend needs Ray: pip install "polyenvs[distributed]"'
+
+
+def test_ray_backend_on_a_local_instance_runs_two_jobs(tmp_path, config_dir, capsys):
+    pytest.importorskip("ray")
+    out = tmp_path / "out"
+    assert main(_argv(config_dir, out, "--backend", "ray")) == 0
+    printed = capsys.readouterr().out
+    assert "on Ray (a local instance, 2 CPUs)" in printed and printed.count("trained in") == 2
+    _check_outputs(out)
