@@ -30,7 +30,7 @@ from typing import Any
 
 from polyenvs.evaluation import InputError, check_writable_directory
 
-__all__ = ["DEFAULT_SWEEP_DIR", "Job", "add_parser", "plan_jobs", "run", "run_job", "run_sweep"]
+__all__ = ["DEFAULT_SWEEP_DIR", "Job", "add_parser", "done_before", "plan_jobs", "run", "run_job", "run_sweep"]
 
 #: Where ``polyenvs sweep`` writes by default (gitignored, like every run's output).
 DEFAULT_SWEEP_DIR = Path("runs/sweep")
@@ -292,10 +292,36 @@ def _describe(result: dict) -> str:
     )
 
 
+def done_before(job: Job) -> dict[str, Any] | None:
+    """:func:`run_job`'s result for a job whose run is finished and whose result file is usable, else None."""
+    from polyenvs.evaluation import interquartile_mean
+    from polyenvs.leaderboard import load_result
+    from polyenvs.training.train import finished_run
+
+    if finished_run(job.out_dir, job.env_id, job.algo, job.seed) is None:
+        return None
+    doc, _ = load_result(Path(job.result_file), job.env_id, job.out_dir, job.episodes)
+    if doc is None:
+        return None
+    returns = [float(e["return"]) for e in doc["episodes"]]
+    return {
+        "job": asdict(job),
+        "trained": False,
+        "train_s": 0.0,
+        "evaluated": False,
+        "iqm": interquartile_mean(returns),
+        "mean": sum(returns) / len(returns),
+        "episodes": len(returns),
+    }
+
+
 def run_sweep(
     jobs: list[Job], *, backend: str = "local", workers: int = 1, address: str | None = None, printer=print
 ) -> list[dict]:
-    """Run ``jobs`` on ``backend``; print one line per finished job; return their results in ``jobs``' order."""
+    """Run ``jobs`` on ``backend``; print one line per finished job; return their results in ``jobs``' order.
+
+    Jobs already done (finished run, usable result file) are reported at once without starting a worker.
+    """
     results: dict[tuple, dict] = {}
 
     def report(result: dict) -> None:
@@ -303,10 +329,17 @@ def run_sweep(
         results[(job["env_id"], job["algo"], job["seed"])] = result
         printer(_describe(result))
 
-    if backend == "ray":
-        _run_ray(jobs, workers, address, report)
-    else:
-        _run_local(jobs, workers, report)
+    todo = []
+    for job in jobs:
+        result = done_before(job)
+        if result is None:
+            todo.append(job)
+        else:
+            report(result)
+    if todo and backend == "ray":
+        _run_ray(todo, workers, address, report)
+    elif todo:
+        _run_local(todo, workers, report)
     return [results[(j.env_id, j.algo, j.seed)] for j in jobs if (j.env_id, j.algo, j.seed) in results]
 
 
