@@ -14,5 +14,5 @@ def pytest_configure(config):
     if missing:
         raise pytest.UsageError(
             f"missing {', '.join(missing)}: install the project first, e.g. "
-            'python3 -m venv .venv && .venv/bin/pip install ".[dev,train]" && .venv/bin/python -m pytest'
+            'python3 -m venv .venv && .venv/bin/pip install ".[dev,train,distributed]" && .venv/bin/python -m pytest'
         )
