@@ -67,7 +67,7 @@ DEFAULT_AGENTS_DIR = Path("benchmarks/agents")
 _REQUIRED_KEYS = ("env_id", "policy", "episodes", "summary", "n_episodes")
 
 
-def _provenance() -> dict:
+def provenance() -> dict:
     import gymnasium
     import numpy
 
@@ -328,7 +328,7 @@ def run_leaderboard(
             doc["n_episodes"] = episodes
             if agent is not None:
                 doc["agent"] = agent.meta()
-            doc.update(_provenance())
+            doc.update(provenance())
             write_json_atomic(path, doc)
         elif agent is not None:
             doc["agent"] = agent.meta()  # the row it joins now (a --policy agent is labelled by its path)

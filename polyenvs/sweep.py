@@ -86,7 +86,7 @@ def run_job(job: Job) -> dict[str, Any]:
     or ``{"job", "error"}`` with the error in one line; Ctrl-C propagates.
     """
     from polyenvs.evaluation import evaluate, interquartile_mean, write_json_atomic
-    from polyenvs.leaderboard import EVAL_SEED, _provenance, load_result
+    from polyenvs.leaderboard import EVAL_SEED, load_result, provenance
     from polyenvs.training.train import finished_run, read_run, train
 
     _init_worker()
@@ -117,7 +117,7 @@ def run_job(job: Job) -> dict[str, Any]:
                 "requested_timesteps": run_doc.get("requested_timesteps"),
                 "completed": run_doc.get("completed"),
             }
-            doc.update(_provenance())
+            doc.update(provenance())
             write_json_atomic(result_file, doc)
         returns = [float(e["return"]) for e in doc["episodes"]]
     except Exception as exc:  # reported by the driver, which carries on with the other jobs
@@ -159,7 +159,7 @@ def plan_jobs(
     from polyenvs.registry import ENV_IDS
     from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
-    from polyenvs.training.train import _check_out_dir
+    from polyenvs.training.train import check_out_dir
 
     ids = []
     for env_id in envs:
@@ -196,7 +196,7 @@ def plan_jobs(
             for seed in dict.fromkeys(seeds):
                 out_dir = out / "agents" / _slug(env_id) / algo / f"seed{seed}"
                 try:
-                    _check_out_dir(out_dir, env_id, algo, seed)
+                    check_out_dir(out_dir, env_id, algo, seed)
                 except InputError as exc:
                     raise InputError(str(exc).replace("choose another --out or remove it", "remove it")) from None
                 result = out / "results" / f"{_slug(env_id)}__agent__{algo}__seed{seed}.json"
@@ -389,12 +389,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs sweep`` for parsed ``args``: 0 when every job finished, 1 if any failed, 130 after Ctrl-C."""
-    from polyenvs.training.command import _int_flag
+    from polyenvs.training.command import int_flag
 
-    seeds = [_int_flag("--seeds", s, 0) for s in args.seeds]
-    timesteps = _int_flag("--timesteps", args.timesteps, 1)
-    episodes = _int_flag("--episodes", args.episodes, 1)
-    workers = _int_flag("--jobs", args.jobs, 1) if args.jobs is not None else (os.cpu_count() or 1)
+    seeds = [int_flag("--seeds", s, 0) for s in args.seeds]
+    timesteps = int_flag("--timesteps", args.timesteps, 1)
+    episodes = int_flag("--episodes", args.episodes, 1)
+    workers = int_flag("--jobs", args.jobs, 1) if args.jobs is not None else (os.cpu_count() or 1)
     if args.backend not in BACKENDS:
         raise InputError(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
     if args.address is not None and args.backend != "ray":

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from polyenvs.evaluation import InputError, parse_json_object
 
-__all__ = ["add_parser", "default_out_dir", "run"]
+__all__ = ["add_parser", "default_out_dir", "int_flag", "run"]
 
 #: Where ``polyenvs train`` writes by default (gitignored, like every run's output).
 DEFAULT_TRAIN_DIR = Path("runs/train")
@@ -61,7 +61,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _int_flag(flag: str, text: str | None, minimum: int) -> int | None:
+def int_flag(flag: str, text: str | None, minimum: int) -> int | None:
     if text is None:
         return None
     try:
@@ -91,9 +91,9 @@ def run(args: argparse.Namespace) -> int:
     from polyenvs.training.algos import get_algo
 
     get_algo(args.algo)
-    timesteps = _int_flag("--timesteps", args.timesteps, 1)
-    seed = _int_flag("--seed", args.seed, 0)
-    n_envs = _int_flag("--n-envs", args.n_envs, 1)
+    timesteps = int_flag("--timesteps", args.timesteps, 1)
+    seed = int_flag("--seed", args.seed, 0)
+    n_envs = int_flag("--n-envs", args.n_envs, 1)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
     progress = args.progress if args.progress is not None else _isatty(sys.stderr)

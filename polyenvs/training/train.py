@@ -25,7 +25,7 @@ from typing import Any
 
 from polyenvs.evaluation import InputError, atomic_path, check_count, check_writable_directory, write_json_atomic
 
-__all__ = ["RUN_FILE", "TrainingInterrupted", "finished_run", "read_run", "train"]
+__all__ = ["RUN_FILE", "TrainingInterrupted", "check_out_dir", "finished_run", "read_run", "train"]
 
 RUN_FILE = "run.json"
 MODEL_FILE = "model.zip"
@@ -66,7 +66,7 @@ def finished_run(out_dir: str | Path, env_id: str, algo: str, seed: int) -> dict
     return None
 
 
-def _check_out_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> bool:
+def check_out_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> bool:
     """True if ``out_dir`` is a finished run of the same job; InputError if it cannot be used; else False."""
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"output directory {out_dir} is a file")
@@ -202,7 +202,7 @@ def train(
     if vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
     out_dir = Path(out_dir)
-    if _check_out_dir(out_dir, env_id, algo, seed):
+    if check_out_dir(out_dir, env_id, algo, seed):
         return out_dir
     probe = make_env(env_id, env_kwargs)  # bad keyword arguments raise InputError here
     try:
