@@ -52,6 +52,7 @@ __all__ = [
     "leaderboard_rows",
     "load_result",
     "plot_path",
+    "provenance",
     "result_path",
     "run_leaderboard",
     "stored_results",
