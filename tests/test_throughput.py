@@ -161,3 +161,43 @@ def test_a_failing_row_is_reported_and_the_others_still_measured() -> None:
     assert good.ok and len(good.per_repeat) == 2
     assert not bad.ok and bad.note == "error: RuntimeError: kernel exploded"
     assert not skipped.ok and skipped.note.startswith("skipped:")
+
+
+def test_ppo_rows_include_the_native_adapter_and_dummy_vec_env_against_cartpole_at_8_envs() -> None:
+    pytest.importorskip("stable_baselines3")
+    from benchmarks import training
+
+    wall_follow = "polyenvs/BuckybotWallFollow-v0"
+    tiny = {"n_steps": 8, "batch_size": 32, "n_epochs": 1}  # tiny budgets: a smoke test, never a timing
+    rows, notes = training.measure_training(
+        [wall_follow], timesteps=16, repeats=1, vec_timesteps=64, vec_overrides=tiny
+    )
+    assert notes == []
+    assert all(row.ok and math.isfinite(row.steps_per_second) and row.steps_per_second > 0 for row in rows)
+    single = [(row.name, row.num_envs) for row in rows if not row.vector]
+    assert single == [("CartPole-v1", 1), (wall_follow, 1)]
+    vector = [(row.name, row.num_envs, row.setting.split(" via ")[1].split(",")[0]) for row in rows if row.vector]
+    assert vector == [
+        ("CartPole-v1", 8, "DummyVecEnv"),
+        (wall_follow, 8, "native VecEnv adapter"),
+        (wall_follow, 8, "DummyVecEnv"),
+    ]
+    assert len({row.session for row in rows}) == 1  # one session: every ratio pairs rounds
+    table = report.format_training_table(rows).splitlines()
+    # The 8-env rows take their ratio to the 8-env CartPole row, and are checked against the PPO target.
+    assert all(">= 0.8x PPO on CartPole" in line for line in table if line.startswith(f"| {wall_follow} |"))
+    assert sum(line.startswith("| CartPole-v1 |") and "| 1.00x |" in line for line in table) == 2
+
+
+def test_time_to_beat_trains_in_chunks_and_compares_with_the_paper_on_the_same_seeds() -> None:
+    pytest.importorskip("stable_baselines3")
+    from benchmarks import time_to_beat
+
+    tiny = {"n_steps": 8, "batch_size": 32, "n_epochs": 1}
+    result = time_to_beat.time_to_beat(budget=128, chunk=64, episodes=2, overrides=tiny, stop_when_beaten=False)
+    assert result.seeds == [1000, 1001]  # the published evaluation seeds
+    assert [chunk.timesteps for chunk in result.chunks] == [64, 128]
+    assert all(math.isfinite(chunk.ppo_iqm) and chunk.total_s >= chunk.train_s for chunk in result.chunks)
+    assert math.isfinite(result.paper_iqm)
+    text = time_to_beat.format_result(result)
+    assert "| 128 |" in text and ("did not exceed" in text or "first exceeded" in text)
