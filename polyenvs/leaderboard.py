@@ -523,46 +523,14 @@ def write_leaderboard(documents: list[dict], path: Path, quick: bool | None = No
 
 # ------------------------------------------------------------------------------------------------------- the plot
 
-# A 3x5 capital font (lower case is drawn in capitals), enough for policy names, ids and numbers.
-_FONT_ROWS = {
-    "A": ".#.|#.#|###|#.#|#.#", "B": "##.|#.#|##.|#.#|##.", "C": ".##|#..|#..|#..|.##", "D": "##.|#.#|#.#|#.#|##.",
-    "E": "###|#..|##.|#..|###", "F": "###|#..|##.|#..|#..", "G": ".##|#..|#.#|#.#|.##", "H": "#.#|#.#|###|#.#|#.#",
-    "I": "###|.#.|.#.|.#.|###", "J": "..#|..#|..#|#.#|.#.", "K": "#.#|#.#|##.|#.#|#.#", "L": "#..|#..|#..|#..|###",
-    "M": "#.#|###|###|#.#|#.#", "N": "##.|#.#|#.#|#.#|#.#", "O": ".#.|#.#|#.#|#.#|.#.", "P": "##.|#.#|##.|#..|#..",
-    "Q": ".#.|#.#|#.#|##.|.##", "R": "##.|#.#|##.|#.#|#.#", "S": ".##|#..|.#.|..#|##.", "T": "###|.#.|.#.|.#.|.#.",
-    "U": "#.#|#.#|#.#|#.#|###", "V": "#.#|#.#|#.#|#.#|.#.", "W": "#.#|#.#|###|###|#.#", "X": "#.#|#.#|.#.|#.#|#.#",
-    "Y": "#.#|#.#|.#.|.#.|.#.", "Z": "###|..#|.#.|#..|###", "0": "###|#.#|#.#|#.#|###", "1": ".#.|##.|.#.|.#.|###",
-    "2": "###|..#|###|#..|###", "3": "###|..#|###|..#|###", "4": "#.#|#.#|###|..#|..#", "5": "###|#..|###|..#|###",
-    "6": "###|#..|###|#.#|###", "7": "###|..#|..#|..#|..#", "8": "###|#.#|###|#.#|###", "9": "###|#.#|###|..#|###",
-    "_": "...|...|...|...|###", "-": "...|...|###|...|...", ".": "...|...|...|...|.#.", "/": "..#|..#|.#.|#..|#..",
-    "[": "##.|#..|#..|#..|##.", "]": ".##|..#|..#|..#|.##", "(": ".#.|#..|#..|#..|.#.", ")": ".#.|..#|..#|..#|.#.",
-    ",": "...|...|...|.#.|#..", ":": "...|.#.|...|.#.|...", "%": "#.#|..#|.#.|#..|#.#", "=": "...|###|...|###|...",
-    "+": "...|.#.|###|.#.|...", "'": ".#.|.#.|...|...|...", " ": "...|...|...|...|...",
-}  # fmt: skip
-_FONT = {ch: np.array([[c == "#" for c in row] for row in rows.split("|")]) for ch, rows in _FONT_ROWS.items()}
+
+#: Bar colours: random grey, the paper's baseline blue, other hand baselines light blue, trained agents orange.
 _COLOURS = {
     "random": (150, 150, 150),
     "paper": (31, 119, 180),
     "baseline": (120, 175, 215),
     "agent": (230, 120, 30),
 }
-
-
-def _text_width(text: str, scale: int) -> int:
-    return max(0, 4 * scale * len(text) - scale)
-
-
-def _draw_text(image: np.ndarray, left: int, top: int, text: str, colour, scale: int = 2) -> None:
-    """Stamp ``text`` with its top-left corner at pixel (``left``, ``top``), clipped to the image."""
-    height, width, _ = image.shape
-    x = left
-    for ch in str(text).upper():
-        glyph = _FONT.get(ch, _FONT[" "])
-        rows, cols = np.nonzero(np.kron(glyph, np.ones((scale, scale), dtype=bool)))
-        rows, cols = rows + top, cols + x
-        keep = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
-        image[rows[keep], cols[keep]] = colour
-        x += 4 * scale
 
 
 def _nice_ticks(low: float, high: float, count: int = 5) -> np.ndarray:
@@ -586,11 +554,11 @@ def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndar
     the return and a black line over its 95% interval, the IQM written at the right; grey random, dark blue the
     paper's baseline, light blue other hand baselines, orange trained agents. Drawn with
     :class:`polyenvs.core.raster.Canvas`."""
-    from polyenvs.core.raster import Canvas
+    from polyenvs.core.raster import Canvas, stamp_text, text_width
 
     scale, row_h, top, bottom = 2, 30, 58, 56
     labels = [r["label"] if len(r["label"]) <= 26 else "..." + r["label"][-23:] for r in rows]
-    left = 16 + max(_text_width(s, scale) for s in labels) + 16
+    left = 16 + max(text_width(s, scale) for s in labels) + 16
     right = width - 90
     height = top + row_h * len(rows) + bottom
     values = [v for r in rows for v in (r["iqm"], r["low"], r["high"]) if np.isfinite(v)] + [0.0]
@@ -630,15 +598,15 @@ def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndar
                 width_px=2.0,
             )
     image = canvas.image
-    _draw_text(image, 16, 10, env_id, (0, 0, 0), scale)
-    _draw_text(image, 16, 30, "IQM of the episode return and its 95% interval", (90, 90, 90), scale)
+    stamp_text(image, 16, 10, env_id, (0, 0, 0), scale)
+    stamp_text(image, 16, 30, "IQM of the episode return and its 95% interval", (90, 90, 90), scale)
     for i, (label, r) in enumerate(zip(labels, rows, strict=True)):
         centre = top + row_h * i + row_h // 2
-        _draw_text(image, 16, centre - 5, label, (0, 0, 0), scale)
-        _draw_text(image, right + 12, centre - 5, _format_number(r["iqm"]), (0, 0, 0), scale)
+        stamp_text(image, 16, centre - 5, label, (0, 0, 0), scale)
+        stamp_text(image, right + 12, centre - 5, _format_number(r["iqm"]), (0, 0, 0), scale)
     for t in ticks:
         text = _format_number(float(t)) if abs(t) > 1e-9 * (hi - lo) else "0"
-        _draw_text(image, round(x_px(t) - _text_width(text, scale) / 2), plot_bottom + 8, text, (60, 60, 60), scale)
+        stamp_text(image, round(x_px(t) - text_width(text, scale) / 2), plot_bottom + 8, text, (60, 60, 60), scale)
     legend = [
         ("random", "random"),
         ("paper", "paper's baseline"),
@@ -648,8 +616,8 @@ def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndar
     x = 16
     for kind, name in legend:
         image[height - 18 : height - 8, x : x + 10] = _COLOURS[kind]
-        _draw_text(image, x + 14, height - 18, name, (60, 60, 60), scale)
-        x += 14 + _text_width(name, scale) + 18
+        stamp_text(image, x + 14, height - 18, name, (60, 60, 60), scale)
+        x += 14 + text_width(name, scale) + 18
     return image
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from polyenvs.core.raster import Canvas
+from polyenvs.core.raster import Canvas, stamp_text, text_width
 
 WHITE = np.array([255, 255, 255], dtype=np.uint8)
 RED = (255, 0, 0)
@@ -214,11 +214,24 @@ def test_invalid_arguments_raise_value_error():
         Canvas((1.0, 0.0, 0.0, 1.0))
 
 
+def test_stamp_text_writes_pixels_and_clips():
+    image = np.zeros((20, 30, 3), dtype=np.uint8)
+    stamp_text(image, 2, 3, "I", (255, 255, 255), scale=1)
+    # The 3x5 "I": a full top and bottom row, the middle column between them.
+    assert (image[3, 2:5] == 255).all() and (image[7, 2:5] == 255).all() and (image[4:7, 3] == 255).all()
+    assert image.sum() == 255 * 3 * 9
+    stamp_text(image, 28, 18, "WIDE", (255, 0, 0), scale=2)  # runs off the image: clipped, no error
+    assert text_width("WIDE", 2) == 30
+
+
 def test_text_draws_digits_centred_and_skips_unknown_characters():
     canvas = Canvas((0.0, 0.0, 10.0, 10.0), width=100)
     blank = canvas.image
-    canvas.text((5.0, 5.0), "x", (0, 0, 0))
+    canvas.text((5.0, 5.0), "@~", (0, 0, 0))
     assert np.array_equal(canvas.image, blank)
+    canvas.text((5.0, 5.0), "x", (0, 0, 0))  # letters are drawn as capitals
+    assert not np.array_equal(canvas.image, blank)
+    canvas = Canvas((0.0, 0.0, 10.0, 10.0), width=100)
     canvas.text((5.0, 5.0), "18", (255, 0, 0), scale=2)
     red = np.argwhere((canvas.image == (255, 0, 0)).all(axis=-1))
     assert len(red) > 0

@@ -22,7 +22,7 @@ import numpy as np
 
 from polyenvs.core.validation import check_finite, check_positive
 
-__all__ = ["Canvas"]
+__all__ = ["Canvas", "stamp_text", "text_width"]
 
 # Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
 # bounds-checked pixel by pixel. Grown on demand for very wide strokes.
@@ -34,21 +34,41 @@ def _glyph(*rows: str) -> np.ndarray:
     return np.array([[c == "#" for c in row] for row in rows], dtype=bool)
 
 
-# A 3x5 pixel font for numeric labels.
-_GLYPHS = {
-    "0": _glyph("###", "#.#", "#.#", "#.#", "###"),
-    "1": _glyph(".#.", "##.", ".#.", ".#.", "###"),
-    "2": _glyph("###", "..#", "###", "#..", "###"),
-    "3": _glyph("###", "..#", "###", "..#", "###"),
-    "4": _glyph("#.#", "#.#", "###", "..#", "..#"),
-    "5": _glyph("###", "#..", "###", "..#", "###"),
-    "6": _glyph("###", "#..", "###", "#.#", "###"),
-    "7": _glyph("###", "..#", "..#", "..#", "..#"),
-    "8": _glyph("###", "#.#", "###", "#.#", "###"),
-    "9": _glyph("###", "#.#", "###", "..#", "###"),
-    "-": _glyph("...", "...", "###", "...", "..."),
-    ".": _glyph("...", "...", "...", "...", ".#."),
-}
+# A 3x5 pixel font: digits, capitals (lower case is drawn in capitals) and the punctuation labels need.
+_FONT_ROWS = {
+    "A": ".#.|#.#|###|#.#|#.#", "B": "##.|#.#|##.|#.#|##.", "C": ".##|#..|#..|#..|.##", "D": "##.|#.#|#.#|#.#|##.",
+    "E": "###|#..|##.|#..|###", "F": "###|#..|##.|#..|#..", "G": ".##|#..|#.#|#.#|.##", "H": "#.#|#.#|###|#.#|#.#",
+    "I": "###|.#.|.#.|.#.|###", "J": "..#|..#|..#|#.#|.#.", "K": "#.#|#.#|##.|#.#|#.#", "L": "#..|#..|#..|#..|###",
+    "M": "#.#|###|###|#.#|#.#", "N": "##.|#.#|#.#|#.#|#.#", "O": ".#.|#.#|#.#|#.#|.#.", "P": "##.|#.#|##.|#..|#..",
+    "Q": ".#.|#.#|#.#|##.|.##", "R": "##.|#.#|##.|#.#|#.#", "S": ".##|#..|.#.|..#|##.", "T": "###|.#.|.#.|.#.|.#.",
+    "U": "#.#|#.#|#.#|#.#|###", "V": "#.#|#.#|#.#|#.#|.#.", "W": "#.#|#.#|###|###|#.#", "X": "#.#|#.#|.#.|#.#|#.#",
+    "Y": "#.#|#.#|.#.|.#.|.#.", "Z": "###|..#|.#.|#..|###", "0": "###|#.#|#.#|#.#|###", "1": ".#.|##.|.#.|.#.|###",
+    "2": "###|..#|###|#..|###", "3": "###|..#|###|..#|###", "4": "#.#|#.#|###|..#|..#", "5": "###|#..|###|..#|###",
+    "6": "###|#..|###|#.#|###", "7": "###|..#|..#|..#|..#", "8": "###|#.#|###|#.#|###", "9": "###|#.#|###|..#|###",
+    "_": "...|...|...|...|###", "-": "...|...|###|...|...", ".": "...|...|...|...|.#.", "/": "..#|..#|.#.|#..|#..",
+    "[": "##.|#..|#..|#..|##.", "]": ".##|..#|..#|..#|.##", "(": ".#.|#..|#..|#..|.#.", ")": ".#.|..#|..#|..#|.#.",
+    ",": "...|...|...|.#.|#..", ":": "...|.#.|...|.#.|...", "%": "#.#|..#|.#.|#..|#.#", "=": "...|###|...|###|...",
+    "+": "...|.#.|###|.#.|...", "'": ".#.|.#.|...|...|...", " ": "...|...|...|...|...",
+}  # fmt: skip
+_GLYPHS = {ch: _glyph(*rows.split("|")) for ch, rows in _FONT_ROWS.items()}
+
+
+def text_width(text: str, scale: int) -> int:
+    """Width in pixels of ``text`` in the 3x5 font at ``scale`` pixels per dot (one dot between characters)."""
+    return max(0, 4 * scale * len(text) - scale)
+
+
+def stamp_text(image: np.ndarray, left: int, top: int, text: str, color, scale: int = 2) -> None:
+    """Write ``text`` into an ``(H, W, 3)`` image with its top-left corner at pixel (``left``, ``top``), clipped to
+    the image; characters the font lacks are drawn as spaces."""
+    height, width, _ = image.shape
+    x = left
+    for ch in str(text).upper():
+        rows, cols = np.nonzero(np.kron(_GLYPHS.get(ch, _GLYPHS[" "]), np.ones((scale, scale), dtype=bool)))
+        rows, cols = rows + top, cols + x
+        keep = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
+        image[rows[keep], cols[keep]] = color
+        x += 4 * scale
 
 
 def _footprint(radius_px: float) -> tuple[np.ndarray, np.ndarray]:
@@ -240,11 +260,12 @@ class Canvas:
         self._cells[r0:r1, c0:c1][inside] = fill.view("V3")[0]
 
     def text(self, anchor, label: str, color, scale: int = 2) -> None:
-        """Write digits (and '-', '.') centred on world point ``anchor`` in a 3x5 pixel font, ``scale`` px per dot.
+        """Write ``label`` centred on world point ``anchor`` in the 3x5 pixel font, ``scale`` px per dot.
 
-        Enough for labels such as face or robot numbers without a font library; other characters are skipped.
+        Enough for labels such as face or robot numbers without a font library; characters the font lacks are
+        skipped.
         """
-        glyphs = [_GLYPHS[ch] for ch in str(label) if ch in _GLYPHS]
+        glyphs = [_GLYPHS[ch] for ch in str(label).upper() if ch in _GLYPHS]
         if not glyphs:
             return
         bitmap = np.concatenate([np.pad(g, ((0, 0), (0, 1))) for g in glyphs], axis=1)[:, :-1]
