@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import check_writable_directory, parse_json_object
+from polyenvs.evaluation import check_writable_directory, is_terminal, parse_json_object
 
 __all__ = ["main"]
 
@@ -87,7 +87,7 @@ class ProgressBar:
 
     def __init__(self, unit: str = "episodes", stream=None, enabled: bool | None = None, width: int = 30):
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = _isatty(self.stream) if enabled is None else enabled
+        self.enabled = is_terminal(self.stream) if enabled is None else enabled
         self.unit, self.width = unit, width
         self.total, self.done, self.label = 0, 0, ""
         self._start = time.monotonic()
@@ -99,10 +99,6 @@ class ProgressBar:
         self._start = time.monotonic()
         if draw:
             self._draw()
-
-    def set_label(self, label: str) -> None:
-        self.label = label
-        self._draw()
 
     def advance(self, n: int = 1) -> None:
         self.done += n
@@ -135,13 +131,6 @@ class ProgressBar:
         self.stream.write("\r" + self.render() + "\x1b[K")
         self.stream.flush()
         self._drawn = True
-
-
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
 
 
 # ---------------------------------------------------------------------------------------------------- commands

@@ -36,6 +36,7 @@ __all__ = [
     "evaluate",
     "interquartile_mean",
     "iqm_with_ci",
+    "is_terminal",
     "iqm_with_stratified_ci",
     "make_agent",
     "make_env",
@@ -86,6 +87,14 @@ def check_writable_directory(directory: Path, flag: str, shown: Path | None = No
             pass
     except OSError as exc:
         raise InputError(f"{flag} {shown or directory}: cannot write in {existing}: {exc.strerror or exc}") from None
+
+
+def is_terminal(stream) -> bool:
+    """Whether ``stream`` is an interactive terminal (progress bars are drawn only there)."""
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # no isatty, or a closed stream
+        return False
 
 
 def check_count(name: str, value, minimum: int) -> int:

@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import InputError, parse_json_object
+from polyenvs.evaluation import InputError, is_terminal, parse_json_object
 
 __all__ = ["add_parser", "default_out_dir", "int_flag", "run"]
 
@@ -79,13 +79,6 @@ def int_flag(flag: str, text: str | None, minimum: int) -> int | None:
     return value
 
 
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
-
-
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs train`` for parsed ``args``; 0 when trained (or already finished), 130 after Ctrl-C."""
     from polyenvs.training.algos import get_algo
@@ -96,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     n_envs = int_flag("--n-envs", args.n_envs, 1)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
-    progress = args.progress if args.progress is not None else _isatty(sys.stderr)
+    progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
 
     from polyenvs.training.train import TrainingInterrupted, finished_run, train
 
