@@ -132,6 +132,25 @@ class OccupancyGrid:
 
 
 @njit(cache=True)
+def _clip_axis(g, d, inv, n, t0, t1):
+    """The part ``[t0, t1]`` of the beam ``g + t d`` (one axis, cell units) inside ``[0, n)``; empty if t0 > t1."""
+    if d == 0.0:
+        return (t0, t1) if 0.0 <= g < n else (1.0, 0.0)
+    ta, tb = -g * inv, (n - g) * inv
+    return max(t0, min(ta, tb)), min(t1, max(ta, tb))
+
+
+@njit(cache=True)
+def _axis_step(cell, p, d, inv):
+    """Along one axis: the cell step, the distance along the beam to the next cell boundary, and between two."""
+    if d > 0.0:
+        return 1, (cell + 1 - p) * inv, inv
+    if d < 0.0:
+        return -1, (cell - p) * inv, -inv
+    return 0, math.inf, math.inf
+
+
+@njit(cache=True)
 def _free_cells(cells, count_in, gx, gy, dx, dy, length):
     """Free the unknown cells crossed by the segment from grid point ``(gx, gy)`` (cell units) along the unit
     direction ``(dx, dy)`` for ``length`` cells, each crossed cell visited once (Amanatides & Woo's traversal).
@@ -144,37 +163,15 @@ def _free_cells(cells, count_in, gx, gy, dx, dy, length):
     # Reciprocals once: the clipping and the traversal below then need no further division.
     ix = inf if dx == 0.0 else 1.0 / dx
     iy = inf if dy == 0.0 else 1.0 / dy
-    t0, t1 = 0.0, length
-    if dx == 0.0:
-        if not (0.0 <= gx < cols):
-            return 0
-    else:
-        ta, tb = -gx * ix, (cols - gx) * ix
-        t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
-    if dy == 0.0:
-        if not (0.0 <= gy < rows):
-            return 0
-    else:
-        ta, tb = -gy * iy, (rows - gy) * iy
-        t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+    t0, t1 = _clip_axis(gx, dx, ix, cols, 0.0, length)
+    t0, t1 = _clip_axis(gy, dy, iy, rows, t0, t1)
     if not t0 <= t1:  # also false for nan
         return 0
     # Restart from the entry point: every quantity below is then bounded by the grid's size.
     px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
     col, row = int(math.floor(px)), int(math.floor(py))
-    # Distance along the beam to the next vertical / horizontal cell boundary, and between two of them.
-    if dx > 0.0:
-        step_c, next_c, delta_c = 1, (col + 1 - px) * ix, ix
-    elif dx < 0.0:
-        step_c, next_c, delta_c = -1, (col - px) * ix, -ix
-    else:
-        step_c, next_c, delta_c = 0, inf, inf
-    if dy > 0.0:
-        step_r, next_r, delta_r = 1, (row + 1 - py) * iy, iy
-    elif dy < 0.0:
-        step_r, next_r, delta_r = -1, (row - py) * iy, -iy
-    else:
-        step_r, next_r, delta_r = 0, inf, inf
+    step_c, next_c, delta_c = _axis_step(col, px, dx, ix)
+    step_r, next_r, delta_r = _axis_step(row, py, dy, iy)
     # The segment crosses exactly this many cell boundaries; counting them, rather than testing the distance
     # travelled at every step, and choosing the axis without a branch make the walk a tight loop.
     end_c = min(max(int(math.floor(px + span * dx)), 0), cols - 1)
