@@ -157,11 +157,11 @@ def _format_value(value) -> str:
 def describe_policy(env_id: str, policy: str, description: dict) -> str:
     """``wall_follower (d_star_cm=50, x_s_cm=20, ...)``; ``paper = goal_seeker (clearance_cm=40)`` for the alias;
     ``ppo model runs/ppo_wall (training_seed=0, timesteps=250000, normalize=true)`` for a trained model."""
-    from baselines import PAPER_POLICY
+    from baselines import paper_policy
 
     name, hidden = policy, {"name"}
-    if policy == "paper" and env_id in PAPER_POLICY:
-        name = f"paper = {PAPER_POLICY[env_id]}"
+    if policy == "paper" and paper_policy(env_id):
+        name = f"paper = {paper_policy(env_id)}"
     if "algo" in description and "path" in description:
         name, hidden = f"{description['algo']} model {description['path']}", {"name", "algo", "path", "sha256"}
     params = ", ".join(f"{k}={_format_value(v)}" for k, v in description.items() if k not in hidden)

@@ -379,7 +379,7 @@ def leaderboard_rows(documents: list[dict]) -> dict[str, list[dict]]:
     "high", "normalised", "metrics" (means over the pooled episodes), "n_timesteps" (mean over seeds, or None),
     "seeds" (training seeds, agents only), "episodes"}``.
     """
-    from baselines import PAPER_POLICY
+    from baselines import paper_policy
 
     by_env: dict[str, dict[str, list[dict]]] = {}
     for doc in documents:
@@ -406,7 +406,7 @@ def leaderboard_rows(documents: list[dict]) -> dict[str, list[dict]]:
             elif label == "random":
                 kind = "random"
             else:
-                kind = "paper" if label == PAPER_POLICY.get(env_id) else "baseline"
+                kind = "paper" if label == paper_policy(env_id) else "baseline"
             rows.append(
                 {
                     "label": label,

@@ -1,20 +1,59 @@
-"""Every polyenvs Gymnasium id, in one flat table (the pattern of ``gymnasium/envs/__init__.py``).
+"""Every polyenvs environment, in one flat table (the pattern of ``gymnasium/envs/__init__.py``).
 
-Importing :mod:`polyenvs` registers them. Variants are constructor keywords (``gym.make(id, floor_plan="office")``),
-not new ids. Entry points are strings, so nothing heavy is imported until an environment is made.
+The table holds rows of two kinds, and every command (``polyenvs list/evaluate/leaderboard/record/train``) takes
+the name of either:
+
+- :class:`EnvEntry`: a single-agent Gymnasium id (``"polyenvs/BuckybotWallFollow-v0"``), registered with Gymnasium
+  when :mod:`polyenvs` is imported, built by ``gym.make``;
+- :class:`ParallelEnvEntry`: a PettingZoo parallel environment, named by its module path
+  (``"polyenvs.swarm.corridor_v0"``), whose ``parallel_env(**kwargs)`` builds it, as PettingZoo's own modules do.
+
+Each row also lists its hand baselines (:class:`Baseline`: a name, a ``"module:attribute"`` factory and fixed
+keyword arguments) and which of them is the paper's main algorithm (``paper=``), so :func:`baselines.make_policy`
+finds them here instead of in per-family helpers. A baseline acts on one agent's observation; for a parallel
+environment the evaluation applies it to each robot's own observation (parameter sharing).
+
+Variants are constructor keywords (``gym.make(id, floor_plan="office")``), not new rows. Entry points are strings,
+so nothing heavy is imported until an environment or a policy is made.
 """
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import gymnasium as gym
 
-__all__ = ["ENV_IDS", "EnvEntry", "REGISTRY", "register_all"]
+__all__ = [
+    "ALL_IDS",
+    "Baseline",
+    "ENV_IDS",
+    "EnvEntry",
+    "PARALLEL_ENV_IDS",
+    "ParallelEnvEntry",
+    "REGISTRY",
+    "entry",
+    "import_attribute",
+    "register_all",
+]
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A hand baseline: ``factory(observation_space, action_space, **kwargs)`` builds a ``baselines.base.Policy``."""
+
+    name: str
+    factory: str  # "module:attribute"
+    kwargs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class EnvEntry:
+    """A single-agent Gymnasium environment id."""
+
+    kind: ClassVar[str] = "gymnasium"
+
     id: str
     entry_point: str
     max_episode_steps: int
@@ -23,9 +62,31 @@ class EnvEntry:
     kwargs: dict = field(default_factory=dict)
     #: A native vector env (``gym.make_vec(id, num_envs=N)``), where the family has one.
     vector_entry_point: str | None = None
+    baselines: tuple[Baseline, ...] = ()
+    #: The name of the baseline that is the paper's main algorithm, reachable as policy "paper".
+    paper: str | None = None
 
 
-REGISTRY: tuple[EnvEntry, ...] = (
+@dataclass(frozen=True)
+class ParallelEnvEntry:
+    """A PettingZoo parallel environment: ``import_module(id).parallel_env(max_cycles=..., **kwargs)``."""
+
+    kind: ClassVar[str] = "pettingzoo"
+
+    id: str  # the module path, as users import it
+    max_cycles: int
+    family: str
+    description: str
+    kwargs: dict = field(default_factory=dict)
+    baselines: tuple[Baseline, ...] = ()
+    paper: str | None = None
+
+
+def _buckybot(name: str, cls: str, **kwargs) -> Baseline:
+    return Baseline(name, f"baselines.buckybot:{cls}", kwargs)
+
+
+REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotWallFollow-v0",
         entry_point="polyenvs.buckybot.wall_follow:BuckybotWallFollowEnv",
@@ -33,6 +94,11 @@ REGISTRY: tuple[EnvEntry, ...] = (
         max_episode_steps=500,
         family="buckybot",
         description="Buckybot follows the nearest wall counter-clockwise at distance d* with six range finders",
+        baselines=(
+            _buckybot("wall_follower", "WallFollower"),
+            _buckybot("wall_follower_rules", "WallFollower", x_s_cm=30.0, no_backtrack=True, clockwise_exception=True),
+        ),
+        paper="wall_follower",
     ),
     EnvEntry(
         id="polyenvs/BuckybotExplore-v0",
@@ -41,6 +107,8 @@ REGISTRY: tuple[EnvEntry, ...] = (
         max_episode_steps=1000,
         family="buckybot",
         description="Buckybot sweeps an unknown office with its range finders; dead-reckoned map error reported",
+        baselines=(_buckybot("wall_follow_explorer", "WallFollowExplorer"),),
+        paper="wall_follow_explorer",
     ),
     EnvEntry(
         id="polyenvs/BuckybotGoal-v0",
@@ -49,29 +117,52 @@ REGISTRY: tuple[EnvEntry, ...] = (
         max_episode_steps=300,
         family="buckybot",
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
+        baselines=(_buckybot("goal_seeker", "GoalSeeker"),),
+        paper="goal_seeker",
     ),
 )
 
-ENV_IDS: list[str] = [entry.id for entry in REGISTRY]
+#: The Gymnasium ids, in table order.
+ENV_IDS: list[str] = [row.id for row in REGISTRY if row.kind == "gymnasium"]
+#: The PettingZoo parallel environments' module paths, in table order.
+PARALLEL_ENV_IDS: list[str] = [row.id for row in REGISTRY if row.kind == "pettingzoo"]
+#: Every name a command takes, in table order.
+ALL_IDS: list[str] = [row.id for row in REGISTRY]
 
 
 def register_all() -> None:
-    """Register every id with Gymnasium (idempotent: re-importing does not warn about overrides)."""
-    for entry in REGISTRY:
-        if entry.id not in gym.registry:
+    """Register every Gymnasium id (idempotent: re-importing does not warn about overrides)."""
+    for row in REGISTRY:
+        if row.kind == "gymnasium" and row.id not in gym.registry:
             gym.register(
-                id=entry.id,
-                entry_point=entry.entry_point,
-                vector_entry_point=entry.vector_entry_point,
-                max_episode_steps=entry.max_episode_steps,
-                kwargs=dict(entry.kwargs),
+                id=row.id,
+                entry_point=row.entry_point,
+                vector_entry_point=row.vector_entry_point,
+                max_episode_steps=row.max_episode_steps,
+                kwargs=dict(row.kwargs),
             )
 
 
-def entry(env_id: str) -> EnvEntry:
-    """The registry row of ``env_id`` (``polyenvs:`` module prefix allowed)."""
-    env_id = env_id.split(":", 1)[-1]
+def bare_id(env_id: str) -> str:
+    """``env_id`` without Gymnasium's ``module:`` import prefix (``polyenvs:polyenvs/X-v0`` -> ``polyenvs/X-v0``)."""
+    return env_id.split(":", 1)[-1]
+
+
+def entry(env_id: str) -> EnvEntry | ParallelEnvEntry:
+    """The registry row of ``env_id`` (a Gymnasium id, ``polyenvs:`` prefix allowed, or a module path)."""
+    env_id = bare_id(env_id)
     for row in REGISTRY:
         if row.id == env_id:
             return row
     raise KeyError(env_id)
+
+
+def import_attribute(path: str):
+    """``"package.module:attribute"`` -> the attribute (how factories and users' own classes are named)."""
+    module, sep, attribute = path.partition(":")
+    if not sep or not module or not attribute:
+        raise ValueError(f"expected 'module:attribute', got {path!r}")
+    target = importlib.import_module(module)
+    for part in attribute.split("."):
+        target = getattr(target, part)
+    return target
