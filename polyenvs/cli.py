@@ -180,17 +180,15 @@ def _format_table(header: list[str], rows: list[list]) -> list[str]:
 
 
 def _cmd_list(args) -> int:
-    import gymnasium as gym
-
     import polyenvs
     from polyenvs.registry import REGISTRY
+    from polyenvs.rollout import agent_spaces, make_env
 
     rows = []
     for entry in REGISTRY:
-        env = gym.make(entry.id)
-        rows.append(
-            (entry.id, _describe_space(env.action_space), _describe_space(env.observation_space), entry.description)
-        )
+        env = make_env(entry.id)
+        observation_space, action_space = agent_spaces(env)  # a parallel env's: one robot's
+        rows.append((entry.id, _describe_space(action_space), _describe_space(observation_space), entry.description))
         env.close()
     if args.json:
         print(
@@ -255,7 +253,7 @@ def _cmd_leaderboard(args) -> int:
         stored_results,
         write_leaderboard,
     )
-    from polyenvs.registry import ENV_IDS
+    from polyenvs.registry import ALL_IDS
 
     # Everything the user could get wrong is checked here, before the first evaluation.
     episodes = args.episodes if args.episodes is not None else (5 if args.quick else PROTOCOL_EPISODES)
@@ -286,7 +284,7 @@ def _cmd_leaderboard(args) -> int:
     agents_dir = Path(args.agents_dir) if args.agents_dir is not None else AGENTS_DIR
     if args.agents_dir is not None and not agents_dir.is_dir():
         raise CliError(f"--agents-dir {agents_dir}: no such directory")
-    env_ids = [e for e in ENV_IDS if args.only is None or args.only in e]
+    env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
     check_writable_directory(results_dir, "--results-dir")
@@ -313,9 +311,9 @@ def _cmd_leaderboard(args) -> int:
         bar.close()
     # The table shows every environment with results in the directory, not only the ones just evaluated.
     others = stored_results(
-        [e for e in ENV_IDS if e not in env_ids], results_dir, progress=bar.message, agents_dir=agents_dir
+        [e for e in ALL_IDS if e not in env_ids], results_dir, progress=bar.message, agents_dir=agents_dir
     )
-    order = {env_id: i for i, env_id in enumerate(ENV_IDS)}
+    order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
     documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
     text = write_leaderboard(documents, output)
     print(text)
@@ -331,7 +329,8 @@ def _cmd_leaderboard(args) -> int:
 def _cmd_record(args) -> int:
     import numpy as np
 
-    from polyenvs.evaluation import atomic_path, make_agent, make_env, policy_action
+    from polyenvs.evaluation import atomic_path, make_agent, make_env
+    from polyenvs.rollout import episode_frames
 
     output = Path(args.output)
     suffix = output.suffix.lower()
@@ -358,15 +357,7 @@ def _cmd_record(args) -> int:
     try:
         env_id = args.env_id.split(":", 1)[-1]
         policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
-        obs, info = env.reset(seed=args.seed)
-        frames, state, start = [env.render()], None, True
-        for _ in range(args.max_steps):
-            action, state = policy_action(policy, obs, state, start, info)
-            obs, _, terminated, truncated, info = env.step(action)
-            frames.append(env.render())
-            start = False
-            if terminated or truncated:
-                break
+        frames = episode_frames(env, policy, args.seed, args.max_steps)
         fps = args.fps or env.metadata.get("render_fps", 10)
     finally:
         env.close()
@@ -398,12 +389,16 @@ def build_parser() -> argparse.ArgumentParser:
     add_sweep_parser(sub)
     episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
 
-    p = sub.add_parser("list", help="every environment id with its spaces and a one-line description")
+    p = sub.add_parser(
+        "list", help="every environment (Gymnasium id or PettingZoo module) with its spaces (one robot's) and a line"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=_cmd_list)
 
     p = sub.add_parser("evaluate", help="run a policy on fixed seeds and print its returns and task metrics")
-    p.add_argument("env_id")
+    p.add_argument(
+        "env_id", help="a Gymnasium id (polyenvs/BuckybotGoal-v0) or a PettingZoo module (polyenvs.swarm.corridor_v0)"
+    )
     p.add_argument(
         "--policy",
         default="paper",
@@ -458,7 +453,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_leaderboard)
 
     p = sub.add_parser("record", help="record a GIF or MP4 of a policy (needs polyenvs[render])")
-    p.add_argument("env_id")
+    p.add_argument(
+        "env_id", help="a Gymnasium id (polyenvs/BuckybotGoal-v0) or a PettingZoo module (polyenvs.swarm.corridor_v0)"
+    )
     p.add_argument("--policy", default="paper", help="a baseline's name, 'paper' (default), or a trained model's path")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")

@@ -14,8 +14,6 @@ never leaves a half-written file under its real name.
 from __future__ import annotations
 
 import contextlib
-import functools
-import inspect
 import json
 import os
 import secrets
@@ -27,6 +25,8 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+
+from polyenvs.rollout import policy_action, run_episode
 
 __all__ = [
     "InputError",
@@ -106,20 +106,24 @@ def check_count(name: str, value, minimum: int) -> int:
     return int(value)
 
 
-def make_env(env_id: str, env_kwargs: dict | None = None, **extra) -> gym.Env:
-    """``gym.make(env_id, **env_kwargs, **extra)``; an unknown id or a rejected keyword raises :class:`InputError`.
+def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
+    """Build a Gymnasium id or a PettingZoo module path (:func:`polyenvs.rollout.make_env`) with the user's
+    ``env_kwargs``; an unknown name or a rejected keyword raises :class:`InputError`.
 
     ``extra`` holds the caller's own fixed arguments (``render_mode``); an error building the environment with no
     user keywords at all is not the user's doing and propagates unchanged.
     """
-    import polyenvs  # noqa: F401  (registers the ids)
+    from polyenvs.rollout import UnknownEnvironment
+    from polyenvs.rollout import make_env as build
 
-    env_id = env_id.split(":", 1)[-1]
-    if env_id not in gym.registry:
-        raise InputError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
     env_kwargs = dict(env_kwargs or {})
     try:
-        return gym.make(env_id, **env_kwargs, **extra)
+        return build(env_id, env_kwargs, **extra)
+    except UnknownEnvironment:
+        raise InputError(
+            f"unknown environment id {env_id.split(':', 1)[-1]!r} (neither a Gymnasium id nor a PettingZoo "
+            "module path); run 'polyenvs list' for ours"
+        ) from None
     except (TypeError, ValueError, gym.error.Error) as exc:
         if not env_kwargs:
             raise
@@ -133,11 +137,10 @@ def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, 
     model raises :class:`InputError` too.
     """
     from baselines import make_policy
+    from polyenvs.rollout import agent_spaces
 
     try:
-        return make_policy(
-            policy, env_id, env.observation_space, env.action_space, seed=seed, **dict(policy_kwargs or {})
-        )
+        return make_policy(policy, env_id, *agent_spaces(env), seed=seed, **dict(policy_kwargs or {}))
     except (TypeError, ValueError) as exc:
         raise InputError(str(exc)) from exc
 
@@ -168,7 +171,7 @@ def evaluate(
         seeds = [seed + i for i in range(episodes)]
         results = []
         for s in seeds:
-            results.append(_run_episode(env, agent, s))
+            results.append(run_episode(env, agent, s))
             if on_episode is not None:
                 on_episode(results[-1])
     finally:
@@ -188,51 +191,6 @@ def evaluate(
         "episodes": results,
         "summary": summary,
     }
-
-
-@functools.lru_cache(maxsize=256)
-def _signature_takes_action_masks(function) -> bool:
-    try:
-        return "action_masks" in inspect.signature(function).parameters
-    except (TypeError, ValueError):  # builtins without a signature
-        return False
-
-
-def _takes_action_masks(agent) -> bool:
-    predict = agent.predict
-    function = getattr(predict, "__func__", None)  # a method: look its function up once, not at every step
-    if function is None:
-        return _signature_takes_action_masks.__wrapped__(predict)
-    return _signature_takes_action_masks(function)
-
-
-def policy_action(agent, obs, state, episode_start: bool, info: dict, deterministic: bool = True):
-    """``agent.predict`` for one step: ``(action, state)``.
-
-    ``info["action_mask"]`` goes to policies whose ``predict`` takes ``action_masks`` (MaskablePPO and the trained
-    policy wrapper); the hand baselines never see it (they act on the observation alone).
-    """
-    kwargs = {}
-    if "action_mask" in info and _takes_action_masks(agent):
-        kwargs["action_masks"] = np.asarray(info["action_mask"]).astype(bool)
-    return agent.predict(
-        obs, state=state, episode_start=np.array([episode_start]), deterministic=deterministic, **kwargs
-    )
-
-
-def _run_episode(env: gym.Env, agent, seed: int) -> dict[str, Any]:
-    obs, info = env.reset(seed=seed)
-    state, start, total, length = None, True, 0.0, 0
-    while True:
-        action, state = policy_action(agent, obs, state, start, info)
-        obs, reward, terminated, truncated, info = env.step(action)
-        total += float(reward)
-        length += 1
-        start = False
-        if terminated or truncated:
-            break
-    metrics = {k: float(v) for k, v in info.get("episode_metrics", {}).items()}
-    return {"seed": seed, "return": total, "length": length, "metrics": metrics}
 
 
 def _iqm_of_sorted(sorted_x: np.ndarray) -> np.ndarray:

@@ -385,7 +385,7 @@ def no_episodes(monkeypatch):
     def run_episode(*args, **kwargs):
         raise AssertionError("an episode ran before the model was checked")
 
-    monkeypatch.setattr(polyenvs.evaluation, "_run_episode", run_episode)
+    monkeypatch.setattr(polyenvs.evaluation, "run_episode", run_episode)
 
 
 @pytest.mark.parametrize("kind", BAD_MODELS)
