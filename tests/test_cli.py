@@ -47,12 +47,12 @@ class FakeTerminal(io.StringIO):
 def test_list_shows_every_id_with_spaces(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    for env_id in polyenvs.ENV_IDS:
+    for env_id in polyenvs.registry.ALL_IDS:
         assert env_id in out
     assert "Discrete(3)" in out
     assert main(["list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert [r["id"] for r in rows] == polyenvs.ENV_IDS and all(r["description"] for r in rows)
+    assert [r["id"] for r in rows] == polyenvs.registry.ALL_IDS and all(r["description"] for r in rows)
 
 
 def test_evaluate_json_document(capsys):

@@ -40,7 +40,7 @@ def test_ppo_trains_a_few_steps(env_id):
     model = sb3.PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=256)
     action, _ = model.predict(venv.reset(), deterministic=True)
-    assert action.shape == (2,)
+    assert action.shape == (2, *venv.action_space.shape)
 
 
 def test_maskable_ppo_uses_the_action_mask():

@@ -1,0 +1,212 @@
+"""Properties every polyenvs PettingZoo parallel environment keeps, parametrised over the registry.
+
+The counterpart of ``test_envs_shared.py`` for the other kind: a family gets all of these by listing its modules
+in ``polyenvs.registry`` as ``ParallelEnvEntry`` rows. PettingZoo's own checks first, then the conventions of the
+Gymnasium suite that apply to a swarm (seeded determinism, fresh observations inside their spaces, reward terms that
+sum, bad input that raises and changes nothing, pickling, documentation).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import pickle
+
+import numpy as np
+import pytest
+from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test
+
+from polyenvs.registry import REGISTRY
+
+ENTRIES = [e for e in REGISTRY if e.kind == "pettingzoo"]
+pytestmark = pytest.mark.parametrize("entry", ENTRIES, ids=lambda e: e.id)
+
+
+def _module(entry):
+    return importlib.import_module(entry.id)
+
+
+def _make(entry, **kwargs):
+    return _module(entry).parallel_env(**{"max_cycles": entry.max_cycles, **kwargs})
+
+
+def _actions(env, rng_seed: int, step: int) -> dict:
+    actions = {}
+    for i, agent in enumerate(env.agents):
+        space = env.action_space(agent)
+        space.seed(rng_seed * 100_003 + step * 1009 + i)
+        actions[agent] = space.sample()
+    return actions
+
+
+def _rollout(env, seed: int, cycles: int, action_seed: int = 0) -> list:
+    observations, _ = env.reset(seed=seed)
+    trace = [observations]
+    for step in range(cycles):
+        if not env.agents:
+            break
+        observations, rewards, terminations, truncations, _ = env.step(_actions(env, action_seed, step))
+        trace.append((observations, rewards, terminations, truncations))
+    return trace
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, tuple | list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    return np.array_equal(a, b)
+
+
+def test_parallel_api(entry):
+    parallel_api_test(_make(entry), num_cycles=200)
+
+
+def test_aec_api(entry):
+    api_test(_module(entry).env(max_cycles=entry.max_cycles), num_cycles=100)
+
+
+def test_parallel_seed(entry):
+    parallel_seed_test(lambda: _make(entry), num_cycles=100)
+
+
+def test_max_cycles(entry):
+    max_cycles_test(_module(entry))
+
+
+def test_render(entry):
+    render_test(lambda render_mode=None: _module(entry).env(max_cycles=entry.max_cycles, render_mode=render_mode))
+
+
+def test_same_seed_same_episode_bit_for_bit(entry):
+    a, b = _rollout(_make(entry), 7, 150), _rollout(_make(entry), 7, 150)
+    assert _same(a, b)
+    c = _rollout(_make(entry), 8, 150)
+    assert not _same(a, c)
+
+
+def test_spaces_are_built_once_per_agent(entry):
+    env = _make(entry)
+    env.reset(seed=0)
+    for agent in env.possible_agents:
+        assert env.observation_space(agent) is env.observation_space(agent)
+        assert env.action_space(agent) is env.action_space(agent)
+    first = env.possible_agents[0]
+    assert all(env.observation_space(a) == env.observation_space(first) for a in env.possible_agents)
+    assert all(env.action_space(a) == env.action_space(first) for a in env.possible_agents)
+
+
+def test_observations_and_state_stay_in_their_spaces(entry):
+    env = _make(entry)
+    observations, _ = env.reset(seed=1)
+    for step in range(300):
+        for agent, obs in observations.items():
+            assert env.observation_space(agent).contains(obs), (agent, obs)
+        state = env.state()
+        assert env.state_space.contains(state) and np.all(np.isfinite(state))
+        if not env.agents:
+            break
+        observations, rewards, *_ = env.step(_actions(env, 1, step))
+        assert all(np.isfinite(r) for r in rewards.values())
+
+
+def test_observations_are_fresh_arrays(entry):
+    env, twin = _make(entry), _make(entry)
+    first, _ = env.reset(seed=0)
+    twin.reset(seed=0)
+    kept = {a: o.copy() for a, o in first.items()}
+    actions = _actions(env, 0, 0)
+    second = env.step(actions)[0]
+    twin.step(actions)
+    for agent in second:
+        assert not np.shares_memory(first[agent], second[agent])
+        assert np.array_equal(first[agent], kept[agent]), "the environment wrote into an observation it had returned"
+        second[agent][...] = 0.5  # scribbling on returned observations must not change what happens next
+    for step in range(1, 6):
+        if not env.agents:
+            break
+        actions = _actions(env, 0, step)
+        assert _same(env.step(actions)[0], twin.step(actions)[0])
+
+
+def test_reward_terms_sum(entry):
+    env = _make(entry)
+    env.reset(seed=2)
+    for step in range(50):
+        if not env.agents:
+            break
+        _, rewards, _, _, infos = env.step(_actions(env, 2, step))
+        for agent, reward in rewards.items():
+            terms = [v for k, v in infos[agent].items() if k.startswith("reward_")]
+            assert terms and np.isclose(sum(terms), reward)
+
+
+def test_metrics_when_robots_leave(entry):
+    """Every robot's last info holds ``episode_metrics`` (what ``polyenvs evaluate`` averages), all finite."""
+    env = _make(entry, max_cycles=20)
+    env.reset(seed=3)
+    reported = set()
+    for step in range(25):
+        if not env.agents:
+            break
+        _, _, terminations, truncations, infos = env.step(_actions(env, 3, step))
+        for agent in terminations:
+            if terminations[agent] or truncations[agent]:
+                metrics = infos[agent]["episode_metrics"]
+                assert metrics and all(np.isfinite(v) for v in metrics.values())
+                reported.add(agent)
+    assert not env.agents and reported == set(env.possible_agents)
+
+
+def test_bad_actions_raise_and_change_nothing(entry):
+    env, twin = _make(entry), _make(entry)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    agent = env.agents[0]
+    good = _actions(env, 0, 0)
+    space = env.action_space(agent)
+    bad_values = [None, "a"]
+    if hasattr(space, "shape") and space.shape:
+        bad_values += [np.full(space.shape, np.nan), np.zeros(space.shape[0] + 1)]
+    else:
+        bad_values += [getattr(space, "n", 0), -1]
+    for value in bad_values:
+        with pytest.raises((ValueError, TypeError)):
+            env.step({**good, agent: value})
+    with pytest.raises((ValueError, KeyError)):
+        env.step({**good, "no_such_robot": good[agent]})
+    for step in range(5):
+        if not env.agents:
+            break
+        actions = _actions(env, 0, step)
+        assert _same(env.step(actions), twin.step(actions))
+
+
+def test_bad_constructor_arguments_name_the_parameter(entry):
+    module = _module(entry)
+    for value in (0, -1, True, "10", 1.5):
+        with pytest.raises(ValueError, match="max_cycles"):
+            module.parallel_env(max_cycles=value)
+    if "n_robots" in inspect.signature(module.raw_env).parameters:
+        for value in (0, True, "3", 2.5, 10**9):
+            with pytest.raises(ValueError, match="n_robots"):
+                module.parallel_env(n_robots=value)
+
+
+def test_pickles_mid_episode(entry):
+    env = _make(entry)
+    env.reset(seed=4)
+    env.step(_actions(env, 4, 0))
+    clone = pickle.loads(pickle.dumps(env))
+    for step in range(1, 6):
+        if not env.agents:
+            break
+        actions = _actions(env, 4, step)
+        assert _same(env.step(actions), clone.step(actions))
+
+
+def test_documented_like_gymnasium(entry):
+    doc = inspect.getdoc(_module(entry).raw_env) or ""
+    for section in ("## Description", "## Action Space", "## Observation Space", "## Rewards", "## Arguments"):
+        assert section in doc, f"{entry.id} raw_env docstring lacks {section}"
+    assert entry.description
