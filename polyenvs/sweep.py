@@ -156,7 +156,8 @@ def plan_jobs(
     """
     import polyenvs  # noqa: F401  (registers the ids)
     from polyenvs.evaluation import make_env
-    from polyenvs.registry import ENV_IDS
+    from polyenvs.registry import ALL_IDS
+    from polyenvs.rollout import agent_spaces
     from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.train import check_out_dir
@@ -164,7 +165,7 @@ def plan_jobs(
     ids = []
     for env_id in envs:
         bare = env_id.split(":", 1)[-1]
-        if bare not in ENV_IDS:
+        if bare not in ALL_IDS:
             raise InputError(f"--envs: unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
         ids.append(bare)
     for algo in algos:
@@ -184,7 +185,7 @@ def plan_jobs(
         probe = make_env(env_id)
         try:
             for algo in dict.fromkeys(algos):
-                check_action_space(algo, env_id, probe.action_space)
+                check_action_space(algo, env_id, agent_spaces(probe)[1])
                 load_config(configs[algo], env_id, algo)  # a missing entry or a bad value: InputError
         finally:
             probe.close()

@@ -9,12 +9,14 @@ pytest.importorskip("stable_baselines3")
 
 import gymnasium as gym  # noqa: E402
 from gymnasium.vector import AutoresetMode  # noqa: E402
+from pettingzoo import ParallelEnv  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
 import polyenvs  # noqa: E402
 from polyenvs.evaluation import InputError  # noqa: E402
 from polyenvs.training.vec_adapter import (  # noqa: E402
     NativeVecEnvAdapter,
+    ParallelVecEnvAdapter,
     make_native_vector_env,
     make_training_vec_env,
 )
@@ -187,3 +189,64 @@ def test_every_native_id_builds_in_same_step_mode():
             venv = make_native_vector_env(entry.id, 2)
             assert venv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
             venv.close()
+
+
+# ------------------------------------------------------------------------------ PettingZoo robots as VecEnv slots
+
+
+class _Leaving(ParallelEnv):
+    """Three robots; robot j leaves after j + 2 cycles; observation = [cycle, seed % 7]; reward 1 per cycle."""
+
+    metadata = {"name": "leaving_v0"}
+    render_mode = None
+
+    def __init__(self):
+        self.possible_agents = ["r0", "r1", "r2"]
+        self._obs_space = gym.spaces.Box(0, 100, (2,), np.float32)
+        self._act_space = gym.spaces.Discrete(2)
+
+    def observation_space(self, agent):
+        return self._obs_space
+
+    def action_space(self, agent):
+        return self._act_space
+
+    def reset(self, seed=None, options=None):
+        self.agents, self.cycle, self.tag = list(self.possible_agents), 0, (seed or 0) % 7
+        return {a: self._obs() for a in self.agents}, {a: {} for a in self.agents}
+
+    def _obs(self):
+        return np.array([self.cycle, self.tag], dtype=np.float32)
+
+    def step(self, actions):
+        assert set(actions) == set(self.agents)
+        self.cycle += 1
+        leaving = {a: self.cycle >= int(a[1]) + 2 for a in self.agents}
+        obs = {a: self._obs() for a in self.agents}
+        rewards = dict.fromkeys(self.agents, 1.0)
+        infos = {a: {"episode_metrics": {"left_at": float(self.cycle)}} if leaving[a] else {} for a in self.agents}
+        truncations = dict.fromkeys(self.agents, False)
+        self.agents = [a for a in self.agents if not leaving[a]]
+        return obs, rewards, leaving, truncations, infos
+
+
+def test_parallel_adapter_slots_robots_and_restarts_a_copy_when_all_have_left():
+    venv = ParallelVecEnvAdapter([_Leaving(), _Leaving()])
+    assert venv.num_envs == 6
+    venv.seed(5)
+    obs = venv.reset()
+    assert obs[:, 1].tolist() == [5, 5, 5, 6, 6, 6]  # copy k seeded 5 + k
+    actions = np.zeros(6, dtype=np.int64)
+    dones_seen, episodes = [], []
+    for _ in range(4):
+        venv.step_async(actions)
+        obs, rewards, dones, infos = venv.step_wait()
+        dones_seen.append(dones.tolist())
+        episodes.append([info.get("episode", {}).get("l") for info in infos])
+    # r0 leaves after 2 cycles, r1 after 3, r2 after 4 (then the copy restarts and fillers end too)
+    assert dones_seen[1] == [True, False, False] * 2 and episodes[1] == [2, None, None] * 2
+    assert dones_seen[2] == [False, True, False] * 2
+    assert dones_seen[3] == [True, True, True] * 2 and episodes[3] == [None, None, 4] * 2
+    assert obs[:, 0].tolist() == [0] * 6 and obs[:, 1].tolist() == [0] * 6  # restarted, unseeded
+    assert rewards.tolist() == [0, 0, 1] * 2  # fillers get nothing
+    assert infos[2]["episode_metrics"] == {"left_at": 4.0} and "terminal_observation" in infos[0]

@@ -179,6 +179,7 @@ def train(
     """
     import polyenvs  # noqa: F401  (registers the ids)
     from polyenvs.evaluation import make_env
+    from polyenvs.rollout import agent_spaces
     from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
 
@@ -187,10 +188,6 @@ def train(
     if not isinstance(env_id, str):
         raise InputError(f"env_id must be a string, got {env_id!r}")
     env_id = env_id.split(":", 1)[-1]
-    import gymnasium as gym
-
-    if env_id not in gym.registry:
-        raise InputError(f"unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
     seed = check_count("seed", seed, 0)
     if timesteps is not None:
         timesteps = check_count("timesteps", timesteps, 1)
@@ -204,9 +201,9 @@ def train(
     out_dir = Path(out_dir)
     if check_out_dir(out_dir, env_id, algo, seed):
         return out_dir
-    probe = make_env(env_id, env_kwargs)  # bad keyword arguments raise InputError here
+    probe = make_env(env_id, env_kwargs)  # an unknown id or bad keyword arguments raise InputError here
     try:
-        check_action_space(algo, env_id, probe.action_space)
+        check_action_space(algo, env_id, agent_spaces(probe)[1])  # a parallel env's: one robot's
     finally:
         probe.close()
     config_path = Path(config) if config is not None else default_config_path(algo)

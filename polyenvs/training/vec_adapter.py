@@ -18,6 +18,12 @@ since the native vector envs reproduce ``gym.make(id)`` seeded ``s + i`` bit for
 ``DummyVecEnv([lambda: gym.make(id)] * n)`` gives: the same observations, rewards (float32), dones and terminal
 observations (``tests/test_training_adapter.py``).
 
+A PettingZoo parallel environment (a module path such as ``polyenvs.swarm.corridor_v0``) trains with parameter
+sharing through :class:`ParallelVecEnvAdapter`: ``n_envs`` copies, each robot a slot of one SB3 ``VecEnv``
+(``n_envs x n_robots`` slots, one policy). SuperSuit's ``pettingzoo_env_to_vec_env_v1`` + ``concat_vec_envs_v1`` do
+the same, but with SB3 2.9 they cannot be seeded (``PPO(seed=...)`` fails: its ``ConcatVecEnv`` has no ``seed``,
+and its SB3 wrapper's ``reset`` drops the seed), so training would not be reproducible.
+
 ``get_attr``/``env_method``/``set_attr`` act on the one native env, which holds every sub-environment: an attribute
 is shared by all of them (``get_attr`` returns it once per index), except ``action_masks``, which
 ``env_method("action_masks")`` (sb3-contrib's ``get_action_masks``) answers per sub-environment from the last
@@ -27,6 +33,7 @@ step's ``info["action_mask"]`` as bool arrays.
 from __future__ import annotations
 
 import functools
+import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
@@ -38,7 +45,13 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
 from polyenvs.evaluation import InputError
 
-__all__ = ["NativeVecEnvAdapter", "has_native_vector_env", "make_native_vector_env", "make_training_vec_env"]
+__all__ = [
+    "NativeVecEnvAdapter",
+    "has_native_vector_env",
+    "make_native_vector_env",
+    "ParallelVecEnvAdapter",
+    "make_training_vec_env",
+]
 
 #: The name sb3-contrib's MaskablePPO calls through ``env_method``.
 ACTION_MASKS = "action_masks"
@@ -260,8 +273,20 @@ def make_training_vec_env(
     Bad ``env_kwargs`` raise :class:`~polyenvs.evaluation.InputError`.
     """
     import polyenvs  # noqa: F401
+    from polyenvs.evaluation import make_env
+    from polyenvs.rollout import is_parallel
 
     env_id = env_id.split(":", 1)[-1]
+    if env_id not in gym.registry:
+        probe = make_env(env_id, env_kwargs)
+        if is_parallel(probe):
+            probe.close()
+            if wrappers or vec_env == "native":
+                raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, without wrappers")
+            venv = ParallelVecEnvAdapter([make_env(env_id, env_kwargs) for _ in range(n_envs)])
+            if seed is not None:
+                venv.seed(seed)
+            return venv
     if vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
     if vec_env == "native" and wrappers:
@@ -294,3 +319,123 @@ def make_training_vec_env(
     if seed is not None:
         venv.seed(seed)
     return venv
+
+
+class ParallelVecEnvAdapter(VecEnv):
+    """PettingZoo parallel environments as one SB3 ``VecEnv`` whose sub-environments are their robots.
+
+    Slot ``k * n_robots + j`` is robot ``possible_agents[j]`` of copy ``k``. A robot that leaves the episode gets
+    ``done`` with its ``terminal_observation``, its ``episode`` (return, length, seconds: what ``VecMonitor`` would
+    give, for real robots only) and its ``episode_metrics``; until every robot of its copy has left, its slot sees
+    zeros, reward 0 and actions that are ignored (SuperSuit's "black death"), and when the copy restarts such
+    slots end that filler with ``done`` but no ``episode``. After ``seed(s)`` the next ``reset()`` seeds copy ``k``
+    with ``s + k``. ``TimeLimit.truncated`` is set for a robot truncated and not terminated.
+    """
+
+    def __init__(self, envs: list):
+        from polyenvs.rollout import agent_spaces
+
+        self.envs = list(envs)
+        self.robots = list(self.envs[0].possible_agents)
+        self.slot_of = {name: j for j, name in enumerate(self.robots)}
+        observation_space, action_space = agent_spaces(self.envs[0])
+        super().__init__(len(self.envs) * len(self.robots), observation_space, action_space)
+        self._observations = np.zeros((self.num_envs, *observation_space.shape), dtype=observation_space.dtype)
+        self._filler = np.zeros(self.num_envs, dtype=bool)  # slots whose robot has left
+        self._returns = np.zeros(self.num_envs)
+        self._lengths = np.zeros(self.num_envs, dtype=np.int64)
+        self._actions: np.ndarray | None = None
+        self._start = time.monotonic()
+
+    def _reset_copy(self, k: int, seed: int | None) -> None:
+        n = len(self.robots)
+        observations, infos = self.envs[k].reset(seed=seed, options=self._options[k] or None)
+        block = slice(k * n, (k + 1) * n)
+        self._observations[block] = 0
+        self._filler[block] = True
+        for name, obs in observations.items():
+            i = k * n + self.slot_of[name]
+            self._observations[i] = obs
+            self._filler[i] = False
+            self.reset_infos[i] = infos.get(name, {})
+        self._returns[block] = 0.0
+        self._lengths[block] = 0
+
+    def reset(self) -> np.ndarray:
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        for k in range(len(self.envs)):
+            self._reset_copy(k, self._seeds[k])
+        self._reset_seeds()
+        self._reset_options()
+        return self._observations.copy()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self):
+        n = len(self.robots)
+        rewards = np.zeros(self.num_envs, dtype=np.float32)
+        dones = np.zeros(self.num_envs, dtype=bool)
+        infos: list[dict] = [{} for _ in range(self.num_envs)]
+        for k, env in enumerate(self.envs):
+            live = list(env.agents)
+            base = k * n
+            observations, step_rewards, terminations, truncations, step_infos = env.step(
+                {name: self._actions[base + self.slot_of[name]] for name in live}
+            )
+            for name in live:
+                i = base + self.slot_of[name]
+                rewards[i] = step_rewards[name]
+                self._returns[i] += float(step_rewards[name])
+                self._lengths[i] += 1
+                if name in observations:
+                    self._observations[i] = observations[name]
+                if terminations[name] or truncations[name]:
+                    info = dict(step_infos.get(name, {}))
+                    info["terminal_observation"] = self._observations[i].copy()
+                    info["TimeLimit.truncated"] = bool(truncations[name] and not terminations[name])
+                    info["episode"] = {
+                        "r": float(self._returns[i]),
+                        "l": int(self._lengths[i]),
+                        "t": round(time.monotonic() - self._start, 6),
+                    }
+                    infos[i] = info
+                    dones[i] = True
+                    self._observations[i] = 0
+                    self._filler[i] = True
+            if not env.agents:
+                block = slice(base, base + n)
+                ended_earlier = self._filler[block] & ~dones[block]
+                for j in np.flatnonzero(ended_earlier):
+                    infos[base + j] = {"terminal_observation": np.zeros_like(self._observations[base + j])}
+                dones[block] = True
+                self._reset_copy(k, None)
+                for j in range(n):
+                    infos[base + j]["reset_info"] = self.reset_infos[base + j]
+        return self._observations.copy(), rewards, dones, infos
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+
+    def seed(self, seed: int | None = None):
+        self._seeds = [None if seed is None else seed + k for k in range(len(self.envs))]
+        return self._seeds
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self.envs[i // len(self.robots)], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        for k in {i // len(self.robots) for i in self._get_indices(indices)}:
+            setattr(self.envs[k], attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices: VecEnvIndices = None, **kwargs) -> list[Any]:
+        return [
+            getattr(self.envs[i // len(self.robots)], method_name)(*args, **kwargs) for i in self._get_indices(indices)
+        ]
+
+    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+    def get_images(self) -> list[np.ndarray]:
+        return [env.render() for env in self.envs]
