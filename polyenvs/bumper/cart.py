@@ -1,0 +1,355 @@
+"""The bumper cart's batched, closed-form cycle simulator (the physics core; never imports Gymnasium).
+
+One cycle is the paper's control loop in three stages: turn in place by a commanded angle, drive until the bumper
+trips (or a maximum distance), back up. In each stage both motors run at constant, unmatched speeds, so the cart
+moves on one circular arc (a straight line, or a spin, at the limits). The body is a rectangle whose front edge is
+the bumper (it covers the whole profile, as in the paper). Every point of the body moves on a circle about the
+arc's centre, so the first contact with the walls is the smallest root of a few closed-form equations, not the
+end of a time-stepped search:
+
+- a body corner crossing a wall segment, and
+- a wall vertex crossing a body edge (in the cart's frame the vertex moves on the reverse arc).
+
+A point ``p`` moving through angle ``φ = tθ`` (``θ`` the stage's heading change, ``t`` in [0, 1]) is
+``p + (sin φ / θ) J w - ((1 - cos φ) / θ) w`` with ``w = θ (p - axle) - s n`` (``s`` the axle's arc length, ``n``
+the cart's left normal, ``J`` a quarter turn): regular as ``θ -> 0``. Its signed distance to a wall line is
+``c0 + (A sin φ - B (1 - cos φ)) / θ``; with ``u = tan(φ/2)`` that is the quadratic
+``(c0 θ - 2B) u² + 2A u + c0 θ = 0``, solved in the cancellation-free form. Stages turning more than 90° are
+cut into equal sub-arcs so that ``u`` stays single-valued. A stage that meets a wall stops there (the bumper trips,
+or a blocked wheel stalls), a hair short of the contact, so the cart never enters a wall.
+
+What the robot logs are encoder ticks: wheel rotation (not ground travel) in units of 0.0675 in, rounded. Ground
+travel differs by a small per-stage wheel slip. At a bump the wheels can slip badly, unseen by the encoders (the
+paper: "errors between bumps tend to be either very small or very large"): on a near head-on hit the bumper may
+flatten against the wall (the cart turns square to it), on a glancing hit it may slide (the cart turns towards
+parallel); see :class:`CartModel`.
+
+State lives in a ``(rows, N_STATE)`` float64 array with the column constants below, parameters in one packed
+vector, per-cycle random numbers in :class:`polyenvs.core.streams.RowStreams` blocks, so a batch of carts steps
+in one compiled call.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from polyenvs.bumper.odometry import TICK_CM, odometry_step
+from polyenvs.core.jit import njit
+from polyenvs.core.validation import check_in_range
+
+__all__ = ["CART_PARAMETER_RANGES", "DRAWS_PER_CYCLE", "N_STATE", "CartModel", "cycle_row", "max_ticks", "place_row"]
+
+# State columns. True pose, dead-reckoned pose (nominal odometry from the true start), per-episode motor mismatch
+# and true wheel base, then what the last cycle did.
+X, Y, HEADING, DR_X, DR_Y, DR_HEADING, MISMATCH, BASE = range(8)
+BUMP, CONTACT_X, CONTACT_Y, CONTACT_SEG, CONTACT_ALONG = range(8, 13)
+BUMP_X, BUMP_Y, BUMP_HEADING = range(13, 16)  # true pose when the drive stage ended (at the bump)
+TURN_X, TURN_Y = range(16, 18)  # position after the turn, for rendering paths
+BIG_SLIP = 18  # 1 if the bump made the cart slip (flatten or slide)
+TICKS = 19  # 6 columns: left, right of turn, drive, back-up
+N_STATE = 25
+
+# Packed parameters.
+(P_TICK, P_BASE, P_FRONT, P_HALF, P_REAR, P_BACKUP, P_DRIVE, P_SLIP, P_SNAP_P, P_SNAP_MAX, P_SLIDE_P,
+ P_SLIDE_MAX) = range(12)  # fmt: skip
+#: Standard normals a cart draws per cycle: wheel slip (2 per stage), two uniforms and one spare for the bump slip.
+DRAWS_PER_CYCLE = 9
+#: A stage stops this many cm (of its fastest-moving body point) short of a contact.
+_BACKOFF_CM = 1e-6
+_INF = math.inf
+
+#: Physical parameters: (low, high) plausible range; outside it a parameter is refused at construction.
+CART_PARAMETER_RANGES = {
+    "wheel_base_cm": (3.0, 20.0),
+    "bumper_width_cm": (4.0, 20.0),
+    "bumper_offset_cm": (3.0, 20.0),
+    "rear_cm": (1.0, 20.0),
+    "backup_cm": (1.0, 30.0),
+    "max_drive_cm": (10.0, 1000.0),
+    "mismatch_sd": (0.0, 0.1),
+    "wheel_base_sd": (0.0, 0.1),
+    "slip_sd": (0.0, 0.1),
+    "snap_prob": (0.0, 1.0),
+    "snap_max_deg": (0.0, 45.0),
+    "slide_prob": (0.0, 1.0),
+    "slide_max_deg": (0.0, 90.0),
+}
+#: Tyres add this much to the wheel base for the cart's width (the feasibility study's 6.0 cm base, 7.4 cm wide).
+TYRE_WIDTH_CM = 1.4
+#: Per-episode draws are cut at this many standard deviations, so no reachable state is unphysical.
+_DRAW_LIMIT_SD = 4.0
+
+
+@dataclass(frozen=True)
+class CartModel:
+    """The cart's geometry and error model (cm, degrees). Paper values where it gives them, else *ours*.
+
+    Attributes:
+        wheel_base_cm: axle-centre to wheel-centre distance times two; the paper gives none (*ours*: 6.0, so
+            with tyres the cart is 7.4 cm wide, under the bumper). One tick of wheel difference turns it 1.64°.
+        bumper_width_cm: the paper's 3-inch bumper (7.62); it is also the body's width.
+        bumper_offset_cm: bumper ahead of the axle (*ours*: 7.0).
+        rear_cm: body behind the axle (*ours*: 5.0).
+        backup_cm: the back-up stage's travel (*ours*: 6.0, 35 ticks).
+        max_drive_cm: the drive stage ends here if nothing was hit.
+        mismatch_sd: per-episode relative speed difference of the motors (the paper: "not terribly well
+            matched"; *ours*: 2%); equal power drives an arc.
+        wheel_base_sd: per-episode relative error of the true wheel base against the nominal one the odometry
+            uses (*ours*: 2%; the paper found the wheel base hard to measure because of the tyres' thickness).
+        slip_sd: per-stage, per-wheel relative difference between wheel rotation and ground travel (*ours*: 1%).
+        snap_prob, snap_max_deg: a hit within ``snap_max_deg`` of head-on flattens the bumper against the wall
+            with probability ``snap_prob``: the cart turns square to the wall, unseen by the encoders (the paper's
+            hit 6; *ours*: 30%, 20°).
+        slide_prob, slide_max_deg: a more glancing hit slides with probability ``slide_prob``: the cart turns
+            towards parallel by up to ``slide_max_deg`` (*ours*: 15%, 30°).
+    """
+
+    wheel_base_cm: float = 6.0
+    bumper_width_cm: float = 3.0 * 2.54
+    bumper_offset_cm: float = 7.0
+    rear_cm: float = 5.0
+    backup_cm: float = 6.0
+    max_drive_cm: float = 300.0
+    mismatch_sd: float = 0.02
+    wheel_base_sd: float = 0.02
+    slip_sd: float = 0.01
+    snap_prob: float = 0.3
+    snap_max_deg: float = 20.0
+    slide_prob: float = 0.15
+    slide_max_deg: float = 30.0
+
+    def __post_init__(self):
+        for f in fields(self):
+            object.__setattr__(
+                self, f.name, check_in_range(f.name, getattr(self, f.name), *CART_PARAMETER_RANGES[f.name])
+            )
+        if self.wheel_base_cm + TYRE_WIDTH_CM > self.bumper_width_cm:
+            raise ValueError(
+                f"wheel_base_cm {self.wheel_base_cm:g} plus {TYRE_WIDTH_CM} cm of tyres is wider than the bumper "
+                f"({self.bumper_width_cm:g} cm): the bumper must cover the cart's whole profile"
+            )
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @property
+    def circumradius_cm(self) -> float:
+        """The farthest body point from the axle centre."""
+        return math.hypot(max(self.bumper_offset_cm, self.rear_cm), self.bumper_width_cm / 2)
+
+    def packed(self) -> np.ndarray:
+        return np.array([
+            TICK_CM, self.wheel_base_cm, self.bumper_offset_cm, self.bumper_width_cm / 2, self.rear_cm,
+            self.backup_cm, self.max_drive_cm, self.slip_sd, self.snap_prob, math.radians(self.snap_max_deg),
+            self.slide_prob, math.radians(self.slide_max_deg),
+        ])  # fmt: skip
+
+    def draw_episode(self, rng: np.random.Generator) -> tuple[float, float]:
+        """This episode's motor mismatch and true wheel base (two normals from ``rng``, cut at 4 sd)."""
+        z = np.clip(rng.standard_normal(2), -_DRAW_LIMIT_SD, _DRAW_LIMIT_SD)
+        return float(self.mismatch_sd * z[0]), float(self.wheel_base_cm * (1.0 + self.wheel_base_sd * z[1]))
+
+
+def max_ticks(model: CartModel) -> int:
+    """A bound on any stage's tick count (the observation space's bound)."""
+    longest = max(model.max_drive_cm, model.backup_cm, math.pi * model.wheel_base_cm / 2)
+    return int(math.ceil(longest * (1.0 + _DRAW_LIMIT_SD * 0.1 / 2) / TICK_CM)) + 1
+
+
+@njit(cache=True)
+def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint):
+    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) crosses the segment from
+    ``q`` to ``q + e`` coming from the side it starts on; ``inf`` if it does not. ``hint``: the sign of the
+    start side when ``p`` starts exactly on the wall's line."""
+    nx, ny = -ey, ex
+    c0 = nx * (px - qx) + ny * (py - qy)
+    a = -nx * wy + ny * wx  # n . J w
+    b = nx * wx + ny * wy  # n . w
+    side = c0 if c0 != 0.0 else hint
+    r0, r1 = _INF, _INF
+    if theta == 0.0:
+        if a != 0.0:
+            r0 = -c0 / a
+    else:
+        qa, qb, qc = c0 * theta - 2.0 * b, 2.0 * a, c0 * theta
+        disc = qb * qb - 4.0 * qa * qc
+        if disc < 0.0:
+            return _INF
+        q = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))
+        if q != 0.0:
+            r0 = 2.0 * math.atan(qc / q) / theta
+        if qa != 0.0:
+            r1 = 2.0 * math.atan(q / qa) / theta
+    best = _INF
+    length_sq = ex * ex + ey * ey
+    for t in (r0, r1):
+        if not (0.0 <= t <= 1.0) or t >= best:
+            continue
+        phi = t * theta
+        if side * (a * math.cos(phi) - b * math.sin(phi)) >= 0.0:
+            continue  # moving away from the line, or along it
+        if theta == 0.0:
+            sa, ka = t, 0.0
+        else:
+            sa, ka = math.sin(phi) / theta, (1.0 - math.cos(phi)) / theta
+        hx, hy = px - sa * wy - ka * wx, py + sa * wx - ka * wy
+        along = ((hx - qx) * ex + (hy - qy) * ey) / length_sq
+        if -1e-12 <= along <= 1.0 + 1e-12:
+            best = t
+    return best
+
+
+@njit(cache=True)
+def _first_contact(x, y, h, a, b, d, params, walls):
+    """First contact of the body moving by wheel travels ``(a, b)`` on base ``d`` from ``(x, y, h)``:
+    ``(t, segment, contact x, contact y)``; ``t = inf`` and segment -1 when the motion is free."""
+    theta, s = (b - a) / d, 0.5 * (a + b)
+    c, sn = math.cos(h), math.sin(h)
+    front, half, rear = params[P_FRONT], params[P_HALF], params[P_REAR]
+    best, seg, cx, cy = _INF, -1, 0.0, 0.0
+    for i in range(4):  # body corners: front right, front left, rear left, rear right
+        lx = front if i < 2 else -rear
+        ly = half if i == 1 or i == 2 else -half
+        px, py = x + lx * c - ly * sn, y + lx * sn + ly * c
+        wx, wy = theta * (px - x) + s * sn, theta * (py - y) - s * c
+        for k in range(walls.shape[0]):
+            if walls[k, 5] == 0.0:
+                continue
+            qx, qy, ex, ey = walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3]
+            hint = -ey * (x - qx) + ex * (y - qy)
+            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint)
+            if t < best:
+                phi = t * theta
+                sa = t if theta == 0.0 else math.sin(phi) / theta
+                ka = 0.0 if theta == 0.0 else (1.0 - math.cos(phi)) / theta
+                best, seg, cx, cy = t, k, px - sa * wy - ka * wx, py + sa * wx - ka * wy
+    for k in range(walls.shape[0]):  # wall vertices (every polygon is closed: the starts are all of them)
+        if walls[k, 5] == 0.0:
+            continue
+        vx, vy = walls[k, 0], walls[k, 1]
+        wx, wy = -theta * (vx - x) - s * sn, -theta * (vy - y) + s * c
+        for i in range(4):
+            l0x = front if i < 2 else -rear
+            l0y = half if i == 1 or i == 2 else -half
+            j = (i + 1) % 4
+            l1x = front if j < 2 else -rear
+            l1y = half if j == 1 or j == 2 else -half
+            rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
+            ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
+            hint = ey * (x - rx) - ex * (y - ry)  # outside the body: opposite the axle
+            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, hint)
+            if t < best:
+                best, seg, cx, cy = t, k, vx, vy
+    return best, seg, cx, cy
+
+
+@njit(cache=True)
+def _move(row, a, b, d, params, walls):
+    """Move the cart of ``row`` (its X, Y, HEADING) by wheel ground travels ``(a, b)`` on true base ``d``, stopping
+    short of the first contact. Returns ``(fraction done, segment hit or -1, contact x, contact y)``."""
+    theta = (b - a) / d
+    pieces = max(1, int(math.ceil(abs(theta) / (0.5 * math.pi))))
+    pa, pb = a / pieces, b / pieces
+    done = 0.0
+    for _ in range(pieces):
+        t, seg, cx, cy = _first_contact(row[X], row[Y], row[HEADING], pa, pb, d, params, walls)
+        if seg < 0:
+            row[X], row[Y], row[HEADING] = odometry_step(row[X], row[Y], row[HEADING], pa, pb, d)
+            done += 1.0
+            continue
+        # Travel of the fastest body point per unit t: the axle's plus the spin times the body's reach.
+        lever = abs(0.5 * (pa + pb)) + abs((pb - pa) / d) * (params[P_FRONT] + params[P_HALF] + params[P_REAR])
+        t = max(0.0, t - _BACKOFF_CM / max(lever, 1e-12))
+        row[X], row[Y], row[HEADING] = odometry_step(row[X], row[Y], row[HEADING], t * pa, t * pb, d)
+        return (done + t) / pieces, seg, cx, cy
+    return 1.0, -1, 0.0, 0.0
+
+
+@njit(cache=True)
+def _uniform(z):
+    """A standard normal draw mapped to a uniform in (0, 1) (its distribution function)."""
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+
+
+@njit(cache=True)
+def _stage(row, k, a_cmd, b_cmd, z_a, z_b, params, walls):
+    """One logged stage: wheels commanded to rotate ``(a_cmd, b_cmd)`` cm; ground travel has per-wheel slip. Logs
+    the rounded ticks of the rotation done, dead-reckons them; returns the contact segment or -1."""
+    slip = params[P_SLIP]
+    ga = a_cmd * (1.0 + slip * min(max(z_a, -4.0), 4.0))
+    gb = b_cmd * (1.0 + slip * min(max(z_b, -4.0), 4.0))
+    done, seg, cx, cy = _move(row, ga, gb, row[BASE], params, walls)
+    tick = params[P_TICK]
+    left, right = np.rint(done * a_cmd / tick), np.rint(done * b_cmd / tick)
+    row[TICKS + 2 * k], row[TICKS + 2 * k + 1] = left, right
+    row[DR_X], row[DR_Y], row[DR_HEADING] = odometry_step(
+        row[DR_X], row[DR_Y], row[DR_HEADING], left * tick, right * tick, params[P_BASE]
+    )
+    if seg >= 0:
+        row[CONTACT_X], row[CONTACT_Y], row[CONTACT_SEG] = cx, cy, seg
+    return seg
+
+
+@njit(cache=True)
+def _bump_slip(row, seg, u_kind, u_amount, params, walls):
+    """The heavy tail: a hit may flatten the bumper (near head-on) or slide (glancing), turning the cart unseen."""
+    w = walls[seg]
+    nx, ny = -w[3], w[2]
+    if nx * (row[X] - w[0]) + ny * (row[Y] - w[1]) < 0.0:
+        nx, ny = -nx, -ny
+    norm = math.hypot(nx, ny)
+    nx, ny = nx / norm, ny / norm
+    hx, hy = math.cos(row[HEADING]), math.sin(row[HEADING])
+    incidence = math.atan2(-nx * hy + ny * hx, -nx * hx - ny * hy)  # heading relative to "into the wall"
+    if abs(incidence) < params[P_SNAP_MAX]:
+        turn = -incidence if u_kind < params[P_SNAP_P] else 0.0
+    else:
+        turn = math.copysign(u_amount * params[P_SLIDE_MAX], incidence) if u_kind < params[P_SLIDE_P] else 0.0
+    if turn == 0.0:
+        return 0.0
+    half = 0.5 * turn * row[BASE]
+    _move(row, -half, half, row[BASE], params, walls)
+    return 1.0
+
+
+@njit(cache=True)
+def cycle_row(row, turn, draws, params, walls):
+    """One cycle of one cart (a ``(N_STATE,)`` state row): turn by ``turn`` rad, drive to the bump, back up.
+
+    ``draws``: ``DRAWS_PER_CYCLE`` standard normals. The controller aims the turn with the nominal wheel base
+    (wheels opposite until their tick difference says ``turn``), so mismatch and the true base make it imperfect.
+    """
+    m = row[MISMATCH]
+    slow, fast = 1.0 - 0.5 * m, 1.0 + 0.5 * m
+    spin = 0.5 * turn * params[P_BASE]
+    _stage(row, 0, -spin * slow, spin * fast, draws[0], draws[1], params, walls)
+    row[TURN_X], row[TURN_Y] = row[X], row[Y]
+    drive = params[P_DRIVE]
+    seg = _stage(row, 1, drive * slow, drive * fast, draws[2], draws[3], params, walls)
+    row[BUMP] = 1.0 if seg >= 0 else 0.0
+    row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = row[X], row[Y], row[HEADING]
+    row[BIG_SLIP] = 0.0
+    if seg >= 0:
+        w = walls[seg]
+        row[CONTACT_ALONG] = ((row[CONTACT_X] - w[0]) * w[2] + (row[CONTACT_Y] - w[1]) * w[3]) * w[4]
+        row[BIG_SLIP] = _bump_slip(row, seg, _uniform(draws[6]), _uniform(draws[7]), params, walls)
+    backup = params[P_BACKUP]
+    _stage(row, 2, -backup * slow, -backup * fast, draws[4], draws[5], params, walls)
+    # Headings stay in [-pi, pi) so that nothing drifts towards precision loss over long episodes.
+    row[HEADING] = (row[HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[DR_HEADING] = (row[DR_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[BUMP_HEADING] = (row[BUMP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None:
+    """Start a cart at ``pose`` (x, y, heading rad) with dead reckoning at the true pose."""
+    row[:] = 0.0
+    row[X], row[Y], row[HEADING] = pose
+    row[DR_X], row[DR_Y], row[DR_HEADING] = pose
+    row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = pose
+    row[TURN_X], row[TURN_Y] = pose[0], pose[1]
+    row[MISMATCH], row[BASE] = mismatch, wheel_base
+    row[CONTACT_SEG] = -1.0
