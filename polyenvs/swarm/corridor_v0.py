@@ -1,0 +1,142 @@
+"""``corridor_v0``: robots pass a corridor with obstacles to a light (the paper's X80Pro experiment).
+
+``from polyenvs.swarm import corridor_v0; env = corridor_v0.parallel_env(n_robots=3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
+
+from polyenvs.core.validation import check_in_range
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.layouts import box_walls, start_block
+
+__all__ = ["CorridorEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
+
+MAX_CYCLES = 600
+#: Corridor (feasibility study, spec/swarm.md): walls 1.8 m apart, 6.5 m long; four obstacles of radius 0.2 m
+#: reaching 0.55 m from their wall, alternating right and left; the light near the far end on the left.
+CORRIDOR_WIDTH_M = 1.8
+CORRIDOR_LENGTH_M = 6.5
+OBSTACLE_RADIUS_M = 0.2
+OBSTACLE_Y_M = (1.5, 2.7, 3.9, 5.1)
+OBSTACLE_JITTER_M = 0.1
+GOAL_M = (0.45, 6.1)
+#: Start slots: three across the corridor, rows 0.5 m apart, the first behind the first obstacle on the right.
+START_M = (1.40, 0.35)
+START_SPACING_M = 0.5
+START_JITTER_M = 0.05
+START_HEADING_SD_DEG = 5.0
+
+
+class CorridorEnv(SwarmEnv):
+    """N X80Pro-like robots drive up a corridor past four obstacles to a light at its far end.
+
+    Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoidance" (``seeds/004``), Section 4:
+    "two parallel walls and four obstacles in between with sufficient space for the robot to navigate. The goal, a
+    light source, is kept at the far end [...] The robot is initially positioned at the bottom right corner [...]
+    behind the first obstacle to the right." The dimensions are the feasibility study's (the paper gives none):
+    walls 1.8 m apart and 6.5 m long, obstacles of radius 0.2 m reaching at most 0.55 m from their wall, light at
+    (0.45, 6.1) m. More robots start in rows of three below the first, and the corridor grows backwards to hold them.
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power
+    (``full_speed_mps`` of wheel speed; AP-lite's MAX_SPEED = 70 is 0.7). Negative drives backwards.
+
+    ## Observation Space
+    ``Box(float32)`` per robot, its own sensors only (``env.observation_structure`` names the slices):
+    ``ir`` (4) the GP2D12 readings S0 (right-most) .. S3 (left-most) on the platform's scale, normalised to [0, 1]
+    (X80Pro: reading / 80, 1 = nothing seen; Maxelbot: raw / 550, 0 = nothing seen); ``light`` (2) the light's
+    bearing / pi (counter-clockwise from the heading) and intensity 1 / (1 + d^2) (d in m); ``neighbours``
+    (3 x n_neighbours) range / comm_range, bearing / pi and a mask for the nearest robots in communication range
+    (trilateration); ``powers`` (2) the last motor powers applied.
+
+    ## Rewards
+    Per robot, the sum of ``reward_progress`` (10 per metre closer to the light), ``reward_collision`` (-1 per step
+    in contact) and ``reward_arrival`` (+10 on arrival); each term is in ``info``.
+
+    ## Starting State
+    Robots at their start slots with 5 cm of position jitter and headings 90° ± 5° (sd); obstacles shifted along
+    the corridor by up to 10 cm.
+
+    ## Episode End
+    A robot terminates (and leaves ``env.agents``) when within ``goal_radius_m`` of the light, or on a contact if
+    ``terminate_on_collision``. All robots are truncated after ``max_cycles`` steps.
+
+    ## Info
+    Per robot: ``pose`` (x m, y m, heading rad), ``collisions`` (contact events), ``distance_to_goal_m``,
+    ``nearest_obstacle_cm`` (true distance along each beam, 80 = nothing within reach), ``motor_powers`` (0..100
+    scale), ``turning_angle_deg`` (this step), ``stopped`` (still for 1 s short of the goal: AP-lite's halt),
+    the reward terms and ``episode_metrics`` (``success_rate``, ``collisions``, ``time_to_goal_s``,
+    ``min_clearance_cm``, ``stopped``); ``env.episode_metrics()`` aggregates them over the swarm.
+
+    ## Arguments
+    | keyword | default | meaning (range) |
+    | --- | --- | --- |
+    | ``n_robots`` | 1 | robots (1-1024) |
+    | ``platform`` | "x80pro" | "x80pro" or "maxelbot" (body size, IR scale) |
+    | ``max_cycles`` | 600 | steps before truncation |
+    | ``control_period_s`` | 0.1 | one control step (0.02-1; the step must stay shorter than the body radius) |
+    | ``full_speed_mps`` | 0.5 | wheel speed at full power (0.05-1; *ours*) |
+    | ``terrain_noise`` | 0.05 | sd of the per-wheel speed factor per step; per-episode drift has half of it (0-0.3) |
+    | ``ir_noise``, ``ir_raw_sd`` | 0.03, 2 | IR distance noise fraction (0-0.2) and raw sd (0-20) |
+    | ``comm_range_m``, ``n_neighbours`` | 3, 6 | trilateration reach (0.5-10 m) and slots (1-32) |
+    | ``range_noise_m``, ``bearing_noise_deg`` | 0.02, 2 | trilateration noise (0-0.2 m, 0-20°) |
+    | ``light_noise_deg`` | 2 | light bearing noise (0-20°) |
+    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-3 m) |
+    | ``sensor_angles_deg`` | (-60, -15, 15, 60) | virtual sensor angles, increasing (-90..90; *ours*) |
+    | ``terminate_on_collision`` | False | a contact ends that robot's episode |
+    | ``render_mode`` | None | "rgb_array" or "human" |
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    metadata = {**SwarmEnv.metadata, "name": "corridor_v0"}
+    default_platform = "x80pro"
+
+    def __init__(self, *, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
+        super().__init__(max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+
+    def _task_init(self) -> None:
+        check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.0)
+
+    def _rows(self) -> int:
+        return -(-self.n_robots // 3)
+
+    def _fixed_layout(self) -> Layout:
+        bottom = START_M[1] - (self._rows() - 1) * START_SPACING_M - 0.35
+        walls = np.vstack([
+            [[0.0, bottom, 0.0, CORRIDOR_LENGTH_M], [CORRIDOR_WIDTH_M, bottom, CORRIDOR_WIDTH_M, CORRIDOR_LENGTH_M]],
+            box_walls(0.0, bottom, CORRIDOR_WIDTH_M, CORRIDOR_LENGTH_M)[[0, 2]],
+        ])  # fmt: skip
+        return Layout(walls=walls, bounds=(0.0, bottom, CORRIDOR_WIDTH_M, CORRIDOR_LENGTH_M))
+
+    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+        n = self.n_robots
+        slots = start_block(n, 3, START_SPACING_M)
+        xy = np.array(START_M) - slots
+        xy += START_JITTER_M * (2 * rng.random((n, 2)) - 1)
+        heading = np.radians(90.0 + START_HEADING_SD_DEG * rng.standard_normal(n))
+        side = np.array([1, 0, 1, 0])  # right, left, right, left
+        ys = np.array(OBSTACLE_Y_M) + OBSTACLE_JITTER_M * (2 * rng.random(4) - 1)
+        reach = 0.55 - OBSTACLE_RADIUS_M
+        xs = np.where(side == 1, CORRIDOR_WIDTH_M - reach, reach)
+        circles = np.column_stack([xs, ys, np.full(4, OBSTACLE_RADIUS_M)])
+        return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=np.array(GOAL_M))
+
+
+def parallel_env(**kwargs) -> CorridorEnv:
+    """The PettingZoo parallel environment (keywords: see :class:`CorridorEnv`)."""
+    return CorridorEnv(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC form, without wrappers."""
+    return parallel_to_aec(CorridorEnv(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC form with PettingZoo's order-enforcing wrapper."""
+    return OrderEnforcingWrapper(raw_env(**kwargs))

@@ -1,0 +1,481 @@
+"""The PettingZoo surface shared by the swarm tasks: spaces, seeding, sensing, rewards, info and metrics.
+
+A task (``corridor_v0``, ``obstacle_field_v0``, ``formation_v0``) subclasses :class:`SwarmEnv` and provides
+``_fixed_layout`` (walls and view bounds, once per instance) and ``_sample_episode`` (obstacles, starts and goal,
+drawn on the episode's generator at every reset). Everything per step works on arrays over robots: one noise draw,
+two compiled calls (:func:`polyenvs.swarm.core.move`, :func:`polyenvs.swarm.core.sense`), a few numpy operations
+for observations and rewards; only the PettingZoo dictionaries are built per agent.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from polyenvs.core.validation import check_action, check_bool, check_in_range, check_int, show
+from polyenvs.swarm import core
+from polyenvs.swarm import sensors as ir
+from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
+
+__all__ = ["Episode", "Layout", "PARAMETER_RANGES", "SwarmEnv", "observation_structure", "structure_for"]
+
+#: Physical parameters: (low, high) plausible range. Outside it a parameter is refused at construction.
+PARAMETER_RANGES = {
+    "control_period_s": (0.02, 1.0),
+    "full_speed_mps": (0.05, 1.0),
+    "terrain_noise": (0.0, 0.3),
+    "ir_noise": (0.0, 0.2),
+    "ir_raw_sd": (0.0, 20.0),
+    "comm_range_m": (0.5, 10.0),
+    "range_noise_m": (0.0, 0.2),
+    "bearing_noise_deg": (0.0, 20.0),
+    "light_noise_deg": (0.0, 20.0),
+    "goal_radius_m": (0.1, 3.0),
+    "sensor_angle_deg": (-90.0, 90.0),
+}
+#: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
+BEAM_M = ir.IR_MAX_CM / 100.0
+#: Intensity of the goal light is 1 / (1 + (d / LIGHT_REFERENCE_M)^2) (inverse square, *ours*).
+LIGHT_REFERENCE_M = 1.0
+#: A robot that has moved less than this per step for STOPPED_WINDOW_S counts as stopped.
+STILL_M = 1e-3
+STOPPED_WINDOW_S = 1.0
+#: Reward weights (*ours*): per metre of progress, per step in contact, on arrival, per unit formation error.
+PROGRESS_PER_M = 10.0
+COLLISION_PENALTY = 1.0
+ARRIVAL_BONUS = 10.0
+FORMATION_PENALTY = 0.1
+#: The wheels' speed factor under terrain noise is clipped to [0, MAX_SPEED_FACTOR].
+MAX_SPEED_FACTOR = 1.5
+
+
+@dataclass
+class Layout:
+    """What stays fixed for the life of an instance: the wall segments ``(W, 4)`` and the frame's bounds."""
+
+    walls: np.ndarray
+    bounds: tuple[float, float, float, float]
+
+
+@dataclass
+class Episode:
+    """What a reset draws: obstacles ``(C, 3)``, start poses ``(N, 3)`` and the goal light ``(2,)``."""
+
+    circles: np.ndarray
+    starts: np.ndarray
+    goal: np.ndarray
+
+
+class SwarmEnv(ParallelEnv):
+    """Base class of the swarm tasks (see the task modules for the full documentation)."""
+
+    metadata = {"render_modes": ["rgb_array", "human"], "name": "swarm", "is_parallelizable": True, "render_fps": 10}
+    reward_names: tuple[str, ...] = ("progress", "collision", "arrival")
+    metric_names = ("success_rate", "collisions", "time_to_goal_s", "min_clearance_cm", "stopped")
+    #: Formation tasks add the leader's trilateration and a formation error (set by the formation task).
+    formation = False
+    default_platform = "maxelbot"
+
+    def __init__(
+        self,
+        *,
+        n_robots: int = 1,
+        platform: str | None = None,
+        max_cycles: int = 500,
+        control_period_s: float = 0.1,
+        full_speed_mps: float = 0.5,
+        terrain_noise: float = 0.05,
+        ir_noise: float = 0.03,
+        ir_raw_sd: float = 2.0,
+        comm_range_m: float = 3.0,
+        n_neighbours: int = 6,
+        range_noise_m: float = 0.02,
+        bearing_noise_deg: float = 2.0,
+        light_noise_deg: float = 2.0,
+        goal_radius_m: float = 0.4,
+        sensor_angles_deg=SENSOR_ANGLES_DEG,
+        terminate_on_collision: bool = False,
+        render_mode: str | None = None,
+    ):
+        self.n_robots = check_int("n_robots", n_robots, 1, 1024)
+        self.platform = get_platform(self.default_platform if platform is None else platform)
+        self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
+        given = dict(
+            control_period_s=control_period_s, full_speed_mps=full_speed_mps, terrain_noise=terrain_noise,
+            ir_noise=ir_noise, ir_raw_sd=ir_raw_sd, comm_range_m=comm_range_m, range_noise_m=range_noise_m,
+            bearing_noise_deg=bearing_noise_deg, light_noise_deg=light_noise_deg, goal_radius_m=goal_radius_m,
+        )  # fmt: skip
+        p = {name: check_in_range(name, value, *PARAMETER_RANGES[name]) for name, value in given.items()}
+        self.__dict__.update(p)
+        self.n_neighbours = check_int("n_neighbours", n_neighbours, 1, 32)
+        try:
+            angles = [
+                check_in_range("sensor_angles_deg", a, *PARAMETER_RANGES["sensor_angle_deg"]) for a in sensor_angles_deg
+            ]
+        except TypeError:
+            raise ValueError(f"sensor_angles_deg must be four angles, got {show(sensor_angles_deg)}") from None
+        if len(angles) != 4 or sorted(angles) != angles:
+            raise ValueError(
+                f"sensor_angles_deg must be four increasing angles (S0 right-most), got {show(sensor_angles_deg)}"
+            )
+        self.sensor_angles_deg = tuple(angles)
+        self.terminate_on_collision = check_bool("terminate_on_collision", terminate_on_collision)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        radius = self.platform.radius_m
+        self.max_step_m = self.full_speed_mps * MAX_SPEED_FACTOR * self.control_period_s
+        if self.max_step_m >= radius:
+            raise ValueError(
+                f"control_period_s * full_speed_mps lets a robot move {self.max_step_m:.3f} m in one step "
+                f"(at {MAX_SPEED_FACTOR:g}x speed), not less than its radius {radius:g} m: it could pass a wall"
+            )
+        self._task_init()
+        self.layout = self._fixed_layout()
+
+        n, k = self.n_robots, self.n_neighbours
+        self.possible_agents = [f"robot_{i}" for i in range(n)]
+        self.agents: list[str] = []
+        self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
+        self.observation_structure = observation_structure(k, self.formation)
+        size = self.observation_structure["powers"][1]
+        low = [0.0] * 4 + [-1.0, 0.0] + [0.0, -1.0, 0.0] * k + ([0.0, -1.0, 0.0, 0.0] if self.formation else [])
+        low += [-1.0, -1.0]
+        obs_space = spaces.Box(np.array(low, np.float32), np.ones(size, np.float32), dtype=np.float32)
+        act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        # One space object per agent, built once (action-space seeding then acts on what step() checks).
+        self.observation_spaces = {
+            a: obs_space if i == 0 else _copy_box(obs_space) for i, a in enumerate(self.possible_agents)
+        }
+        self.action_spaces = {
+            a: act_space if i == 0 else _copy_box(act_space) for i, a in enumerate(self.possible_agents)
+        }
+        xmin, ymin, xmax, ymax = self.layout.bounds
+        self.state_space = spaces.Box(
+            np.tile(np.array([xmin, ymin, -1.0, -1.0, 0.0], np.float32), n),
+            np.tile(np.array([xmax, ymax, 1.0, 1.0, 1.0], np.float32), n),
+            dtype=np.float32,
+        )
+
+        self._angles = np.radians(np.array(self.sensor_angles_deg))
+        self._grid = core.Grid(
+            self.layout.bounds, core.cell_size(radius, BEAM_M, self.comm_range_m, self.max_step_m), n
+        )
+        self._move_params = np.array([self.control_period_s, self.platform.wheel_base_m, radius])
+        self._sense_params = np.array([radius, BEAM_M, self.comm_range_m])
+        self.pose = np.zeros((n, 3))
+        self.active = np.zeros(n, dtype=np.uint8)
+        self._proposal = np.zeros((n, 3))
+        self._blocked = np.zeros(n, dtype=np.uint8)
+        self._beams = np.zeros((n, 4))
+        self._nb_index = np.zeros((n, k), dtype=np.int64)
+        self._nb_range = np.zeros((n, k))
+        self._clearance = np.zeros(n)
+        self._wheels = np.zeros((n, 2))
+        self._rng: np.random.Generator | None = None
+        self._np_random_seed = None
+        self._renderer = None
+        self.circles = np.zeros((0, 3))
+        self.goal = np.zeros(2)
+        self.num_cycles = 0
+
+    # --- task interface ---------------------------------------------------------------------------------------
+    def _task_init(self) -> None:
+        """Check the task's own parameters (before the layout is built)."""
+
+    def _fixed_layout(self) -> Layout:
+        raise NotImplementedError
+
+    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+        raise NotImplementedError
+
+    def _formation_error(self) -> tuple[np.ndarray, float]:
+        """Per-robot and swarm formation error (formation tasks only)."""
+        return np.zeros(self.n_robots), 0.0
+
+    # --- PettingZoo API ---------------------------------------------------------------------------------------
+    def observation_space(self, agent):
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent):
+        return self.action_spaces[agent]
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        if self._rng is None:
+            self._rng, self._np_random_seed = seeding.np_random()
+        return self._rng
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        """Start an episode. ``options`` is accepted for the API and unused."""
+        if seed is not None:
+            rng, used = seeding.np_random(seed)
+        else:
+            rng, used = self.np_random, self._np_random_seed
+        episode = self._sample_episode(rng)
+        self._rng, self._np_random_seed = rng, used
+        n = self.n_robots
+        self.circles = np.ascontiguousarray(episode.circles, dtype=np.float64).reshape(-1, 3)
+        self.goal = np.asarray(episode.goal, dtype=np.float64)
+        self.pose[:] = episode.starts
+        self.active[:] = 1
+        self.agents = self.possible_agents[:]
+        self.num_cycles = 0
+        # Per-episode wheel drift (terrain: slopes and grass pull one wheel), then per-step noise.
+        self._drift = self.terrain_noise * 0.5 * rng.standard_normal((n, 2))
+        self._powers = np.zeros((n, 2))
+        self._turn = np.zeros(n)
+        self._blocked[:] = 0
+        self._was_blocked = np.zeros(n, dtype=bool)
+        self._collisions = np.zeros(n, dtype=np.int64)
+        self._still = np.zeros(n, dtype=np.int64)
+        self._arrived = np.zeros(n, dtype=bool)
+        self._time_to_goal = np.zeros(n)
+        self._min_clearance = np.full(n, np.inf)
+        self._formation_sum = np.zeros(n)
+        self._formation_swarm = []
+        self._rewards = np.zeros((n, len(self.reward_names)))
+        obs = self._sense(rng)
+        self._distance = np.hypot(*(self.pose[:, :2] - self.goal).T)
+        self._update_metrics()
+        infos = self._infos(range(n))
+        if self.render_mode == "human":
+            self.render()
+        return {a: obs[i] for i, a in enumerate(self.agents)}, infos
+
+    def step(self, actions):
+        if not self.agents:
+            raise ValueError("step() called with no live agents: call reset()")
+        n = self.n_robots
+        command = np.zeros((n, 2))
+        for agent, action in actions.items():
+            i = self.agent_name_mapping.get(agent)
+            if i is None or not self.active[i]:
+                raise ValueError(f"action for {show(agent)}, which is not a live agent of this episode")
+            command[i] = check_action(self.action_spaces[agent], np.asarray(action, dtype=np.float32))
+        rng = self._rng
+        noise = 1.0 + self.terrain_noise * rng.standard_normal((n, 2)) + self._drift
+        self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
+        heading_before = self.pose[:, 2].copy()
+        xy_before = self.pose[:, :2].copy()
+        g = self._grid
+        core.build_grid(self.pose, self.active, g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of)
+        core.move(self.pose, self.active, self._wheels, self._move_params, self.layout.walls, self.circles,
+                  g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._proposal, self._blocked)  # fmt: skip
+        self.num_cycles += 1
+        obs = self._sense(rng)
+        live = self.active.astype(bool)
+        blocked = (self._blocked > 0) & live
+        self._powers = np.where(live[:, None], command, 0.0)
+        self._turn = np.where(live, np.angle(np.exp(1j * (self.pose[:, 2] - heading_before))), 0.0)
+        moved = np.hypot(*(self.pose[:, :2] - xy_before).T)
+        self._still = np.where(moved < STILL_M, self._still + 1, 0)
+        self._collisions += blocked & ~self._was_blocked
+        self._was_blocked = blocked
+        distance = np.hypot(*(self.pose[:, :2] - self.goal).T)
+        arrived = live & (distance <= self.goal_radius_m)
+        self._rewards[:, 0] = np.where(live, PROGRESS_PER_M * (self._distance - distance), 0.0)
+        self._rewards[:, 1] = -COLLISION_PENALTY * blocked
+        self._rewards[:, 2] = ARRIVAL_BONUS * arrived
+        self._distance = distance
+        self._arrived |= arrived
+        self._time_to_goal = np.where(live, self.num_cycles * self.control_period_s, self._time_to_goal)
+        self._update_metrics()
+        terminated = arrived | (blocked & self.terminate_on_collision)
+        truncate = self.num_cycles >= self.max_cycles
+        agents = self.agents
+        index = [self.agent_name_mapping[a] for a in agents]
+        reward = self._rewards.sum(axis=1).tolist()
+        term = terminated.tolist()
+        observations = {a: obs[i] for a, i in zip(agents, index, strict=True)}
+        rewards = {a: reward[i] for a, i in zip(agents, index, strict=True)}
+        terminations = {a: term[i] for a, i in zip(agents, index, strict=True)}
+        truncations = {a: truncate and not term[i] for a, i in zip(agents, index, strict=True)}
+        infos = self._infos(index)
+        self.active[terminated] = 0
+        self.agents = [] if truncate else [a for a, i in zip(agents, index, strict=True) if not term[i]]
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        """Global state: per robot x, y (m), cos and sin of the heading, and 1 while it is in the episode."""
+        h = self.pose[:, 2]
+        rows = np.column_stack([self.pose[:, :2], np.cos(h), np.sin(h), self.active]).astype(np.float32)
+        return rows.reshape(-1)
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from polyenvs.swarm.rendering import SwarmRenderer
+
+        if self._renderer is None:
+            self._renderer = SwarmRenderer(self.render_mode, self.metadata["render_fps"], self.layout.bounds)
+        return self._renderer.render(self)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # --- metrics ----------------------------------------------------------------------------------------------
+    def episode_metrics(self) -> dict[str, float]:
+        """The swarm's metrics so far: fraction of robots at the goal, contact events (all robots), mean time to
+        the goal (robots not there count the time so far), smallest clearance, robots stopped short of the goal,
+        and (formation) the mean formation error over the steps."""
+        metrics = {
+            "success_rate": float(self._arrived.mean()),
+            "collisions": float(self._collisions.sum()),
+            "time_to_goal_s": float(self._time_to_goal.mean()),
+            "min_clearance_cm": float(100.0 * self._min_clearance.min()),
+            "stopped": float(self._stopped().sum()),
+        }
+        if self.formation:
+            metrics["formation_error"] = float(np.mean(self._formation_swarm)) if self._formation_swarm else 0.0
+        return metrics
+
+    def _stopped(self) -> np.ndarray:
+        window = max(1, round(STOPPED_WINDOW_S / self.control_period_s))
+        return (self._still >= window) & ~self._arrived
+
+    def _update_metrics(self) -> None:
+        live = self.active.astype(bool)
+        self._min_clearance = np.where(live, np.minimum(self._min_clearance, self._clearance), self._min_clearance)
+        if self.formation:
+            per_robot, swarm = self._formation_error()
+            self._formation_now = per_robot
+            self._formation_sum += np.where(live, per_robot, 0.0)
+            self._formation_swarm.append(swarm)
+            if self.num_cycles:
+                self._rewards[:, 3] = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
+
+    # --- sensing ----------------------------------------------------------------------------------------------
+    def _sense(self, rng: np.random.Generator) -> np.ndarray:
+        """Run the sensing kernel and build every robot's observation row (a fresh array)."""
+        g = self._grid
+        core.build_grid(self.pose, self.active, g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of)
+        core.sense(self.pose, self.active, self._sense_params, self._angles, self.layout.walls, self.circles,
+                   g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._beams, self._nb_index, self._nb_range,
+                   self._clearance)  # fmt: skip
+        n, k = self.n_robots, self.n_neighbours
+        z = rng.standard_normal((n, 2 * 4 + 2 * k + 3))
+        floor = rng.random((n, 4))
+        obs = np.zeros((n, self.observation_spaces[self.possible_agents[0]].shape[0]), dtype=np.float32)
+        raw = ir.ir_readings(100.0 * self._beams, z[:, :8].reshape(n, 4, 2), floor, self.ir_noise, self.ir_raw_sd)
+        obs[:, 0:4] = ir.observation_from_raw(raw, self.platform.ir_scale)
+        x, y, h = self.pose[:, 0], self.pose[:, 1], self.pose[:, 2]
+        to_goal = self.goal - self.pose[:, :2]
+        light_noise = math.radians(self.light_noise_deg)
+        obs[:, 4] = _wrap(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - h + light_noise * z[:, 8]) / np.pi
+        obs[:, 5] = 1.0 / (1.0 + (np.hypot(to_goal[:, 0], to_goal[:, 1]) / LIGHT_REFERENCE_M) ** 2)
+        valid = self._nb_index >= 0
+        j = np.where(valid, self._nb_index, 0)
+        bearing_noise = math.radians(self.bearing_noise_deg)
+        nb = obs[:, 6 : 6 + 3 * k].reshape(n, k, 3)
+        rng_noise, bear_noise = z[:, 9 : 9 + k], z[:, 9 + k : 9 + 2 * k]
+        measured = np.clip(self._nb_range + self.range_noise_m * rng_noise, 0.0, self.comm_range_m)
+        bearing = _wrap(np.arctan2(y[j] - y[:, None], x[j] - x[:, None]) - h[:, None] + bearing_noise * bear_noise)
+        nb[..., 0] = np.where(valid, measured / self.comm_range_m, 0.0)
+        nb[..., 1] = np.where(valid, bearing / np.pi, 0.0)
+        nb[..., 2] = valid
+        obs[:, 6 : 6 + 3 * k] = nb.reshape(n, 3 * k)
+        if self.formation:
+            start = self.observation_structure["leader"][0]
+            d = np.hypot(x[0] - x, y[0] - y)
+            seen = (d <= self.comm_range_m) & bool(self.active[0])
+            seen[0] = False
+            b = _wrap(np.arctan2(y[0] - y, x[0] - x) - h + bearing_noise * z[:, 9 + 2 * k])
+            measured = np.clip(d + self.range_noise_m * z[:, 10 + 2 * k], 0.0, self.comm_range_m)
+            obs[:, start] = np.where(seen, measured / self.comm_range_m, 0.0)
+            obs[:, start + 1] = np.where(seen, b / np.pi, 0.0)
+            obs[:, start + 2] = seen
+            obs[0, start + 3] = 1.0
+        p = self.observation_structure["powers"][0]
+        obs[:, p : p + 2] = self._powers
+        np.clip(obs, self._obs_low, 1.0, out=obs)
+        obs[~self.active.astype(bool)] = 0.0
+        return obs
+
+    @property
+    def _obs_low(self) -> np.ndarray:
+        return self.observation_spaces[self.possible_agents[0]].low
+
+    def _infos(self, index) -> dict:
+        """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
+        terms and the robot's episode metrics."""
+        beams_cm = np.minimum(100.0 * self._beams, ir.IR_MAX_CM)
+        powers = 100.0 * self._powers
+        turn = np.degrees(self._turn).tolist()
+        stopped = self._stopped().tolist()
+        distance = self._distance.tolist()
+        collisions = self._collisions.tolist()
+        clearance = (100.0 * np.where(np.isfinite(self._min_clearance), self._min_clearance, 0.0)).tolist()
+        ttg = self._time_to_goal.tolist()
+        arrived = self._arrived.tolist()
+        rewards = self._rewards.tolist()
+        keys = tuple(f"reward_{name}" for name in self.reward_names)
+        formation = self._formation_sum / max(self.num_cycles, 1) if self.formation else None
+        now = self._formation_now.tolist() if self.formation else None
+        infos = {}
+        for i in index:
+            info = {
+                "pose": self.pose[i].copy(),
+                "collisions": collisions[i],
+                "distance_to_goal_m": distance[i],
+                "nearest_obstacle_cm": beams_cm[i],
+                "motor_powers": powers[i],
+                "turning_angle_deg": turn[i],
+                "stopped": stopped[i],
+            }
+            info.update(zip(keys, rewards[i], strict=True))
+            metrics = {
+                "success_rate": float(arrived[i]),
+                "collisions": float(collisions[i]),
+                "time_to_goal_s": ttg[i],
+                "min_clearance_cm": clearance[i],
+                "stopped": float(stopped[i]),
+            }
+            if formation is not None:
+                info["formation_error"] = now[i]
+                metrics["formation_error"] = float(formation[i])
+            info["episode_metrics"] = metrics
+            infos[self.possible_agents[i]] = info
+        return infos
+
+
+def observation_structure(n_neighbours: int, formation: bool) -> dict[str, tuple[int, int]]:
+    """Name -> (start, stop) of each part of a robot's observation (the baselines read it, not magic indices)."""
+    k = n_neighbours
+    structure = {"ir": (0, 4), "light": (4, 6), "neighbours": (6, 6 + 3 * k)}
+    size = 6 + 3 * k
+    if formation:
+        structure["leader"] = (size, size + 3)
+        structure["is_leader"] = (size + 3, size + 4)
+        size += 4
+    structure["powers"] = (size, size + 2)
+    return structure
+
+
+def structure_for(dim: int) -> dict[str, tuple[int, int]]:
+    """The observation structure of a ``dim``-long observation (plain: 8 + 3k, formation: 12 + 3k)."""
+    formation = (dim - 8) % 3 != 0
+    k = (dim - (12 if formation else 8)) // 3
+    if k < 1 or (dim - (12 if formation else 8)) % 3:
+        raise ValueError(f"an observation of length {dim} is not a swarm robot's")
+    return observation_structure(k, formation)
+
+
+def _wrap(angle):
+    return np.arctan2(np.sin(angle), np.cos(angle))
+
+
+def _copy_box(box: spaces.Box) -> spaces.Box:
+    return spaces.Box(box.low.copy(), box.high.copy(), dtype=box.dtype)
