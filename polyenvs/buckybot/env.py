@@ -1,8 +1,9 @@
 """The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, info, rendering.
 
-Everything inside works on a batch of robots ("rows"), like the simulator: a Gymnasium ``BuckybotEnv`` is a batch
-of one, and :class:`polyenvs.buckybot.vector.BuckybotVectorEnv` runs the same class with many rows, so the task
-equations exist once, in compiled kernels. A task subclasses :class:`BuckybotEnv` and provides
+Everything inside works on a batch of robots ("rows"), like the simulator: ``BuckybotEnv`` is a
+:class:`polyenvs.core.rows.RowsEnv`, so a Gymnasium env is a batch of one and
+:class:`polyenvs.buckybot.vector.BuckybotVectorEnv` (a ``RowsVectorEnv``) runs the same class with many rows, and
+the task equations exist once, in compiled kernels. A task subclasses :class:`BuckybotEnv` and provides
 
 - ``reward_names`` and ``metric_names`` (the columns its kernels write into ``self._out``),
 - ``_step_kernel`` and ``_reset_kernel``: compiled loops over rows that call the simulator's row kernels, score
@@ -11,13 +12,13 @@ equations exist once, in compiled kernels. A task subclasses :class:`BuckybotEnv
 - optional hooks for per-plan tables (``_task_install_plan``) and per-episode choices (``_task_sample`` /
   ``_task_commit``).
 
-A reset is a transaction: every random choice is drawn and every option validated on a copy of the generator
-before anything is written, so a call that raises leaves the environment exactly as it was.
+A reset is a transaction (the convention of :mod:`polyenvs.core.rows`): every random choice is drawn and every
+option validated on a copy of the generator before anything is written, so a call that raises leaves the
+environment exactly as it was.
 """
 
 from __future__ import annotations
 
-import copy
 import enum
 import math
 from dataclasses import dataclass
@@ -26,7 +27,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot import simulator as S
@@ -34,6 +34,7 @@ from polyenvs.buckybot.floor_plans import MAX_RANDOM_SEGMENTS, RANDOM_ROOM_BOUND
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
+from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_in_range, show
 
 __all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
@@ -125,12 +126,19 @@ class _RowReset:
     reseeded: bool
 
 
-def copy_generator(rng: np.random.Generator) -> np.random.Generator:
-    """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises)."""
-    return copy.deepcopy(rng)
+def _object_table(rows: list[list]) -> np.ndarray:
+    table = np.empty((len(rows), len(rows[0])), dtype=object)
+    for i, row in enumerate(rows):
+        for j, value in enumerate(row):
+            table[i, j] = value
+    return table
 
 
-class BuckybotEnv(gym.Env):
+_ACTUATOR_TABLE = _object_table(_ACTUATOR_NAMES)
+_SENSOR_FACE_TABLE = _object_table(_SENSOR_FACES)
+
+
+class BuckybotEnv(RowsEnv):
     """Base class of the Buckybot lattice environments (see the task classes for the full documentation)."""
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
@@ -139,13 +147,8 @@ class BuckybotEnv(gym.Env):
     #: Bounds of the task's extra observation entries, in order.
     task_observation_low: tuple[float, ...] = ()
     task_observation_high: tuple[float, ...] = ()
-    #: Names of the reward terms and of the task metrics, in the order of the kernels' ``_out`` columns.
-    reward_names: tuple[str, ...] = ()
-    metric_names: tuple[str, ...] = ()
     #: Reset options a task adds to "pose" and "face".
     task_option_names: tuple[str, ...] = ()
-    #: Rows (robots) this instance simulates; a vector env builds the class with more (see ``vector.py``).
-    _batch_size = 1
 
     def __init__(
         self,
@@ -210,16 +213,7 @@ class BuckybotEnv(gym.Env):
         #: The frame covers this box for the whole life of the instance (one frame size, whatever the room).
         self.view_bounds = self.floor_plan.bounds if self.floor_plan is not None else RANDOM_ROOM_BOUNDS
 
-        # Kernel outputs: observation rows, and per row the reward terms, the metrics, the reward, terminated.
-        self._observations = np.zeros((n, *self.observation_space.shape), dtype=np.float32)
-        k, m = len(self.reward_names), len(self.all_metric_names)
-        self._out = np.zeros((n, k + m + 2))
-        self._reward_column, self._terminated_column = k + m, k + m + 1
-        self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
-        self._metric_names = self.all_metric_names
-        self._row0 = np.zeros(1, dtype=np.int64)
-        self._actions = np.zeros(n, dtype=np.int64)
-        self._started = False
+        self._allocate_rows()
         self._trail = PathTrail() if render_mode is not None else None
         self._renderer = None
         self._task_init()
@@ -279,40 +273,7 @@ class BuckybotEnv(gym.Env):
         """Row 0's true position (cm)."""
         return self.sim.position[0].copy()
 
-    # --- Gymnasium API ----------------------------------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        options = self._check_options(options)
-        if seed is not None:
-            rng, used_seed = seeding.np_random(seed)
-        else:
-            rng, used_seed = copy_generator(self.np_random), self._np_random_seed
-        self._commit_rows([self._prepare_row(0, rng, options, reseeded=seed is not None)])
-        self._np_random, self._np_random_seed = rng, used_seed
-        return self._observations[0].copy(), self._get_info(0)
-
-    def step(self, action):
-        if not self._started:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        if type(action) in _INT_TYPES and 0 <= action < 3:
-            a = int(action)  # the common case, checked without the space's slower generic test
-        else:
-            check_action(self.action_space, action)
-            a = int(action)
-        self._actions[0] = a
-        self._advance(self._actions)
-        out = self._out[0]
-        if self._trail is not None:
-            self._trail.append(self.sim.state[0, S.X : S.Y + 1], self.sim.state[0, S.DR_X : S.DR_Y + 1])
-            if self.render_mode == "human":
-                self.render()
-        return (
-            self._observations[0].copy(),
-            float(out[self._reward_column]),
-            bool(out[self._terminated_column]),
-            False,
-            self._get_info(0),
-        )
-
+    # --- Gymnasium API (reset and step: RowsEnv's) ----------------------------------------------------------
     def render(self):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
@@ -339,7 +300,36 @@ class BuckybotEnv(gym.Env):
         return {(ord("s"),): BuckybotAction.BACK, (ord("d"),): BuckybotAction.FORWARD_RIGHT,
                 (ord("a"),): BuckybotAction.FORWARD_LEFT}  # fmt: skip
 
-    # --- the batched core (shared with the vector env) --------------------------------------------------------
+    # --- the batched core (RowsEnv's interface, shared with the vector env) -----------------------------------
+    def _check_action(self, action) -> int:
+        if type(action) in _INT_TYPES and 0 <= action < 3:
+            return int(action)  # the common case, checked without the space's slower generic test
+        check_action(self.action_space, action)
+        return int(action)
+
+    def _check_actions(self, actions) -> np.ndarray:
+        actions = np.asarray(actions)
+        if (
+            actions.shape != (self._batch_size,)
+            or actions.dtype.kind not in "iu"
+            or (actions < 0).any()
+            or (actions > 2).any()
+        ):
+            raise ValueError(f"actions must be {self._batch_size} integers in {{0, 1, 2}}, got {actions!r}")
+        return actions
+
+    def _row_generator(self, row: int) -> np.random.Generator | None:
+        return self.sim.streams.generators[row]
+
+    def _row_steps(self) -> np.ndarray:
+        return self.sim.state[:, S.STEPS]
+
+    def _on_row0_step(self) -> None:
+        if self._trail is not None:
+            self._trail.append(self.sim.state[0, S.X : S.Y + 1], self.sim.state[0, S.DR_X : S.DR_Y + 1])
+            if self.render_mode == "human":
+                self.render()
+
     def _check_options(self, options) -> dict:
         if options is None:
             return {}
@@ -454,3 +444,35 @@ class BuckybotEnv(gym.Env):
         info.update(zip(self._reward_keys, out, strict=False))  # stops at the last reward term
         info["episode_metrics"] = dict(zip(self._metric_names, out[k:], strict=False))  # ... the last metric
         return info
+
+    def _vector_info(self) -> dict[str, Any]:
+        """:meth:`_get_info` for every row, in Gymnasium's vector convention: array entries are views of two fresh
+        arrays (the ground-truth block and the reward/metric block)."""
+        state = self.sim.state
+        truth = state[:, S.INFO_START : S.INFO_STOP].copy()
+        scores = self._out[:, : self._reward_column].copy()
+        face, edge0 = state[:, S.FACE].astype(np.intp), state[:, S.EDGE0].astype(np.intp)
+
+        def block(column: int, width: int = 0) -> np.ndarray:
+            start = column - S.INFO_START
+            return truth[:, start] if width == 0 else truth[:, start : start + width]
+
+        values: dict[str, Any] = {
+            "action_mask": state[:, S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
+            "face": face + 1,
+            "heading_deg": block(S.POSE_INFO + 2),
+            "tip_directions_deg": block(S.TIP_DIRECTIONS, 3),
+            "actuators": _ACTUATOR_TABLE[face, edge0],
+            "sensor_faces": _SENSOR_FACE_TABLE[face, edge0],
+            "pose": block(S.POSE_INFO, 3),
+            "dead_reckoned_pose": block(S.DR_POSE_INFO, 3),
+            "true_range_cm": block(S.TRUE_RANGE, 6),
+            "wall_distance_cm": block(S.WALL_DISTANCE),
+            "blocked": state[:, S.BLOCKED] > 0.5,
+        }
+        k = len(self._reward_keys)
+        for j, key in enumerate(self._reward_keys):
+            values[key] = scores[:, j]
+        values.update(self._vector_task_info())
+        metrics = {name: scores[:, k + j] for j, name in enumerate(self._metric_names)}
+        return vector_convention(values, metrics, self._batch_size)

@@ -1,0 +1,338 @@
+"""Batched-rows environments: one class that is a Gymnasium env as a batch of one and a native vector env as a
+batch of many, so a family's equations exist once, in compiled kernels over packed arrays.
+
+:class:`RowsEnv` is the single-agent Gymnasium surface; :class:`RowsVectorEnv` builds the same class with
+``num_envs`` rows behind Gymnasium's ``VectorEnv`` API. A family subclasses :class:`RowsEnv` (Buckybot:
+:class:`polyenvs.buckybot.env.BuckybotEnv`) and provides
+
+- in ``__init__``: ``action_space``, ``observation_space``, then :meth:`RowsEnv._allocate_rows` (the observation
+  rows and the ``_out`` table of reward terms, metrics, reward and terminated that its kernels write);
+- ``_check_options(options)``: the validated reset options;
+- ``_prepare_row(row, rng, options, reseeded)``: draw and validate one row's new episode on ``rng``, writing
+  nothing (it may raise), and ``_commit_rows(prepared)``: install them (nothing in it raises), then observe;
+- ``_advance(actions)``: step every row whose action is valid (a row given ``NO_ACTION`` was just reset: it neither
+  moves nor scores);
+- ``_row_generator(row)`` (the row's generator, ``None`` before its first reset), ``_row_steps()`` (steps into
+  each row's episode, for time limits), ``_check_actions(actions)`` (a batch, for the vector env), and
+  ``_get_info(row)`` / ``_vector_info()`` (one row's info; every row's, in the vector convention);
+- optionally ``_on_row0_step()`` (after row 0 moved: trails for rendering).
+
+Conventions every family inherits from here:
+
+- *A call that raises changes nothing.* A reset is a transaction: options are validated and every random choice is
+  drawn on a copy of the generator (:func:`copy_generator`) before anything is written.
+- *Seeding as Gymnasium's.* ``reset(seed=s)`` restarts row 0 from a new generator; an unseeded reset continues the
+  row's own. The vector env seeds row ``i`` with ``s + i``, as ``SyncVectorEnv`` seeds sub-environment ``i``, so it
+  gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit, in either autoreset mode.
+- *Cheap info.* ``_vector_info`` builds every key for every row from a few fresh arrays; every ``_key`` mask is
+  one shared read-only all-true array.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.error import ClosedEnvironmentError, ResetNeeded
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from polyenvs.core.validation import check_int, show
+
+__all__ = ["NO_ACTION", "RowsEnv", "RowsVectorEnv", "copy_generator", "only_rows", "vector_convention"]
+
+#: The action a row gets in the step that restarted it (next-step autoreset): it neither moves nor scores.
+NO_ACTION = -1
+
+
+def copy_generator(rng: np.random.Generator) -> np.random.Generator:
+    """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises)."""
+    return copy.deepcopy(rng)
+
+
+class RowsEnv(gym.Env):
+    """Base class of batched-rows environments (see the module docstring for what a family provides)."""
+
+    #: Names of the reward terms and of the task metrics, in the order of the kernels' ``_out`` columns.
+    reward_names: tuple[str, ...] = ()
+    metric_names: tuple[str, ...] = ()
+    #: Rows this instance simulates: 1 for ``gym.make``; :class:`RowsVectorEnv` builds the class with more.
+    _batch_size = 1
+
+    @property
+    def all_metric_names(self) -> tuple[str, ...]:
+        return self.metric_names
+
+    def _allocate_rows(self, action_dtype=np.int64, action_shape: tuple[int, ...] = ()) -> None:
+        """The arrays the kernels write: observation rows and ``_out`` (reward terms, metrics, reward,
+        terminated per row); and the actions batch."""
+        n = self._batch_size
+        self._observations = np.zeros((n, *self.observation_space.shape), dtype=self.observation_space.dtype)
+        k, m = len(self.reward_names), len(self.all_metric_names)
+        self._out = np.zeros((n, k + m + 2))
+        self._reward_column, self._terminated_column = k + m, k + m + 1
+        self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
+        self._metric_names = self.all_metric_names
+        self._actions = np.zeros((n, *action_shape), dtype=action_dtype)
+        self._row0 = np.zeros(1, dtype=np.int64)
+        self._started = False
+
+    # --- the family's part --------------------------------------------------------------------------------------
+    def _check_options(self, options) -> dict:
+        if options is None:
+            return {}
+        if not isinstance(options, dict):
+            raise ValueError(f"options must be a dict or None, got {show(options)}")
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; this environment takes none")
+        return options
+
+    def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> Any:
+        raise NotImplementedError
+
+    def _commit_rows(self, prepared: list) -> None:
+        raise NotImplementedError
+
+    def _advance(self, actions: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _row_generator(self, row: int) -> np.random.Generator | None:
+        raise NotImplementedError
+
+    def _row_steps(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _check_action(self, action) -> Any:
+        """One validated action for row 0 (raises ``ValueError``/``TypeError``, changing nothing)."""
+        raise NotImplementedError
+
+    def _check_actions(self, actions: np.ndarray) -> np.ndarray:
+        """A validated batch of actions, one per row."""
+        raise NotImplementedError
+
+    def _get_info(self, row: int) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def _vector_info(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def _on_row0_step(self) -> None:
+        """Called after row 0 moved (not after a restart): rendering trails."""
+
+    # --- Gymnasium API ------------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        options = self._check_options(options)
+        if seed is not None:
+            rng, used_seed = seeding.np_random(seed)
+        else:
+            rng, used_seed = copy_generator(self.np_random), self._np_random_seed
+        self._commit_rows([self._prepare_row(0, rng, options, reseeded=seed is not None)])
+        self._np_random, self._np_random_seed = rng, used_seed
+        return self._observations[0].copy(), self._get_info(0)
+
+    def step(self, action):
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        self._actions[0] = self._check_action(action)
+        self._advance(self._actions)
+        self._on_row0_step()
+        out = self._out[0]
+        return (
+            self._observations[0].copy(),
+            float(out[self._reward_column]),
+            bool(out[self._terminated_column]),
+            False,
+            self._get_info(0),
+        )
+
+
+class RowsVectorEnv(VectorEnv):
+    """``num_envs`` rows of one :class:`RowsEnv` class behind Gymnasium's ``VectorEnv`` API.
+
+    Args:
+        num_envs: number of sub-environments (rows).
+        max_episode_steps: truncate each row's episode after this many steps (``None``: never).
+        render_mode: ``"rgb_array"`` renders sub-environment 0.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (a finished row restarts at the next step, which then only
+            resets it) or ``AutoresetMode.SAME_STEP`` (it restarts within the step that finished it; the last
+            observation and info are in ``info["final_obs"]`` and ``info["final_info"]``).
+        **kwargs: the environment's constructor arguments.
+
+    Observations ``(num_envs, ...)``, rewards, terminated and truncated ``(num_envs,)``; ``info`` holds the single
+    env's keys in the vector convention (an array per key, with its ``_key`` mask; ``episode_metrics`` a dict of
+    arrays).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: The batched-rows class this vector env drives (set by each subclass).
+    env_class: type[RowsEnv] = RowsEnv
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs,
+    ):
+        num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+        try:
+            autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}") from None
+        if autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}")
+        if max_episode_steps is not None:
+            max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
+        # The class built with num_envs rows: the same validation, spaces and kernels as the single env.
+        core = self.env_class.__new__(self.env_class)
+        core._batch_size = num_envs
+        core.__init__(render_mode=render_mode, **kwargs)
+        self._core = core
+        self.metadata = {
+            **self.metadata,
+            "render_fps": core.metadata.get("render_fps", 30),
+            "autoreset_mode": autoreset_mode,
+        }
+        self.autoreset_mode = autoreset_mode
+        self.num_envs = num_envs
+        self.max_episode_steps = max_episode_steps
+        self.render_mode = render_mode
+        self.single_action_space = core.action_space
+        self.action_space = batch_space(core.action_space, num_envs)
+        self.single_observation_space = core.observation_space
+        self.observation_space = batch_space(core.observation_space, num_envs)
+        self.observation_structure = getattr(core, "observation_structure", None)
+        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self._started = False
+        self._closed = False
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise ClosedEnvironmentError("this vector env is closed")
+
+    def _row_generators(self, seed) -> list[tuple[np.random.Generator, bool]]:
+        """Row i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i, and whether it is a
+        new seed's."""
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        elif isinstance(seed, (list, tuple)) and len(seed) == n:
+            seeds = list(seed)
+        else:
+            raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+        generators = []
+        for row, s in enumerate(seeds):
+            current = self._core._row_generator(row)
+            if s is None and current is not None:
+                generators.append((copy_generator(current), False))
+            else:
+                generators.append((seeding.np_random(s)[0], True))
+        return generators
+
+    def _restart(self, rows) -> None:
+        core = self._core
+        core._commit_rows([core._prepare_row(row, core._row_generator(row), {}, False) for row in rows])
+
+    def reset(self, *, seed=None, options: dict[str, Any] | None = None):
+        self._check_open()
+        core = self._core
+        options = core._check_options(options)
+        generators = self._row_generators(seed)
+        prepared = [core._prepare_row(row, rng, options, new) for row, (rng, new) in enumerate(generators)]  # may raise
+        core._commit_rows(prepared)
+        self._needs_reset[:] = False
+        self._started = True
+        return core._observations.copy(), core._vector_info()
+
+    def step(self, actions):
+        self._check_open()
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        core = self._core
+        actions = core._check_actions(actions)
+        restart = self._needs_reset
+        core._actions[:] = actions
+        if restart.any():
+            self._restart(np.flatnonzero(restart).tolist())
+            core._actions[restart] = NO_ACTION  # these rows start a new episode: they neither move nor score
+        core._advance(core._actions)
+        if not restart[0]:
+            core._on_row0_step()
+        out = core._out
+        rewards = out[:, core._reward_column].copy()
+        terminated = out[:, core._terminated_column] > 0.5
+        terminated &= ~restart
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        if self.max_episode_steps is not None:
+            truncated = (core._row_steps() >= self.max_episode_steps) & ~terminated & ~restart
+        done = terminated | truncated
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
+            self._needs_reset = done
+            return core._observations.copy(), rewards, terminated, truncated, core._vector_info()
+        # Same-step autoreset: keep what the finished rows saw, restart them now, report both.
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for row in np.flatnonzero(done).tolist():
+            final_obs[row] = core._observations[row].copy()
+        final_info = only_rows(core._vector_info(), done)
+        self._restart(np.flatnonzero(done).tolist())
+        info = core._vector_info()
+        info["final_obs"], info["_final_obs"] = final_obs, done.copy()
+        info["final_info"], info["_final_info"] = final_info, done.copy()
+        return core._observations.copy(), rewards, terminated, truncated, info
+
+    def render(self):
+        """Sub-environment 0's frame."""
+        self._check_open()
+        if self.render_mode is None:
+            return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
+        return self._core.render()
+
+    def close(self, **kwargs):
+        if not self._closed:
+            self._core.close()
+            self._closed = True
+
+
+def only_rows(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:
+    """``info`` (vector convention) for ``rows`` only, as ``SyncVectorEnv`` collects a same-step ``final_info``:
+    other rows zero (``None`` in object arrays) and every ``_key`` mask equal to ``rows``."""
+    kept: dict[str, Any] = {}
+    for key, value in info.items():
+        if key.startswith("_"):
+            continue
+        if isinstance(value, dict):
+            kept[key] = only_rows(value, rows)
+        else:
+            array = np.full(value.shape, None, dtype=object) if value.dtype == object else np.zeros_like(value)
+            array[rows] = value[rows]
+            kept[key] = array
+        kept[f"_{key}"] = rows.copy()
+    return kept
+
+
+def vector_convention(values: dict[str, Any], metrics: dict[str, Any], num_envs: int) -> dict[str, Any]:
+    """Every row reports every key: ``values`` and ``values["episode_metrics"] = metrics``, each with its ``_key``
+    mask, one shared read-only all-true array."""
+    every_row = np.ones(num_envs, dtype=bool)
+    every_row.flags.writeable = False
+    info: dict[str, Any] = {}
+    for key, value in values.items():
+        info[key] = value
+        info[f"_{key}"] = every_row
+    nested: dict[str, Any] = {}
+    for key, value in metrics.items():
+        nested[key] = value
+        nested[f"_{key}"] = every_row
+    info["episode_metrics"] = nested
+    info["_episode_metrics"] = every_row
+    return info
