@@ -1,0 +1,331 @@
+"""``polyenvs/BumperCartExplore-v0``: touch as much of an unknown map's walls as possible with a bump-only cart.
+
+The environment is a batch of carts ("rows") like the simulator, so a native vector env is the same class with
+more rows: one compiled call steps every row, runs its cycle (:func:`polyenvs.bumper.cart.cycle_row`), scores the
+newly touched wall and writes observation, reward and metric rows into preallocated buffers.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+
+from polyenvs.bumper import cart as C
+from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
+from polyenvs.bumper.maps import BumperMap, make_map
+from polyenvs.bumper.odometry import TICK_CM
+from polyenvs.core.jit import njit
+from polyenvs.core.streams import RowStreams
+from polyenvs.core.validation import check_action, check_in_range, show
+
+__all__ = ["OBSERVATION_STRUCTURE", "BumperCartExploreEnv", "LocalizationContext"]
+
+#: Layout of the observation: name -> (start, stop). Ticks are signed encoder counts of each stage of the cycle.
+OBSERVATION_STRUCTURE = {
+    "turn_ticks": (0, 2),  # left, right
+    "drive_ticks": (2, 4),
+    "backup_ticks": (4, 6),
+    "bump": (6, 7),  # 1 if the drive stage ended with the bumper tripped
+}
+#: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
+TRAIL_POINTS = 3000
+# Columns of the per-row task state: touched wall fraction, bumps, large slips.
+_TOUCHED, _BUMPS, _SLIPS = range(3)
+_COLUMNS = ("reward_touch", "wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips", "reward")
+
+
+@dataclass(frozen=True)
+class LocalizationContext:
+    """What a localizer may know before the first cycle: the map and the cart's nominal geometry.
+
+    Attributes:
+        world: the map.
+        tick_cm: wheel travel per encoder tick.
+        wheel_base_cm: the nominal wheel base the odometry uses.
+        bumper_offset_cm, bumper_width_cm: where the bumper is, ahead of the axle, and how wide.
+        observation_structure: where the ticks and the bump bit are in a cycle's log (the observation).
+    """
+
+    world: BumperMap
+    tick_cm: float
+    wheel_base_cm: float
+    bumper_offset_cm: float
+    bumper_width_cm: float
+    observation_structure: dict
+
+
+@njit(cache=True)
+def _step_kernel(turns, state, walls, params, normals, cursor, obs, out, task, touched, cell_first, cell_count,
+                 cell_share):  # fmt: skip
+    for b in range(turns.shape[0]):
+        if not math.isfinite(turns[b]):
+            continue  # a row that was just reset: it neither moves nor scores
+        row = state[b]
+        cycle_row(row, turns[b], normals[b, cursor[b]], params, walls)
+        cursor[b] += 1
+        fresh = 0.0
+        if row[C.BUMP] > 0.5:
+            seg = int(row[C.CONTACT_SEG])
+            count = cell_count[seg]
+            cell = cell_first[seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
+            if touched[b, cell] == 0:
+                touched[b, cell] = 1
+                fresh = cell_share[cell]
+            task[b, _BUMPS] += 1.0
+        task[b, _TOUCHED] += fresh
+        task[b, _SLIPS] += row[C.BIG_SLIP]
+        for k in range(6):
+            obs[b, k] = row[C.TICKS + k]
+        obs[b, 6] = row[C.BUMP]
+        out[b, 0] = 100.0 * fresh
+        out[b, 1] = task[b, _TOUCHED]
+        out[b, 2] = task[b, _BUMPS]
+        out[b, 3] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
+        out[b, 4] = task[b, _SLIPS]
+        out[b, 5] = out[b, 0]
+
+
+class BumperCartExploreEnv(gym.Env):
+    """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
+    wheel encoders.
+
+    ## Description
+    The Lego cart of Ken Dye's "Mapping with only a bumper": two unmatched motors (equal power drives an arc),
+    encoders of 0.0675 in per tick on both axles, a 3-inch bumper over one switch. One step is one cycle of the
+    paper's control loop: turn in place by the commanded angle, drive until the bumper trips (or
+    ``max_drive_cm``), back up ``backup_cm``. Driving to the bump is solved in closed form against the map's wall
+    segments (:mod:`polyenvs.bumper.cart`). Wheels slip a little on every stage and, at a bump, sometimes a lot
+    (the bumper flattens against the wall or slides), unseen by the encoders. The agent sees what the robot logged
+    and nothing else: it must build its own idea of where it is from ticks and bumps.
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180° (positive: counter-clockwise).
+    The controller aims it with the nominal wheel base, so the turn done differs a little.
+
+    ## Observation Space
+    ``Box((7,), float32)``: the signed encoder ticks (left, right) of the turn, the drive and the back-up, and 1.0
+    if the drive ended in a bump (``env.observation_structure``). Ticks lie in ``[-T, T]`` with ``T`` from
+    :func:`polyenvs.bumper.cart.max_ticks` (1,752 at the defaults). The reset observation is all zeros.
+
+    ## Rewards
+    ``reward_touch``: 100 x the wall length newly touched by this cycle's bump, as a fraction of the map's total
+    wall length; walls are cut into cells of at most ``cell_cm`` and a bump touches the cell of its contact point,
+    so an episode's rewards sum to at most 100.
+
+    ## Starting State
+    The cart at a uniformly random free point at least its body's reach from every wall, heading uniform; the
+    motor mismatch and the true wheel base are drawn per episode. Reset option ``pose``: ``(x_cm, y_cm,
+    heading_deg)``.
+
+    ## Episode End
+    Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
+    ``info["episode_metrics"]``: ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm`` (dead reckoning from
+    the true start against the true position: the paper's Part 2 drift), ``large_slips``. ``info`` also has the
+    true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
+    drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
+
+    ## Arguments
+    | argument | default | meaning |
+    |----------|---------|---------|
+    | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
+    | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
+    | wheel_base_cm | 6.0 | nominal wheel base, in [3, 20] (*ours*; the paper gives none) |
+    | bumper_width_cm | 7.62 | the paper's 3-inch bumper, in [4, 20]; the body's width |
+    | bumper_offset_cm | 7.0 | bumper ahead of the axle, in [3, 20] |
+    | rear_cm | 5.0 | body behind the axle, in [1, 20] |
+    | backup_cm | 6.0 | back-up travel, in [1, 30] |
+    | max_drive_cm | 300.0 | drive stage limit, in [10, 1000] |
+    | mismatch_sd | 0.02 | per-episode motor speed mismatch, in [0, 0.1] |
+    | wheel_base_sd | 0.02 | per-episode true wheel base error, in [0, 0.1] |
+    | slip_sd | 0.01 | per-stage wheel slip, in [0, 0.1] |
+    | snap_prob, snap_max_deg | 0.3, 20 | near head-on hits that flatten the bumper |
+    | slide_prob, slide_max_deg | 0.15, 30 | glancing hits that slide |
+    | render_mode | None | "rgb_array" or "human" |
+
+    See :class:`polyenvs.bumper.cart.CartModel` for where each default comes from.
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+    reward_names = ("touch",)
+    metric_names = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
+    #: Rows (carts) this instance simulates; a vector env builds the class with more.
+    _batch_size = 1
+
+    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+        unknown = set(cart) - set(C.CART_PARAMETER_RANGES)
+        if unknown:
+            raise TypeError(f"unexpected keyword argument(s) {sorted(unknown)}")
+        self.model = CartModel(**cart)
+        self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
+        self.start_clearance_cm = self.model.circumradius_cm + 0.5
+        self.world = make_map(map, clearance_cm=self.start_clearance_cm)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+
+        n = self._batch_size
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
+        t = float(max_ticks(self.model))
+        self.observation_space = spaces.Box(
+            np.array([-t] * 6 + [0.0], dtype=np.float32), np.array([t] * 6 + [1.0], dtype=np.float32), dtype=np.float32
+        )
+        self.observation_structure = dict(OBSERVATION_STRUCTURE)
+        self.state = np.zeros((n, C.N_STATE))
+        self.params = self.model.packed()
+        self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
+        self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
+        self._cell_share = lengths / self.world.wall_length_cm
+        self._touched = np.zeros((n, len(lengths)), dtype=np.uint8)
+        self._task = np.zeros((n, 3))
+        self._observations = np.zeros((n, 7), dtype=np.float32)
+        self._out = np.zeros((n, len(_COLUMNS)))
+        self._turns = np.zeros(n)
+        self._started = False
+        self._renderer = None
+        self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
+
+    # --- Gymnasium API ----------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        pose = self._option_pose(options)
+        if seed is not None:
+            rng, used_seed = seeding.np_random(seed)
+        else:
+            rng, used_seed = copy.deepcopy(self.np_random), self._np_random_seed
+        draws = self._draw_row(rng, pose)
+        self._commit_row(0, rng, draws, reseeded=seed is not None)
+        self._np_random, self._np_random_seed = rng, used_seed
+        return self._observations[0].copy(), self._get_info(0)
+
+    def step(self, action):
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        if isinstance(action, np.ndarray) and action.shape == (1,) and -1.0 <= action[0] <= 1.0:
+            turn = float(action[0])  # the common case, checked without the space's slower generic test
+        else:
+            check_action(
+                self.action_space, np.asarray(action, dtype=np.float32) if isinstance(action, list) else action
+            )
+            turn = float(np.asarray(action).reshape(-1)[0])
+        self._turns[0] = math.pi * turn
+        self._advance(self._turns)
+        out = self._out[0]
+        if self.render_mode is not None:
+            self._record_paths()
+            if self.render_mode == "human":
+                self.render()
+        return self._observations[0].copy(), float(out[-1]), False, False, self._get_info(0)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before render()")
+        from polyenvs.bumper.rendering import BumperRenderer
+
+        if self._renderer is None:
+            self._renderer = BumperRenderer(self.render_mode, self.metadata["render_fps"], self.world.bounds)
+        return self._renderer.render(self)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def localization_context(self) -> LocalizationContext:
+        """The map and the cart's nominal geometry, for estimators run on this environment's logs."""
+        m = self.model
+        return LocalizationContext(
+            self.world, TICK_CM, m.wheel_base_cm, m.bumper_offset_cm, m.bumper_width_cm, dict(OBSERVATION_STRUCTURE)
+        )
+
+    # --- the batched core (shared with a vector env) ----------------------------------------------------------
+    def _option_pose(self, options) -> np.ndarray | None:
+        if options is None:
+            return None
+        if not isinstance(options, dict):
+            raise ValueError(f"options must be a dict or None, got {show(options)}")
+        if set(options) - {"pose"}:
+            raise ValueError(f"unknown reset option(s) {sorted(set(options) - {'pose'})}; expected 'pose'")
+        if "pose" not in options:
+            return None
+        try:
+            x, y, heading_deg = (float(v) for v in options["pose"])
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"reset option 'pose' must be (x_cm, y_cm, heading_deg), got {show(options['pose'])}"
+            ) from None
+        if not all(math.isfinite(v) for v in (x, y, heading_deg)):
+            raise ValueError(f"reset option 'pose' must be finite, got {show(options['pose'])}")
+        clearance = float(self.world.clearance(np.array([x, y])))
+        if clearance < self.start_clearance_cm:
+            raise ValueError(
+                f"reset option 'pose' puts the cart {clearance:.1f} cm from a wall (at least "
+                f"{self.start_clearance_cm:.1f} cm, its body's reach, in free space)"
+            )
+        return np.array([x, y, math.radians(heading_deg)])
+
+    def _draw_row(self, rng: np.random.Generator, pose) -> tuple:
+        """A new episode's random choices, drawn on ``rng``; writes nothing."""
+        if pose is None:
+            pose = self.world.sample_pose(rng, self.start_clearance_cm)
+        return pose, *self.model.draw_episode(rng)
+
+    def _commit_row(self, row: int, rng: np.random.Generator, draws: tuple, reseeded: bool) -> None:
+        pose, mismatch, base = draws
+        place_row(self.state[row], pose, mismatch, base)
+        self.streams.restart(row, rng, reseeded)
+        self._touched[row] = 0
+        self._task[row] = 0.0
+        self._observations[row] = 0.0
+        self._out[row] = 0.0
+        self._started = True
+        if row == 0:
+            for path in self._paths:
+                path.clear()
+            self._paths[0].append(tuple(pose[:2]))
+            self._paths[1].append(tuple(pose[:2]))
+
+    def _advance(self, turns: np.ndarray) -> None:
+        self.streams.refill()
+        _step_kernel(
+            turns, self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
+            self._observations, self._out, self._task, self._touched, self._cell_first, self._cell_count,
+            self._cell_share,
+        )  # fmt: skip
+
+    def _record_paths(self) -> None:
+        s = self.state[0]
+        true_path, dead_reckoned, bumps = self._paths
+        true_path.extend(((s[C.TURN_X], s[C.TURN_Y]), (s[C.BUMP_X], s[C.BUMP_Y]), (s[C.X], s[C.Y])))
+        dead_reckoned.append((s[C.DR_X], s[C.DR_Y]))
+        if s[C.BUMP] > 0.5:
+            bumps.append((s[C.CONTACT_X], s[C.CONTACT_Y]))
+
+    def _get_info(self, row: int) -> dict[str, Any]:
+        s = self.state[row]
+        out = self._out[row]
+        poses = np.array([s[C.X], s[C.Y], s[C.HEADING], s[C.DR_X], s[C.DR_Y], s[C.DR_HEADING], s[C.BUMP_X],
+                          s[C.BUMP_Y], s[C.BUMP_HEADING]])  # fmt: skip
+        poses[2::3] = np.degrees(poses[2::3])
+        return {
+            "pose": poses[0:3],
+            "dead_reckoned_pose": poses[3:6],
+            "pose_at_bump": poses[6:9],
+            "bumped": bool(s[C.BUMP] > 0.5),
+            "contact_point": np.array([s[C.CONTACT_X], s[C.CONTACT_Y]]),
+            "touched_cells": int(self._touched[row].sum()),
+            "reward_touch": float(out[0]),
+            "episode_metrics": dict(zip(self.metric_names, out[1:5].tolist(), strict=True)),
+        }

@@ -1,0 +1,110 @@
+"""Top-down frames of a bumper-cart episode: the map, the touched wall cells, the true and dead-reckoned paths,
+the bump points and the cart (its body and, in front, the bumper).
+
+Drawn with the numpy rasterizer (:mod:`polyenvs.core.raster`), so ``rgb_array`` needs nothing beyond numpy;
+``human`` mode shows the frames in a pygame window (``pip install "polyenvs[render]"``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from polyenvs.bumper import cart as C
+from polyenvs.core.raster import Canvas
+
+__all__ = ["BumperRenderer", "FRAME_WIDTH_PX"]
+
+FRAME_WIDTH_PX = 480
+WALL = (30, 30, 30)
+TOUCHED = (40, 170, 60)
+TRUE_PATH = (200, 40, 40)
+DEAD_RECKONED_PATH = (60, 90, 220)
+BUMP = (230, 120, 0)
+BODY = (250, 190, 60)
+BUMPER = (120, 60, 0)
+
+
+def body_outline(pose, model) -> np.ndarray:
+    """The cart's body rectangle at ``pose`` (x, y, heading rad): front right, front left, rear left, rear right."""
+    x, y, h = pose
+    c, s = math.cos(h), math.sin(h)
+    half = model.bumper_width_cm / 2
+    local = np.array([(model.bumper_offset_cm, -half), (model.bumper_offset_cm, half), (-model.rear_cm, half),
+                      (-model.rear_cm, -half)])  # fmt: skip
+    return np.stack([x + local[:, 0] * c - local[:, 1] * s, y + local[:, 0] * s + local[:, 1] * c], axis=-1)
+
+
+class BumperRenderer:
+    """Renders row 0 of a :class:`~polyenvs.bumper.env.BumperCartExploreEnv`; every frame covers the map's bounds,
+    so one instance makes frames of one size."""
+
+    def __init__(self, render_mode: str, fps: int, bounds):
+        self.render_mode = render_mode
+        self.fps = fps
+        x0, y0, x1, y1 = bounds
+        pad = 0.05 * max(x1 - x0, y1 - y0)
+        self.view_bounds = (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
+        self._window = None
+        self._clock = None
+
+    def frame(self, env) -> np.ndarray:
+        canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
+        world = env.world
+        seg = world.segments
+        canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
+        # Touched cells: each segment's cells are equal parts of it.
+        touched = np.flatnonzero(env._touched[0])
+        if len(touched):
+            owner = np.searchsorted(env._cell_first, touched, side="right") - 1
+            k = (touched - env._cell_first[owner])[:, None]
+            n = env._cell_count[owner][:, None]
+            start, vector = seg[owner, :2], seg[owner, 2:] - seg[owner, :2]
+            canvas.lines(start + vector * k / n, start + vector * (k + 1) / n, TOUCHED, width_px=5.0)
+        true_path, dead_reckoned, bumps = (np.array(p, dtype=np.float64).reshape(-1, 2) for p in env._paths)
+        if len(dead_reckoned) > 1:
+            canvas.polyline(dead_reckoned, DEAD_RECKONED_PATH, width_px=1.5)
+        if len(true_path) > 1:
+            canvas.polyline(true_path, TRUE_PATH, width_px=1.5)
+        if len(bumps):
+            canvas.points(bumps, BUMP, radius_px=3.0)
+        state = env.state[0]
+        outline = body_outline((state[C.X], state[C.Y], state[C.HEADING]), env.model)
+        canvas.polygon(outline, BODY, outline=BUMPER)
+        canvas.lines(outline[0:1], outline[1:2], BUMPER, width_px=3.0)
+        return canvas.image
+
+    def render(self, env):
+        frame = self.frame(env)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._show(frame)
+        return None
+
+    def _show(self, frame: np.ndarray) -> None:
+        try:
+            import pygame
+        except ImportError as exc:
+            from gymnasium.error import DependencyNotInstalled
+
+            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
+        if self._window is None:
+            pygame.init()
+            pygame.display.init()
+            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
+            pygame.display.set_caption("polyenvs bumper cart")
+            self._clock = pygame.time.Clock()
+        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+        self._window.blit(surface, (0, 0))
+        pygame.event.pump()
+        pygame.display.flip()
+        self._clock.tick(self.fps)
+
+    def close(self) -> None:
+        if self._window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self._window = None
