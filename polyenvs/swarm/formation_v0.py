@@ -1,0 +1,133 @@
+"""``formation_v0``: a leader and followers keep a lattice formation (physicomimetics) across an obstacle field.
+
+``from polyenvs.swarm import formation_v0; env = formation_v0.parallel_env(n_robots=7)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
+
+from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
+
+__all__ = ["FormationEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
+
+MAX_CYCLES = 1500
+FIELD_LENGTH_M = 14.0
+FIELD_WIDTH_M = 8.0
+OBSTACLE_RADIUS_M = (0.15, 0.3)
+#: Obstacles keep this gap rim to rim: wide enough for a robot, narrow enough to bend the formation.
+GAP_M = 0.8
+
+
+class FormationEnv(SwarmEnv):
+    """N Maxelbot-like robots in a hexagonal lattice of spacing R (``robot_0``, the leader, at its centre) cross an
+    obstacle field to a goal light while keeping formation.
+
+    The physicomimetics framework of the paper's Section 2 (Spears et al. 2004): robots hold a lattice by virtual
+    Hooke's-law springs between neighbours. AP-lite is a leader-follower scheme: only the leader broadcasts, and
+    followers sense range and bearing to the leader and to their neighbours by trilateration. Formation error is
+    the mean of ``|r - R| / R`` over the lattice's neighbouring pairs (robots one R apart at the start) still in
+    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study).
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power.
+
+    ## Observation Space
+    As in ``corridor_v0`` (``env.observation_structure``: ``ir``, ``light``, ``neighbours``, ``powers``) plus
+    ``leader`` (range / comm_range, bearing / pi and a mask: the leader's broadcast, if in range) and
+    ``is_leader`` (1 for ``robot_0``).
+
+    ## Rewards
+    ``reward_progress`` (10 per metre closer to the goal), ``reward_collision`` (-1 per step in contact),
+    ``reward_arrival`` (+10) and ``reward_formation`` (-0.1 x the robot's own formation error: the mean
+    ``|r - R| / R`` over its lattice neighbours still in the episode).
+
+    ## Starting State
+    The lattice centred 1.5 m + its radius from the left wall at mid-height, each robot jittered by 5 cm and
+    headed towards +x ± 5° (sd); the goal 1.5 m from the right wall at mid-height; ``n_obstacles`` discs placed
+    uniformly between, at least 0.8 m apart.
+
+    ## Episode End
+    A robot terminates (leaving ``env.agents``) within ``goal_radius_m`` (default 2R) of the goal, or on contact
+    if ``terminate_on_collision``; all are truncated after ``max_cycles`` steps.
+
+    ## Info
+    As in ``corridor_v0`` plus ``formation_error`` (the robot's own, now); its ``episode_metrics`` add the
+    robot's mean ``formation_error``, and ``env.episode_metrics()`` the swarm's mean over steps.
+
+    ## Arguments
+    ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200),
+    ``goal_radius_m`` (default 2R), then every keyword of ``corridor_v0`` with ``platform="maxelbot"`` and
+    ``max_cycles=1500`` as defaults.
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    metadata = {**SwarmEnv.metadata, "name": "formation_v0"}
+    default_platform = "maxelbot"
+    formation = True
+    reward_names = ("progress", "collision", "arrival", "formation")
+    metric_names = (*SwarmEnv.metric_names, "formation_error")
+
+    def __init__(self, *, n_robots: int = 7, spacing_m: float = 0.9, n_obstacles: int = 5,
+                 goal_radius_m: float | None = None, max_cycles: int = MAX_CYCLES, **kwargs):  # fmt: skip
+        self.spacing_m = check_in_range("spacing_m", spacing_m, 0.5, 3.0)
+        self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
+        goal_radius_m = 2.0 * self.spacing_m if goal_radius_m is None else goal_radius_m
+        super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, max_cycles=max_cycles, **kwargs)
+
+    def _task_init(self) -> None:
+        if 1.5 * self.spacing_m > self.comm_range_m:
+            raise ValueError(
+                f"spacing_m {self.spacing_m:g} needs comm_range_m >= 1.5 R = {1.5 * self.spacing_m:g} (the springs' reach)"
+            )
+        self.lattice = hex_lattice(self.n_robots, self.spacing_m)
+        self.pairs = lattice_pairs(self.lattice, self.spacing_m)
+        self._lattice_radius = float(np.hypot(*self.lattice.T).max())
+
+    def _fixed_layout(self) -> Layout:
+        extent = self._lattice_radius
+        length, width = FIELD_LENGTH_M + 2 * extent, max(FIELD_WIDTH_M, 2 * extent + 4.0)
+        return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
+
+    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+        n = self.n_robots
+        _, _, length, width = self.layout.bounds
+        centre = np.array([1.5 + self._lattice_radius, width / 2])
+        xy = centre + self.lattice + 0.05 * (2 * rng.random((n, 2)) - 1)
+        heading = np.radians(5.0 * rng.standard_normal(n))
+        goal = np.array([length - 1.5, width / 2])
+        keep_out = [(goal[0], goal[1], self.goal_radius_m), (centre[0], centre[1], self._lattice_radius + 1.0)]
+        region = (centre[0] + self._lattice_radius + 1.0, 0.6, length - 2.0, width - 0.6)
+        circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
+        return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
+
+    def _formation_error(self):
+        i, j = self.pairs[:, 0], self.pairs[:, 1]
+        both = (self.active[i] > 0) & (self.active[j] > 0)
+        err = np.abs(np.hypot(*(self.pose[i, :2] - self.pose[j, :2]).T) - self.spacing_m) / self.spacing_m
+        err = np.where(both, err, 0.0)
+        total = np.bincount(i, err, self.n_robots) + np.bincount(j, err, self.n_robots)
+        count = np.bincount(i, both, self.n_robots) + np.bincount(j, both, self.n_robots)
+        per_robot = np.where(count > 0, total / np.maximum(count, 1), 0.0)
+        swarm = float(err.sum() / both.sum()) if both.any() else 0.0
+        return per_robot, swarm
+
+
+def parallel_env(**kwargs) -> FormationEnv:
+    """The PettingZoo parallel environment (keywords: see :class:`FormationEnv`)."""
+    return FormationEnv(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC form, without wrappers."""
+    return parallel_to_aec(FormationEnv(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC form with PettingZoo's order-enforcing wrapper."""
+    return OrderEnforcingWrapper(raw_env(**kwargs))

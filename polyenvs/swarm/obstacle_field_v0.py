@@ -1,0 +1,117 @@
+"""``obstacle_field_v0``: robots cross an outdoor obstacle field to a goal (the paper's Maxelbot experiment).
+
+``from polyenvs.swarm import obstacle_field_v0; env = obstacle_field_v0.parallel_env(n_robots=8)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
+
+from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.layouts import box_walls, random_obstacles, start_block
+
+__all__ = ["MAX_CYCLES", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
+
+MAX_CYCLES = 1000
+#: The open field of the feasibility study (10 x 6 m); it grows with the start block for large swarms.
+FIELD_LENGTH_M = 10.0
+FIELD_WIDTH_M = 6.0
+START_SPACING_M = 0.5
+#: Obstacles (*ours*): radius 0.15-0.35 m, at least GAP_M apart rim to rim and from the goal and the starts.
+OBSTACLE_RADIUS_M = (0.15, 0.35)
+GAP_M = 0.6
+
+
+class ObstacleFieldEnv(SwarmEnv):
+    """N Maxelbot-like robots cross an open field with obstacles at seeded random places to a goal light.
+
+    Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoidance" (``seeds/004``), Section 4:
+    outdoors on grass "of average height 8 cm [...] the ground slope can change rapidly [...] by up to 20°", with
+    "large obstacles at random locations in the path of the Maxelbot". The terrain is wheel-speed noise: every
+    step each wheel's speed is multiplied by ``1 + terrain_noise * N(0, 1) + drift``, where the per-episode drift
+    (half the sd) pulls the robot to one side as a slope does. The field is 10 x 6 m with walls around it (the
+    feasibility study); larger swarms start in a square block and the field grows to hold it.
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power.
+
+    ## Observation Space
+    As in ``corridor_v0`` (``env.observation_structure``): ``ir`` (4, Maxelbot raw / 550, 0 = nothing seen),
+    ``light`` (bearing / pi, intensity), ``neighbours`` (range, bearing, mask for the nearest robots in
+    communication range), ``powers`` (2).
+
+    ## Rewards
+    ``reward_progress`` (10 per metre closer to the goal), ``reward_collision`` (-1 per step in contact),
+    ``reward_arrival`` (+10).
+
+    ## Starting State
+    Robots in a square block (0.5 m spacing) centred 1 m from the left wall, headings towards +x ± 10° (sd); the
+    goal 1 m from the right wall at a height drawn uniformly in the middle third; ``n_obstacles`` discs placed
+    uniformly between, at least 0.6 m apart and from the starts and the goal.
+
+    ## Episode End
+    A robot terminates (leaving ``env.agents``) within ``goal_radius_m`` of the goal, or on contact if
+    ``terminate_on_collision``; all are truncated after ``max_cycles`` steps.
+
+    ## Info
+    As in ``corridor_v0``: ``pose``, ``collisions``, ``distance_to_goal_m``, ``nearest_obstacle_cm``,
+    ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
+
+    ## Arguments
+    ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then every keyword of
+    ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5`` as defaults.
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    metadata = {**SwarmEnv.metadata, "name": "obstacle_field_v0"}
+    default_platform = "maxelbot"
+
+    def __init__(self, *, n_obstacles: int = 5, terrain_noise: float = 0.1, max_cycles: int = MAX_CYCLES,
+                 goal_radius_m: float = 0.5, **kwargs):  # fmt: skip
+        self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
+        super().__init__(terrain_noise=terrain_noise, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+
+    def _task_init(self) -> None:
+        check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.5)
+
+    def _block(self) -> tuple[int, float]:
+        columns = math.ceil(math.sqrt(self.n_robots))
+        return columns, (columns - 1) * START_SPACING_M
+
+    def _fixed_layout(self) -> Layout:
+        _, side = self._block()
+        length, width = FIELD_LENGTH_M + side, max(FIELD_WIDTH_M, side + 3.0)
+        return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
+
+    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+        n = self.n_robots
+        columns, side = self._block()
+        _, _, length, width = self.layout.bounds
+        xy = start_block(n, columns, START_SPACING_M) + np.array([1.0, 0.5 * (width - side)])
+        heading = np.radians(10.0 * rng.standard_normal(n))
+        goal = np.array([length - 1.0, width / 3.0 + (width / 3.0) * rng.random()])
+        keep_out = [(goal[0], goal[1], self.goal_radius_m), (1.0 + side / 2, width / 2, side / 2 + 0.7 * 1.5)]
+        region = (2.0 + side, 0.6, length - 1.5, width - 0.6)
+        circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
+        return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
+
+
+def parallel_env(**kwargs) -> ObstacleFieldEnv:
+    """The PettingZoo parallel environment (keywords: see :class:`ObstacleFieldEnv`)."""
+    return ObstacleFieldEnv(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC form, without wrappers."""
+    return parallel_to_aec(ObstacleFieldEnv(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC form with PettingZoo's order-enforcing wrapper."""
+    return OrderEnforcingWrapper(raw_env(**kwargs))
