@@ -1,0 +1,308 @@
+"""The beasts' MuJoCo model, generated as MJCF from physical parameters (nothing shipped that cannot be regenerated).
+
+Names the environments, the gait and the tests rely on: body ``torso`` (free joint ``root``), hinge joints
+``limb{i}_joint{k}`` (i = 1..n_limbs, k = 1..3) whose angle is exactly the DH theta_k of
+:mod:`polyenvs.beast.kinematics`, actuators with the same names, foot spheres ``limb{i}_foot`` centred on the DH
+foot point, link geoms ``limb{i}_link{k}``, the body geom ``torso``, the ground plane ``floor`` and the camera
+``track`` that follows the torso.
+
+Default values are the feasibility study's (``../shared/spec/beast.md``), which held the nominal stance with no drift
+and made the working tumble roll: 2 ms ``implicitfast`` steps, a 3.0 kg convex octahedral body of side 170 mm (the
+6-beast's body is a cube with the same inradius, so every limb's shoulder sits the same 42.6 mm above its face),
+links of 0.15 / 0.15 / 0.12 kg, a 0.03 kg foot sphere of radius 18 mm (4.8 kg in all for the 4-beast, under the
+paper's 5 kg), position servos of kp 300 N m/rad limited to +-6 N m (worm-geared DC motors that lift the robot from
+limbs straight out and horizontal, paper section 2), joint damping 5 N m s/rad, armature 0.02 kg m^2 (the worm
+drive's reflected inertia), friction 1.0 and collisions between links, feet and body on. The paper gives no joint
+limits; ours are the ranges the gaits need.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from polyenvs.beast import kinematics as K
+from polyenvs.core.validation import check_choice, check_in_range
+
+__all__ = ["PARAMETER_RANGES", "BeastModelParams", "beast_xml", "build_model"]
+
+#: Plausible ranges of every physical parameter (SI units; joint limits in degrees). Outside: ValueError.
+PARAMETER_RANGES = {
+    "d1": (0.10, 0.20),  # shoulder offset: beyond the face (inradius <= 90 mm for the largest body) up to 2x Table 1
+    "a2": (0.05, 0.25),
+    "a3": (0.05, 0.30),
+    "body_side": (0.12, 0.22),
+    "body_mass": (0.5, 10.0),
+    "link1_mass": (0.01, 1.0),
+    "link2_mass": (0.01, 1.0),
+    "link3_mass": (0.01, 1.0),
+    "foot_mass": (0.005, 0.5),
+    "foot_radius": (0.005, 0.04),
+    "kp": (10.0, 2000.0),
+    "torque_limit": (0.5, 50.0),
+    "damping": (0.0, 50.0),
+    "armature": (0.0, 1.0),
+    "friction": (0.1, 2.0),
+    "timestep": (0.0005, 0.005),
+    "joint1_low_deg": (-180.0, 0.0),
+    "joint1_high_deg": (0.0, 180.0),
+    "joint2_low_deg": (-180.0, 0.0),
+    "joint2_high_deg": (0.0, 180.0),
+    "joint3_low_deg": (-180.0, 0.0),
+    "joint3_high_deg": (0.0, 180.0),
+}
+CONTROLS = ("position", "torque")
+
+#: Capsule radii of the links (m): the shoulder stub and the thigh / shank tubes of the link modules (*ours*).
+_LINK1_RADIUS = 0.02
+_LINK_RADIUS = 0.012
+
+
+@dataclasses.dataclass(frozen=True)
+class BeastModelParams:
+    """Physical parameters of a beast; every number is checked against ``PARAMETER_RANGES`` on construction.
+
+    | parameter | default | unit | source |
+    | --- | --- | --- | --- |
+    | polyhedron | "tetrahedron" | | 4-beast; "octahedron" = 6-beast, "cube" = 8-beast |
+    | d1, a2, a3 | 0.112, 0.0983, 0.140 | m | Table 1 (a3 depends on the foot module) |
+    | body_side | 0.170 | m | paper section 2 |
+    | body_mass | 3.0 | kg | feasibility study (4.8 kg in all, paper: under 5 kg) |
+    | link1_mass, link2_mass, link3_mass | 0.15, 0.15, 0.12 | kg | feasibility study |
+    | foot_mass, foot_radius | 0.03, 0.018 | kg, m | feasibility study |
+    | kp | 300 | N m/rad | position servo gain, feasibility study |
+    | torque_limit | 6.0 | N m | motor limit, feasibility study (lifts from limbs straight out) |
+    | damping, armature | 5.0, 0.02 | N m s/rad, kg m^2 | worm drive, feasibility study |
+    | friction | 1.0 | | sliding friction of every contact |
+    | timestep | 0.002 | s | implicitfast integrator |
+    | joint{k}_low_deg, joint{k}_high_deg | -180/180, -120/160, -150/150 | deg | ours: the ranges the gaits need |
+    | control | "position" | | "torque" makes the actuators plain motors limited to +-torque_limit |
+    """
+
+    polyhedron: str = "tetrahedron"
+    d1: float = K.PROTOTYPE_LINKS.d1
+    a2: float = K.PROTOTYPE_LINKS.a2
+    a3: float = K.PROTOTYPE_LINKS.a3
+    body_side: float = K.BODY_SIDE
+    body_mass: float = 3.0
+    link1_mass: float = 0.15
+    link2_mass: float = 0.15
+    link3_mass: float = 0.12
+    foot_mass: float = 0.03
+    foot_radius: float = 0.018
+    kp: float = 300.0
+    torque_limit: float = 6.0
+    damping: float = 5.0
+    armature: float = 0.02
+    friction: float = 1.0
+    timestep: float = 0.002
+    joint1_low_deg: float = -180.0
+    joint1_high_deg: float = 180.0
+    joint2_low_deg: float = -120.0
+    joint2_high_deg: float = 160.0
+    joint3_low_deg: float = -150.0
+    joint3_high_deg: float = 150.0
+    control: str = "position"
+
+    def __post_init__(self):
+        check_choice("polyhedron", self.polyhedron, K.POLYHEDRA)
+        check_choice("control", self.control, CONTROLS)
+        for name, (low, high) in PARAMETER_RANGES.items():
+            object.__setattr__(self, name, check_in_range(name, getattr(self, name), low, high))
+        if self.foot_radius >= self.a3 / 2:
+            raise ValueError(f"foot_radius must be under a3 / 2 = {self.a3 / 2:g} m, got {self.foot_radius!r}")
+        for k in (1, 2, 3):
+            if getattr(self, f"joint{k}_low_deg") >= getattr(self, f"joint{k}_high_deg"):
+                raise ValueError(f"joint{k}_low_deg must be below joint{k}_high_deg")
+
+    @property
+    def links(self) -> K.Links:
+        return K.Links(self.d1, self.a2, self.a3)
+
+    @property
+    def n_limbs(self) -> int:
+        return K.N_LIMBS[self.polyhedron]
+
+    @property
+    def joint_ranges(self) -> np.ndarray:
+        """(3, 2) joint limits in radians, rows joint 1, 2, 3."""
+        deg = [[getattr(self, f"joint{k}_{side}_deg") for side in ("low", "high")] for k in (1, 2, 3)]
+        return np.radians(np.array(deg))
+
+    @property
+    def total_mass(self) -> float:
+        per_limb = self.link1_mass + self.link2_mass + self.link3_mass + self.foot_mass
+        return self.body_mass + self.n_limbs * per_limb
+
+
+def _body_vertices(params: BeastModelParams) -> np.ndarray:
+    if params.polyhedron == "octahedron":
+        # A cube with the octahedron's inradius: the 6-beast's limbs sit on its faces at the same depth.
+        half = params.body_side / math.sqrt(6)
+        return half * np.array(list(np.ndindex(2, 2, 2)), dtype=float) * 2 - half
+    # The octahedron of Table 2's body frame: z is a 2-fold axis through two vertices, the others at 45 degrees.
+    r = params.body_side / math.sqrt(2)
+    s = r / math.sqrt(2)
+    return np.array([[0, 0, r], [0, 0, -r], [s, s, 0], [s, -s, 0], [-s, s, 0], [-s, -s, 0]])
+
+
+def _quat(rot: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a proper rotation matrix."""
+    w = math.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
+    if w > 1e-6:
+        return np.array(
+            [w, (rot[2, 1] - rot[1, 2]) / (4 * w), (rot[0, 2] - rot[2, 0]) / (4 * w), (rot[1, 0] - rot[0, 1]) / (4 * w)]
+        )
+    # Half-turns: take the axis from the largest diagonal term.
+    i = int(np.argmax(np.diag(rot)))
+    j, k = (i + 1) % 3, (i + 2) % 3
+    v = np.zeros(3)
+    v[i] = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) / 2
+    v[j] = (rot[j, i] + rot[i, j]) / (4 * v[i])
+    v[k] = (rot[k, i] + rot[i, k]) / (4 * v[i])
+    return np.array([(rot[k, j] - rot[j, k]) / (4 * v[i]), *v])
+
+
+def _f(values) -> str:
+    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
+
+
+def beast_xml(params: BeastModelParams) -> str:
+    """The MJCF of a beast with these parameters, standing at the origin (the tasks place it)."""
+    p = params
+    inradius = p.body_side / math.sqrt(6)
+    rad = p.joint_ranges
+    if p.control == "position":
+        actuator = "position"
+        gains = f'kp="{p.kp:.9g}" forcerange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
+    else:
+        actuator = "motor"
+        gains = f'ctrlrange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
+    limbs, actuators = [], []
+    for i, frame in enumerate(K.limb_base_frames(p.polyhedron), start=1):
+        limbs.append(
+            f"""
+      <body name="limb{i}_link1" quat="{_f(_quat(frame[:3, :3]))}">
+        <joint name="limb{i}_joint1" range="{_f(rad[0])}"/>
+        <geom name="limb{i}_link1" type="capsule" size="{_LINK1_RADIUS}"
+              fromto="0 0 {inradius:.9g} 0 0 {p.d1:.9g}" mass="{p.link1_mass:.9g}"/>
+        <body name="limb{i}_link2" pos="0 0 {p.d1:.9g}" quat="{_f(_quat(K.rot_x(math.pi / 2)))}">
+          <joint name="limb{i}_joint2" range="{_f(rad[1])}"/>
+          <geom name="limb{i}_link2" type="capsule" size="{_LINK_RADIUS}" fromto="0 0 0 {p.a2:.9g} 0 0"
+                mass="{p.link2_mass:.9g}"/>
+          <body name="limb{i}_link3" pos="{p.a2:.9g} 0 0">
+            <joint name="limb{i}_joint3" range="{_f(rad[2])}"/>
+            <geom name="limb{i}_link3" type="capsule" size="{_LINK_RADIUS}"
+                  fromto="0 0 0 {p.a3 - p.foot_radius:.9g} 0 0" mass="{p.link3_mass:.9g}"/>
+            <geom name="limb{i}_foot" type="sphere" size="{p.foot_radius:.9g}" pos="{p.a3:.9g} 0 0"
+                  mass="{p.foot_mass:.9g}" material="foot"/>
+          </body>
+        </body>
+      </body>"""
+        )
+        for k in (1, 2, 3):
+            ctrl = f'ctrlrange="{_f(rad[k - 1])}" ' if p.control == "position" else ""
+            actuators.append(f'    <{actuator} name="limb{i}_joint{k}" joint="limb{i}_joint{k}" {ctrl}{gains}/>')
+    standing = p.d1 + p.a2 + p.a3
+    return f"""<mujoco model="beast_{p.polyhedron}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{p.timestep:.9g}" integrator="implicitfast"/>
+  <visual>
+    <global offwidth="640" offheight="480"/>
+  </visual>
+  <default>
+    <joint type="hinge" axis="0 0 1" damping="{p.damping:.9g}" armature="{p.armature:.9g}"/>
+    <geom friction="{p.friction:.9g} 0.005 0.0001" material="link"/>
+  </default>
+  <asset>
+    <mesh name="body" vertex="{_f(_body_vertices(p))}"/>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.85 0.85 0.82" rgb2="0.65 0.68 0.72" width="256"
+             height="256"/>
+    <material name="grid" texture="grid" texrepeat="8 8" texuniform="true"/>
+    <material name="body" rgba="0.85 0.45 0.15 1"/>
+    <material name="link" rgba="0.3 0.35 0.45 1"/>
+    <material name="foot" rgba="0.1 0.1 0.1 1"/>
+  </asset>
+  <worldbody>
+    <light pos="0 0 3" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="0 0 0.05" material="grid"/>
+    <body name="torso" pos="0 0 {standing:.9g}">
+      <freejoint name="root"/>
+      <camera name="track" mode="track" pos="0.9 -0.9 0.7" xyaxes="0.7071 0.7071 0 -0.35 0.35 0.87"/>
+      <geom name="torso" type="mesh" mesh="body" mass="{p.body_mass:.9g}" material="body"/>{"".join(limbs)}
+    </body>
+  </worldbody>
+  <actuator>
+{chr(10).join(actuators)}
+  </actuator>
+</mujoco>
+"""
+
+
+def build_model(params: BeastModelParams):
+    """A compiled ``mujoco.MjModel`` for these parameters (imports MuJoCo, the optional ``mujoco`` extra)."""
+    try:
+        import mujoco
+    except ImportError as exc:  # pragma: no cover - exercised only without the extra
+        raise ImportError('The beasts need MuJoCo: pip install "polyenvs[mujoco]"') from exc
+    return mujoco.MjModel.from_xml_string(beast_xml(params))
+
+
+#: The start stance of each polyhedron: (feet radius about the body's vertical axis, body centre height) in metres.
+#: The 4-beast's is the working tumble's K0 (feet on an equilateral pattern of side 300 mm, body centre 168 mm up),
+#: from which the canonical tumble is plannable; the nominal B3 stance (side 353 mm) admits no tumble.
+START_STANCE = {"tetrahedron": (0.300 / math.sqrt(3), 0.168), "octahedron": (0.20, 0.17), "cube": (0.20, 0.17)}
+#: Body-frame direction that points up in the start stance: limb 4 for the 4-beast, a cube corner (3-fold axis,
+#: three limbs down) for the 6-beast, the body's z axis (a vertex, four limbs down) for the 8-beast.
+_UP = {
+    "tetrahedron": -np.array([0.0, math.sqrt(2 / 3), 1 / math.sqrt(3)]),
+    "octahedron": np.ones(3) / math.sqrt(3),
+    "cube": np.array([0.0, 0.0, 1.0]),
+}
+
+
+def stance_orientation(polyhedron: str) -> tuple[np.ndarray, np.ndarray]:
+    """(world-from-body rotation, stance limb indices) of the start stance, heading along world +x.
+
+    The stance limbs are those pointing below the horizontal. The heading (world +x) is away from the last stance
+    limb, so that for the 4-beast the canonical tumble (1234) tips over edge p1-p2 along +x.
+    """
+    directions = K.limb_directions(polyhedron)
+    up = _UP[polyhedron]
+    stance = np.flatnonzero(directions @ up < -0.2)
+    back = directions[stance[-1]]
+    forward = -(back - (back @ up) * up)
+    forward /= np.linalg.norm(forward)
+    return np.stack([forward, np.cross(up, forward), up]), stance
+
+
+def stance_qpos(params: BeastModelParams, feet_radius: float, height: float, yaw: float = 0.0) -> np.ndarray:
+    """qpos of a stance: stance feet on a circle of ``feet_radius`` about the body's vertical axis at the azimuths of
+    their limb axes, sphere centres one foot radius above the floor, body centre ``height`` up, each limb on the
+    inverse-kinematics solution with the highest knee; other limbs straight out (0, 90, 0). The whole robot is
+    turned by ``yaw`` about the vertical. For the 4-beast with ``START_STANCE`` this is the working tumble's K0."""
+    rot, stance = stance_orientation(params.polyhedron)
+    rot = K.rot_z(yaw) @ rot
+    world_dirs = K.limb_directions(params.polyhedron) @ rot.T
+    azimuth = np.arctan2(world_dirs[stance, 1], world_dirs[stance, 0])
+    feet = np.stack(
+        [
+            feet_radius * np.cos(azimuth),
+            feet_radius * np.sin(azimuth),
+            np.full(len(stance), params.foot_radius - height),
+        ],
+        axis=1,
+    )
+    theta = np.tile([0.0, math.pi / 2, 0.0], (params.n_limbs, 1))
+    base = K.limb_base_frames(params.polyhedron)[stance, :3, :3]
+    solutions = K.ik_solutions(np.einsum("lji,lj->li", base, feet @ rot), params.links)  # (stance, 4, 3)
+    # Of the four solutions, the one with the knee highest above the floor: clear of the ground and the body
+    # (for the 4-beast this is K0's). (theta1 + pi, pi - theta2, -theta3) puts knee and foot at the same places; the
+    # micrometre bonus breaks that tie for the theta3 > 0 knee branch the tumbles need.
+    knees = np.einsum("ij,ljk,lsk->lsi", rot, base, K.dh_frames(solutions, params.links)[..., 1, :3, 3])
+    best = np.argmax(knees[..., 2] + 1e-6 * (solutions[..., 2] > 0), axis=1)
+    theta[stance] = solutions[np.arange(len(stance)), best]
+    quat = _quat(rot)
+    return np.concatenate([[0.0, 0.0, height], quat / np.linalg.norm(quat), theta.ravel()])
