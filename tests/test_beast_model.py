@@ -137,7 +137,7 @@ def test_four_feet_down_mid_tumble_pose_b3_holds():
     assert _contacts(model, data) == [("floor", f"limb{i}_foot") for i in (1, 2, 3, 4)]
     forces = np.zeros(6)
     support = []
-    for j, contact in enumerate(data.contact):
+    for j in range(data.ncon):
         mujoco.mj_contactForce(model, data, j, forces)
         support.append(forces[0])
     assert min(support) > 0.05 * params.total_mass * G  # every foot carries load
