@@ -1,0 +1,101 @@
+"""Top-down frames of a swarm: walls, obstacles, the goal light, formation links, robots, headings and IR beams.
+
+Drawn with the numpy rasterizer (:mod:`polyenvs.core.raster`); ``human`` mode shows the frames in a pygame window
+(``pip install "polyenvs[render]"``). Every frame of an instance covers the same bounds, so frames have one size.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polyenvs.core.raster import Canvas
+from polyenvs.swarm.env import BEAM_M
+
+__all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
+
+FRAME_WIDTH_PX = 480
+WALL = (30, 30, 30)
+OBSTACLE = (120, 120, 120)
+LIGHT = (250, 200, 0)
+LIGHT_HALO = (255, 240, 170)
+LINK = (120, 170, 230)
+BODY = (40, 110, 200)
+LEADER = (200, 60, 40)
+HEADING = (255, 255, 255)
+BEAM_HIT = (40, 160, 60)
+BEAM_NONE = (205, 205, 205)
+
+
+class SwarmRenderer:
+    """Renders a :class:`~polyenvs.swarm.env.SwarmEnv`; ``human`` mode opens a pygame window lazily."""
+
+    def __init__(self, render_mode: str, fps: int, bounds):
+        self.render_mode = render_mode
+        self.fps = fps
+        self.bounds = tuple(float(v) for v in bounds)
+        self._window = None
+        self._clock = None
+
+    def frame(self, env) -> np.ndarray:
+        canvas = Canvas(self.bounds, width=FRAME_WIDTH_PX)
+        walls = env.layout.walls
+        canvas.lines(walls[:, :2], walls[:, 2:], WALL, width_px=3.0)
+        canvas.disc(env.goal, env.goal_radius_m, LIGHT_HALO)
+        canvas.disc(env.goal, 0.1, LIGHT)
+        for x, y, r in env.circles:
+            canvas.disc((x, y), r, OBSTACLE)
+        live = np.flatnonzero(env.active)
+        pose = env.pose
+        radius = env.platform.radius_m
+        if getattr(env, "pairs", None) is not None:
+            i, j = env.pairs[:, 0], env.pairs[:, 1]
+            keep = (env.active[i] > 0) & (env.active[j] > 0)
+            canvas.lines(pose[i[keep], :2], pose[j[keep], :2], LINK, width_px=1.5)
+        if len(live):
+            angle = pose[live, 2:3] + np.radians(env.sensor_angles_deg)[None, :]
+            unit = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+            start = pose[live, None, :2] + radius * unit
+            hit = np.isfinite(env._beams[live])
+            length = np.where(hit, env._beams[live], BEAM_M)[..., None]
+            colours = np.where(hit.reshape(-1, 1), BEAM_HIT, BEAM_NONE)
+            canvas.lines(start.reshape(-1, 2), (start + length * unit).reshape(-1, 2), colours, width_px=1.0)
+        for i in live.tolist():
+            canvas.disc(pose[i, :2], radius, LEADER if (env.formation and i == 0) else BODY)
+        if len(live):
+            tip = pose[live, :2] + radius * np.column_stack([np.cos(pose[live, 2]), np.sin(pose[live, 2])])
+            canvas.lines(pose[live, :2], tip, HEADING, width_px=2.0)
+        return canvas.image
+
+    def render(self, env):
+        frame = self.frame(env)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._show(frame)
+        return None
+
+    def _show(self, frame: np.ndarray) -> None:
+        try:
+            import pygame
+        except ImportError as exc:
+            from gymnasium.error import DependencyNotInstalled
+
+            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
+        if self._window is None:
+            pygame.init()
+            pygame.display.init()
+            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
+            pygame.display.set_caption("polyenvs swarm")
+            self._clock = pygame.time.Clock()
+        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+        self._window.blit(surface, (0, 0))
+        pygame.event.pump()
+        pygame.display.flip()
+        self._clock.tick(self.fps)
+
+    def close(self) -> None:
+        if self._window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self._window = None
