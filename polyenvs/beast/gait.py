@@ -1,0 +1,535 @@
+"""The rolling gait of the Platonic beasts (paper section 4), planned from the robot's own sensors.
+
+Paper: Pai, Barman and Ralph, "Platonic Beasts: spherically symmetric multilimbed robots", sections 3 and 4
+(``../shared/seeds/002_*.txt``); the working tumble of the spec's feasibility study (``../shared/spec/beast.md``,
+appendix) is the starting point for the keyframes.
+
+A tumble (l1 l2 l3 l4) tips the body over the edge of feet l1, l2: l3 starts planted and ends free, l4 lands. Each
+tumble is planned afresh from the measured state (the spherical feet roll about 20 mm per tumble, so a plan made once
+drifts off the ground within a few tumbles):
+
+1. **Feet from the encoders.** Forward kinematics of the joint angles puts every foot in the body frame; the three
+   planted ones (the contact switches say which) give the ground plane and the **tumble frame**: origin on the ground
+   under the midpoint of the tipping edge, y from foot l1 to foot l2, z up (the paper's ground frame z = y x (p3 - p1),
+   which points to the body exactly for the right ordering), x = y x z forward, away from foot l3. The body's pose in
+   that frame follows, so no privileged pose is needed.
+2. **Tip (K0 -> K1).** The body translates along the tumble x axis while rotating about an axis parallel to y
+   (section 4.1; a small yaw and sideways shift from the feasibility study keep every limb inside its workspace),
+   until the centre of mass is a few millimetres past the edge. The planted feet stay put: at each knot every planted
+   limb's joint angles come from the closed-form inverse kinematics on the theta3 > 0 knee branch, continuous from the
+   previous knot, and its joint velocities from the limb Jacobian (J theta_dot = d p / dt, section 4.2), giving a
+   piecewise cubic (Hermite) joint trajectory. Meanwhile the free limb swings over the top in joint space to a
+   foothold placed so that it lands on the mirror image of foot l3 across the edge after a free roll of ``roll``.
+3. **Roll.** The targets hold while gravity tips the body about the edge (the paper's brief dynamic tip: two feet down
+   for well under a second) until the contact switches report the landed foot down and the lifted one free.
+4. **Stance (landed -> K3).** The feet are measured again and the body moves (same planted-limb machinery) to the
+   nominal stance over the new support triangle, found by fitting the nominal feet pattern to the measured feet
+   (Kabsch), while the lifted limb folds straight up over the top. The next tumble starts from there.
+
+The same plan serves every tumble by relabelling limbs, and every polyhedron: a support triangle of the 6-beast is a
+face of the octahedron of its feet, the tumble lands the limb opposite the lifted one, and the stance's "up" is minus
+the sum of the support limbs' axes. Which edge to tip over comes from a heading carried across tumbles in a frame
+attached to planted feet (the robot cannot see the world's axes): the feasible edge whose outward direction is
+closest to the heading, never straight back. For the 4-beast this reproduces the straight strip
+(1234)(4213)(4321)(1342) of the feasibility study; tumbles whose joint-1 path would leave its range are skipped.
+
+Public names: :class:`GaitConfig` (rates, stance, tip keyframe), :class:`BeastPlanner` (stateless geometry and
+trajectory planning), :class:`JointTrajectory` (piecewise cubic), :class:`RollingGaitController` (the closed-loop
+state machine for one environment), :func:`split_observation`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from polyenvs.beast import kinematics as K
+
+__all__ = [
+    "BeastPlanner",
+    "GaitConfig",
+    "JointTrajectory",
+    "RollingGaitController",
+    "split_observation",
+    "N_TILT",
+    "CONTROL_DT",
+]
+
+#: Tilt switches in the observation (spec: twelve 1-bit tilt sensors).
+N_TILT = 12
+#: The environments' control tick (frame skip 5 at 2 ms).
+CONTROL_DT = 0.01
+#: Joint limits of the default model (radians), rows joint 1, 2, 3; the environments' actions scale to these.
+DEFAULT_JOINT_RANGES = np.radians([[-180.0, 180.0], [-120.0, 160.0], [-150.0, 150.0]])
+#: The free limb's pose on top: straight out along its face normal, clear of the ground and the other limbs.
+TUCKED = np.array([0.0, math.pi / 2, 0.0])
+
+
+def split_observation(obs: np.ndarray, n_limbs: int) -> dict[str, np.ndarray]:
+    """The sensor part of a beast observation by name (the agreed layout; a privileged tail is ignored)."""
+    nj = 3 * n_limbs
+    obs = np.asarray(obs, dtype=np.float64)
+    return {
+        "joint_pos": obs[:nj],
+        "joint_vel": obs[nj : 2 * nj],
+        "tilt": obs[2 * nj : 2 * nj + N_TILT],
+        "contact": obs[2 * nj + N_TILT : 2 * nj + N_TILT + n_limbs],
+        "prev_action": obs[2 * nj + N_TILT + n_limbs : 3 * nj + N_TILT + n_limbs + nj],
+    }
+
+
+def n_limbs_of(obs_dim: int) -> tuple[int, bool]:
+    """(number of limbs, privileged) from an observation length: 10 n + 12 sensors, plus 13 when privileged."""
+    for privileged, extra in ((False, 0), (True, 13)):
+        n, rest = divmod(obs_dim - N_TILT - extra, 10)
+        if rest == 0 and n in K.N_LIMBS.values():
+            return n, privileged
+    raise ValueError(f"observation length {obs_dim} is not a beast's (10 n + 12, or + 13 privileged)")
+
+
+def polyhedron_of(n_limbs: int) -> str:
+    return {v: k for k, v in K.N_LIMBS.items()}[n_limbs]
+
+
+def _skew(w: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def rotation_exp(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix of rotation vector ``w`` (Rodrigues)."""
+    angle = float(np.linalg.norm(w))
+    if angle < 1e-12:
+        return np.eye(3) + _skew(w)
+    k = _skew(w / angle)
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def rotation_log(r: np.ndarray) -> np.ndarray:
+    """Rotation vector of a rotation matrix (angles below pi, which every planned body motion is)."""
+    cos = np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)
+    angle = math.acos(cos)
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    if angle < 1e-9:
+        return v / 2
+    return v * angle / (2 * math.sin(angle))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+class JointTrajectory:
+    """Piecewise cubic Hermite joint trajectory through knots (times, angles, velocities); holds the end after T."""
+
+    def __init__(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray):
+        self.times = np.asarray(times, dtype=float)
+        self.q = np.asarray(q, dtype=float)
+        self.qd = np.asarray(qd, dtype=float)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def __call__(self, t: float) -> np.ndarray:
+        if t >= self.times[-1]:
+            return self.q[-1].copy()
+        if t <= 0.0:
+            return self.q[0].copy()
+        i = int(np.searchsorted(self.times, t, side="right")) - 1
+        h = self.times[i + 1] - self.times[i]
+        u = (t - self.times[i]) / h
+        h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+        h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+        return h00 * self.q[i] + h10 * h * self.qd[i] + h01 * self.q[i + 1] + h11 * h * self.qd[i + 1]
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitConfig:
+    """Parameters of the rolling gait (lengths in metres, angles in degrees).
+
+    The 4-beast's defaults are the feasibility study's working tumble: feet on an equilateral pattern of side 300 mm
+    (the nominal 353 mm stance admits no tumble with Table 1's limbs), body centre 168 mm up, a tip keyframe with the
+    body centre at (-0.4, 2.3, 146.3) mm in the tumble frame turned by Ry(41.95) Rx(-0.03) Rz(2.68) from the stance
+    (centre of mass about 4 mm past the edge), the landing foot pre-placed for a free roll of 16.7 degrees, joints
+    at 20 deg/s (the paper's 12 W power budget implies about 15 deg/s).
+    """
+
+    rate_deg_s: float = 20.0
+    stance_side: float = 0.300
+    stance_height: float = 0.168
+    tip_centre: tuple[float, float, float] = (-0.0004, 0.0023, 0.1463)
+    tip_rotation_deg: tuple[float, float, float] = (41.95, -0.03, 2.68)
+    roll_deg: float = 16.7
+    knots: int = 16
+    #: extra forward motion when the body has not tipped after a plan (metres per retry) and the retries allowed
+    nudge: float = 0.006
+    max_nudges: int = 4
+
+
+#: Per-polyhedron defaults. The 6-beast stands higher: its cube body's lowest vertex hangs 147 mm below the centre.
+DEFAULT_CONFIGS = {
+    "tetrahedron": GaitConfig(),
+    "octahedron": GaitConfig(),
+    "cube": GaitConfig(),
+}
+
+
+class BeastPlanner:
+    """Geometry and trajectory planning for one beast (no state between calls)."""
+
+    def __init__(
+        self,
+        polyhedron: str = "tetrahedron",
+        links: K.Links = K.PROTOTYPE_LINKS,
+        joint_ranges: np.ndarray = DEFAULT_JOINT_RANGES,
+        foot_radius: float = 0.018,
+        config: GaitConfig | None = None,
+    ):
+        self.polyhedron = polyhedron
+        self.links = K.Links(*links)
+        self.joint_ranges = np.asarray(joint_ranges, dtype=float)
+        self.foot_radius = float(foot_radius)
+        self.config = config if config is not None else DEFAULT_CONFIGS[polyhedron]
+        self.base = K.limb_base_frames(polyhedron)[:, :3, :3]
+        self.dirs = K.limb_directions(polyhedron)
+        self.n_limbs = len(self.dirs)
+        self.rate = math.radians(self.config.rate_deg_s)
+        self._low = np.tile(self.joint_ranges[:, 0], self.n_limbs)
+        self._high = np.tile(self.joint_ranges[:, 1], self.n_limbs)
+
+    # ----------------------------------------------------------------------------------------------- geometry
+    def feet(self, q: np.ndarray) -> np.ndarray:
+        """Foot centres in the body frame (n_limbs, 3) from joint angles (n_joints,)."""
+        return K.foot_in_body(np.asarray(q, dtype=float).reshape(self.n_limbs, 3), self.links, self.polyhedron)
+
+    def to_action(self, q: np.ndarray) -> np.ndarray:
+        """Joint targets -> actions in [-1, 1] (the environments' linear map onto the joint ranges)."""
+        return np.clip(2 * (q - self._low) / (self._high - self._low) - 1, -1.0, 1.0).astype(np.float32)
+
+    def order_edge(self, feet: np.ndarray, a: int, b: int, c: int) -> tuple[int, int, int]:
+        """(l1, l2, l3) with edge {a, b} ordered so that the ground frame's z = y x (p3 - p1) points to the body."""
+        z = np.cross(feet[b] - feet[a], feet[c] - feet[a])
+        return (a, b, c) if np.dot(z, -feet[a]) > 0 else (b, a, c)
+
+    def tumble_frame(self, feet: np.ndarray, l1: int, l2: int, l3: int) -> tuple[np.ndarray, np.ndarray]:
+        """Rotation body -> tumble frame (rows x, y, z in body coordinates) and the frame origin in the body frame."""
+        y = _unit(feet[l2] - feet[l1])
+        z = _unit(np.cross(y, feet[l3] - feet[l1]))
+        x = np.cross(y, z)
+        origin = (feet[l1] + feet[l2]) / 2 - self.foot_radius * z
+        return np.stack([x, y, z]), origin
+
+    def up_axis(self, support) -> np.ndarray:
+        """The body-frame direction that points up in the nominal stance on ``support``."""
+        return _unit(-self.dirs[list(support)].sum(axis=0))
+
+    def stance_orientation(self, l1: int, l2: int, l3: int) -> np.ndarray:
+        """Body -> tumble rotation of the nominal stance on (l1, l2, l3): symmetric, the edge l1-l2 ahead."""
+        z = self.up_axis((l1, l2, l3))
+        y = self.dirs[l2] - self.dirs[l1]
+        y = _unit(y - np.dot(y, z) * z)
+        return np.stack([np.cross(y, z), y, z])
+
+    def nominal_feet(self, l1: int, l2: int, l3: int) -> tuple[np.ndarray, np.ndarray]:
+        """Nominal stance feet of (l1, l2, l3) in the body frame (3, 3) and the body centre in the tumble frame."""
+        s, r = self.config.stance_side, self.foot_radius
+        tumble = np.array([[0.0, -s / 2, r], [0.0, s / 2, r], [-s * math.sqrt(3) / 2, 0.0, r]])
+        centre = np.array([-s / (2 * math.sqrt(3)), 0.0, self.config.stance_height])
+        rot = self.stance_orientation(l1, l2, l3)
+        return (tumble - centre) @ rot, centre
+
+    def stance_angles(self, support) -> dict[int, np.ndarray]:
+        """Joint angles of the nominal stance on ``support`` (knee branch, thigh raised: the working tumble's stance), by limb."""
+        feet = self.dirs * 0.2  # feet lie roughly along their limb axes; enough to order the triangle
+        l1, l2, l3 = self.order_edge(feet, *support)
+        nominal, _ = self.nominal_feet(l1, l2, l3)
+        q = K.inverse_kinematics(
+            np.einsum("lji,lj->li", self.base[[l1, l2, l3]], nominal), self.links, knee=1, flip=True
+        )
+        return dict(zip((l1, l2, l3), q))
+
+    def ik_near(self, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
+        """Knee-branch (theta3 > 0) inverse kinematics closest to ``q_prev`` (both (m, 3)); theta1 unwrapped."""
+        sols = K.inverse_kinematics(p_limb[:, None, :], self.links, knee=1, flip=np.array([False, True]))
+        diff = sols - q_prev[:, None, :]
+        diff[..., 0] = np.mod(diff[..., 0] + np.pi, 2 * np.pi) - np.pi
+        diff[..., 1] = np.mod(diff[..., 1] + np.pi, 2 * np.pi) - np.pi
+        best = np.argmin(np.abs(diff).sum(axis=-1), axis=1)
+        rows = np.arange(len(p_limb))
+        return q_prev + diff[rows, best]
+
+    def in_range(self, q: np.ndarray, margin: float = 0.0) -> bool:
+        q = np.asarray(q).reshape(-1, self.n_limbs * 3)
+        return bool(np.all(q >= self._low + margin) and np.all(q <= self._high - margin))
+
+    # --------------------------------------------------------------------------------------------- planning
+    def body_motion(
+        self,
+        q_now: np.ndarray,
+        planted: list[int],
+        feet_tumble: np.ndarray,
+        pose0: tuple[np.ndarray, np.ndarray],
+        pose1: tuple[np.ndarray, np.ndarray],
+        free_targets: dict[int, np.ndarray],
+    ) -> JointTrajectory:
+        """Joint trajectory moving the body from pose0 to pose1 (rotation body -> tumble, centre) with feet fixed.
+
+        ``feet_tumble`` (n_limbs, 3) holds the planted feet in the tumble frame; the body's centre moves in a
+        straight line and its orientation at a constant angular velocity (a constant twist split into translation
+        and rotation, paper eq. 6-7), starting and ending at rest. Free limbs go in joint space
+        from their current angles to ``free_targets``. The duration makes the fastest joint run at the configured
+        rate.
+        """
+        cfg = self.config
+        q_now = np.asarray(q_now, dtype=float).reshape(self.n_limbs, 3)
+        (r0, c0), (r1, c1) = pose0, pose1
+        omega = rotation_log(r1 @ r0.T)  # spatial rotation vector, tumble frame
+        dc = c1 - c0
+        s_knots = np.linspace(0.0, 1.0, cfg.knots + 1)
+        n = len(s_knots)
+        q = np.repeat(q_now[None], n, axis=0)
+        dq_ds = np.zeros_like(q)
+        planted = list(planted)
+        if planted:
+            prev = q_now[planted]
+            base = self.base[planted]
+            for k, s in enumerate(s_knots):
+                rot = rotation_exp(s * omega) @ r0
+                centre = c0 + s * dc
+                rel = feet_tumble[planted] - centre
+                p_body = rel @ rot  # rot.T @ rel, row-wise
+                p_limb = np.einsum("lji,lj->li", base, p_body)
+                prev = self.ik_near(p_limb, prev)
+                q[k, planted] = prev
+                # d(foot in body)/ds = -R^T (omega x (p - c) + dc); then into the limb frame, through J^-1.
+                dp_body = -(np.cross(omega, rel) + dc) @ rot
+                dp_limb = np.einsum("lji,lj->li", base, dp_body)
+                jac = K.limb_jacobian(prev, self.links)
+                dq_ds[k, planted] = np.stack(
+                    [np.linalg.lstsq(jac[i], dp_limb[i], rcond=1e-6)[0] for i in range(len(planted))]
+                )
+        for limb, target in free_targets.items():
+            delta = np.asarray(target, dtype=float) - q_now[limb]
+            q[:, limb] = q_now[limb] + s_knots[:, None] * delta
+            dq_ds[:, limb] = delta
+        # Time along the path: each knot interval takes as long as its fastest joint needs at the rate limit (the
+        # robot slows where a limb nears a singularity instead of everywhere); the path starts and ends at rest,
+        # so the end intervals get the cubic's 1.5x.
+        dt = np.maximum(np.abs(np.diff(q, axis=0)).max(axis=(1, 2)) / self.rate, 1e-3)
+        dt[[0, -1]] *= 1.5
+        times = np.concatenate([[0.0], np.cumsum(dt)])
+        ds = np.diff(s_knots)
+        s_dot = np.zeros(n)
+        s_dot[1:-1] = np.minimum(ds[:-1] / dt[:-1], ds[1:] / dt[1:])
+        qd = dq_ds * s_dot[:, None, None]
+        return JointTrajectory(times, q.reshape(n, -1), qd.reshape(n, -1))
+
+    def tip_plan(self, q_now: np.ndarray, tumble: tuple[int, int, int, int], extra: float = 0.0):
+        """Trajectory K0 -> K1 of tumble (l1, l2, l3, l4) (0-based limbs) from the measured angles, or None.
+
+        ``extra`` pushes the tip keyframe that much further forward (a retry when the body did not tip). None when a
+        joint would leave its range or a foot its workspace.
+        """
+        cfg = self.config
+        l1, l2, l3, l4 = tumble
+        feet = self.feet(q_now)
+        rot0, origin = self.tumble_frame(feet, l1, l2, l3)
+        c0 = -rot0 @ origin
+        feet_t = (feet - origin) @ rot0.T
+        a, b, c = np.radians(cfg.tip_rotation_deg)
+        r_k0 = self.stance_orientation(l1, l2, l3)
+        r1 = K.rot_y(a) @ K.rot_x(b) @ K.rot_z(c) @ r_k0
+        c1 = np.array(cfg.tip_centre) + np.array([extra, 0.0, 0.0])
+        # Landing foothold: foot l3 mirrored across the edge, on the ground; rolled back by the free roll's angle.
+        land = feet_t[l1] + feet_t[l2] - feet_t[l3]
+        land[2] = self.foot_radius
+        alpha = math.radians(cfg.roll_deg)
+        pre = land.copy()
+        pre[0], pre[2] = (
+            land[0] * math.cos(alpha) - (land[2] - self.foot_radius) * math.sin(alpha),
+            self.foot_radius + land[0] * math.sin(alpha) + (land[2] - self.foot_radius) * math.cos(alpha),
+        )
+        p_body = r1.T @ (pre - c1)
+        p_limb = self.base[l4].T @ p_body
+        if not K.reachable(p_limb, self.links):
+            return None
+        # The landing limb takes the knee-branch solution nearest its nominal stance after landing (theta1 within
+        # a few degrees of it), so the stance that follows needs no branch change.
+        q_pre = self.ik_near(p_limb[None], self.stance_angles((l1, l4, l2))[l4][None])[0]
+        free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in tumble}
+        free[l4] = q_pre
+        traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
+        return traj if self.in_range(traj.q) else None
+
+    def stance_plan(self, q_now: np.ndarray, support: tuple[int, int, int], lifted: tuple[int, ...]):
+        """Trajectory to the nominal stance over the measured ``support`` feet; ``lifted`` limbs fold up. Or None."""
+        feet = self.feet(q_now)
+        l1, l2, l3 = self.order_edge(feet, *support)
+        rot0, origin = self.tumble_frame(feet, l1, l2, l3)
+        c0 = -rot0 @ origin
+        feet_t = (feet - origin) @ rot0.T
+        nominal, _ = self.nominal_feet(l1, l2, l3)
+        measured = feet[[l1, l2, l3]]
+        # Kabsch: the body pose (in the current body frame) whose nominal feet best fit the measured ones.
+        mn, mm = nominal.mean(axis=0), measured.mean(axis=0)
+        u, _, vt = np.linalg.svd((nominal - mn).T @ (measured - mm))
+        d = np.sign(np.linalg.det(vt.T @ u.T))
+        rk = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+        tk = mm - rk @ mn
+        r1 = rot0 @ rk
+        c1 = rot0 @ (tk - origin)
+        free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in (l1, l2, l3)}
+        traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
+        return traj if self.in_range(traj.q) else None
+
+
+class RollingGaitController:
+    """Closed-loop rolling gait for one environment: observation in, joint-target action out, plan kept inside."""
+
+    def __init__(
+        self,
+        planner: BeastPlanner,
+        first_tumble: tuple[int, int, int, int] | None = None,
+        max_tumbles: int | None = None,
+        heading: np.ndarray | None = None,
+    ):
+        self.planner = planner
+        # Without a heading yet, the first tumble fixes it: the canonical (1234) when limbs 1, 2, 3 stand.
+        self.first_tumble = tuple(int(v) - 1 for v in (first_tumble or (1, 2, 3, 4)))
+        self.max_tumbles = max_tumbles
+        self.heading_first = heading
+        self.phase = "start"
+        self.traj: JointTrajectory | None = None
+        self.t = 0.0
+        self.tumble: tuple[int, ...] | None = None
+        self.support: tuple[int, ...] | None = None
+        self.tumbles_done = 0
+        self.hold_q: np.ndarray | None = None
+        self.landed_for = 0.0
+        self.waited = 0.0
+        self.nudges = 0
+        self.heading_edge: tuple[int, int] | None = None
+        self.heading_vec: np.ndarray | None = None
+        self.last_edge: frozenset | None = None
+        self.history: list[tuple[int, ...]] = []
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        p = self.planner
+        sensors = split_observation(obs, p.n_limbs)
+        q = sensors["joint_pos"]
+        contact = sensors["contact"] > 0.5
+        dt = CONTROL_DT
+        if self.phase == "start":
+            self.hold_q = q.copy()
+            down = tuple(int(i) for i in np.flatnonzero(contact))
+            if len(down) >= 3:
+                self.support = down[:3] if len(down) == 3 else self._lowest(q, down)
+                self._begin_next(q)
+        elif self.phase in ("tip", "stance"):
+            self.t += dt
+            if self.t >= self.traj.duration:
+                self.hold_q = self.traj.q[-1].copy()
+                if self.phase == "tip":
+                    self.phase, self.landed_for, self.waited = "roll", 0.0, 0.0
+                else:
+                    self._begin_next(q)
+        elif self.phase == "roll":
+            l1, l2, l3, l4 = self.tumble
+            self.waited += dt
+            landed = contact[l4] and not contact[l3]
+            self.landed_for = self.landed_for + dt if landed else 0.0
+            if self.landed_for >= 0.3:
+                self.tumbles_done += 1
+                self.history.append(tuple(v + 1 for v in self.tumble))
+                self.support = (l1, l2, l4)
+                self.last_edge = frozenset((l1, l2))
+                plan = p.stance_plan(q, self.support, (l3,))
+                if plan is None:
+                    self.phase = "stuck"
+                else:
+                    self._start(plan, "stance")
+            elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
+                self.nudges += 1
+                plan = p.tip_plan(q, self.tumble, extra=self.nudges * p.config.nudge)
+                if plan is not None:
+                    self._start(plan, "tip")
+        if self.traj is not None and self.phase in ("tip", "stance"):
+            return p.to_action(self.traj(self.t))
+        return p.to_action(self.hold_q)
+
+    def _lowest(self, q, down):
+        return tuple(down[:3])
+
+    def _start(self, traj: JointTrajectory, phase: str):
+        self.traj, self.t, self.phase = traj, 0.0, phase
+
+    def _begin_next(self, q: np.ndarray):
+        """Choose and plan the next tumble from the current support, or hold when done or nothing is feasible."""
+        if self.max_tumbles is not None and self.tumbles_done >= self.max_tumbles:
+            self.phase = "done"
+            return
+        p = self.planner
+        feet = p.feet(q)
+        candidates = self._candidates(feet)
+        for tumble in candidates:
+            plan = p.tip_plan(q, tumble)
+            if plan is not None:
+                self._carry_heading(feet, tumble)
+                self.tumble, self.nudges = tumble, 0
+                self._start(plan, "tip")
+                return
+        self.phase = "stuck"
+
+    def _heading_body(self, feet: np.ndarray) -> np.ndarray | None:
+        """The carried heading in the body frame, from the feet that anchor it."""
+        if self.heading_vec is None:
+            return None
+        return self._edge_frame(feet, *self.heading_edge).T @ self.heading_vec
+
+    def _edge_frame(self, feet: np.ndarray, a: int, b: int) -> np.ndarray:
+        """Body -> ground rotation anchored on planted feet a, b: y from a to b, z up (the support's normal)."""
+        s = self.support
+        z = _unit(np.cross(feet[s[1]] - feet[s[0]], feet[s[2]] - feet[s[0]]))
+        z = z if np.dot(z, -feet[s[0]]) > 0 else -z
+        y = feet[b] - feet[a]
+        y = _unit(y - np.dot(y, z) * z)
+        return np.stack([np.cross(y, z), y, z])
+
+    def _carry_heading(self, feet, tumble):
+        l1, l2, l3, _ = tumble
+        rot = self._edge_frame(feet, l1, l2)
+        body = self._heading_body(feet)
+        if body is None:
+            # The first tumble fixes the heading: the straight strip runs 30 degrees to the left of its tip direction.
+            body = rot.T @ (self.heading_first if self.heading_first is not None else np.array([0.866, 0.5, 0.0]))
+        h = rot @ body
+        h[2] = 0.0
+        self.heading_vec, self.heading_edge = _unit(h), (l1, l2)
+
+    def _candidates(self, feet) -> list[tuple[int, int, int, int]]:
+        """Tumbles from the current support, best aligned with the heading first, never straight back."""
+        p = self.planner
+        s = self.support
+        if self.tumbles_done == 0 and set(self.first_tumble[:3]) == set(s):
+            return [self.first_tumble]
+        heading = self._heading_body(feet)
+        out = []
+        for c in s:
+            a, b = (limb for limb in s if limb != c)
+            if self.last_edge == frozenset((a, b)):
+                continue
+            l1, l2, l3 = p.order_edge(feet, a, b, c)
+            l4 = self._landing_limb(l1, l2, l3)
+            rot, _ = p.tumble_frame(feet, l1, l2, l3)
+            score = 0.0 if heading is None else float(rot[0] @ heading)
+            out.append((score, (l1, l2, l3, l4)))
+        out.sort(key=lambda item: -item[0])
+        return [t for _, t in out]
+
+    def _landing_limb(self, l1: int, l2: int, l3: int) -> int:
+        """The free limb that lands: the one whose axis is furthest from l3's (opposite it on the 6-beast)."""
+        p = self.planner
+        free = [limb for limb in range(p.n_limbs) if limb not in (l1, l2, l3)]
+        return min(free, key=lambda limb: float(p.dirs[limb] @ p.dirs[l3]))
