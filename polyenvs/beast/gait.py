@@ -248,7 +248,7 @@ class BeastPlanner:
         q = K.inverse_kinematics(
             np.einsum("lji,lj->li", self.base[[l1, l2, l3]], nominal), self.links, knee=1, flip=True
         )
-        return dict(zip((l1, l2, l3), q))
+        return dict(zip((l1, l2, l3), q, strict=True))
 
     def ik_near(self, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
         """Knee-branch (theta3 > 0) inverse kinematics closest to ``q_prev`` (both (m, 3)); theta1 unwrapped."""
