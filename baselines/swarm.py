@@ -127,8 +127,11 @@ class APLite(Policy):
             r = np.where(seen, np.maximum(RANGE_IN - inches_from_raw(raw), 0.0), 0.0)
         fx, fy = self.goal_force(obs)
         ex, ey = self.extra_force(obs)
-        fx = fx - r @ self._cos + ex
-        fy = fy - r @ self._sin + ey
+        # Sensor by sensor, in order (not a matrix product, whose rounding depends on the batch size).
+        for s in range(4):
+            fx = fx - r[:, s] * self._cos[s]
+            fy = fy - r[:, s] * self._sin[s]
+        fx, fy = fx + ex, fy + ey
         vx = FRICTION * v + STEP * fx / MASS
         vy = STEP * fy / MASS
         v = np.hypot(vx, vy)
