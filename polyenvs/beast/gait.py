@@ -41,6 +41,7 @@ state machine for one environment), :func:`split_observation`.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -51,6 +52,7 @@ __all__ = [
     "BeastPlanner",
     "GaitConfig",
     "JointTrajectory",
+    "RightingController",
     "RollingGaitController",
     "split_observation",
     "N_TILT",
@@ -361,7 +363,17 @@ class BeastPlanner:
         free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in tumble}
         free[l4] = q_pre
         traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
-        return traj if self.in_range(traj.q) else None
+        if not self.in_range(traj.q):
+            return None
+        # The stance after landing must be reachable too: each new support limb's joint 1 turns continuously from
+        # its tip angle to its nominal stance angle, and must not have to pass the end of its range to get there
+        # (this is what leaves 4 of the 4-beast's 12 tumbles unplannable within +-180 degrees).
+        end = traj.q[-1].reshape(self.n_limbs, 3)
+        for limb, angles in self.stance_angles((l1, l2, l4)).items():
+            turn = np.mod(angles[0] - end[limb, 0] + np.pi, 2 * np.pi) - np.pi
+            if not self.joint_ranges[0, 0] <= end[limb, 0] + turn <= self.joint_ranges[0, 1]:
+                return None
+        return traj
 
     def stance_plan(self, q_now: np.ndarray, support: tuple[int, int, int], lifted: tuple[int, ...]):
         """Trajectory to the nominal stance over the measured ``support`` feet; ``lifted`` limbs fold up. Or None."""
@@ -386,7 +398,13 @@ class BeastPlanner:
 
 
 class RollingGaitController:
-    """Closed-loop rolling gait for one environment: observation in, joint-target action out, plan kept inside."""
+    """Closed-loop rolling gait for one environment: observation in, joint-target action out, plan kept inside.
+
+    ``first_tumble`` (1-based, default (1 2 3 4)) is taken when its first three limbs are the measured support;
+    ``heading`` (tumble frame of the first tumble) defaults to the 4-beast's straight strip, 30 degrees left of the
+    first tip; ``pivot`` (1-based) keeps that limb planted: every tumble tips over an edge containing it, the sharp
+    turn of the paper's Figures 10 and 11.
+    """
 
     def __init__(
         self,
@@ -394,8 +412,10 @@ class RollingGaitController:
         first_tumble: tuple[int, int, int, int] | None = None,
         max_tumbles: int | None = None,
         heading: np.ndarray | None = None,
+        pivot: int | None = None,
     ):
         self.planner = planner
+        self.pivot = None if pivot is None else int(pivot) - 1
         # Without a heading yet, the first tumble fixes it: the canonical (1234) when limbs 1, 2, 3 stand.
         self.first_tumble = tuple(int(v) - 1 for v in (first_tumble or (1, 2, 3, 4)))
         self.max_tumbles = max_tumbles
@@ -480,7 +500,8 @@ class RollingGaitController:
                 self.tumble, self.nudges = tumble, 0
                 self._start(plan, "tip")
                 return
-        self.phase = "stuck"
+        # A pivot turn ends where no tumble about the pivot is plannable; otherwise nothing is, which is stuck.
+        self.phase = "done" if self.pivot is not None else "stuck"
 
     def _heading_body(self, feet: np.ndarray) -> np.ndarray | None:
         """The carried heading in the body frame, from the feet that anchor it."""
@@ -518,7 +539,7 @@ class RollingGaitController:
         out = []
         for c in s:
             a, b = (limb for limb in s if limb != c)
-            if self.last_edge == frozenset((a, b)):
+            if self.last_edge == frozenset((a, b)) or (self.pivot is not None and self.pivot not in (a, b)):
                 continue
             l1, l2, l3 = p.order_edge(feet, a, b, c)
             l4 = self._landing_limb(l1, l2, l3)
@@ -533,3 +554,84 @@ class RollingGaitController:
         p = self.planner
         free = [limb for limb in range(p.n_limbs) if limb not in (l1, l2, l3)]
         return min(free, key=lambda limb: float(p.dirs[limb] @ p.dirs[l3]))
+
+
+class RightingController:
+    """Righting from any orientation: stand on the three limbs that point most nearly down, as the tilt bits say.
+
+    Gravity's direction in the body frame is the mean axis of the switches that read "below horizontal"; the support
+    is the feasible triple (any three limbs of the 4-beast, one limb of each opposite pair of the 6-beast) whose axes
+    point most nearly down. Those limbs swing in joint space to their nominal stance and the others fold up; after a
+    short settle the contact switches decide: the three feet down (and no other) is a stance, otherwise it reads the
+    tilt again and tries the next triple. With ``roll_after`` the rolling gait takes over from the stance.
+    """
+
+    def __init__(self, planner: BeastPlanner, roll_after: bool = False, settle: float = 0.5):
+        from polyenvs.beast.sensors import TILT_AXES
+
+        self.planner = planner
+        self.tilt_axes = TILT_AXES
+        self.roll_after = roll_after
+        self.settle = settle
+        self.phase = "start"
+        self.traj: JointTrajectory | None = None
+        self.t = 0.0
+        self.waited = 0.0
+        self.support: tuple[int, ...] | None = None
+        self.tried: list[tuple[int, ...]] = []
+        self.gait: RollingGaitController | None = None
+        n = planner.n_limbs
+        dirs = planner.dirs
+        # Candidate supports: triples whose limbs are pairwise non-opposite (a face of the limbs' polyhedron).
+        self.triples = [
+            t
+            for t in itertools.combinations(range(n), 3)
+            if all(float(dirs[i] @ dirs[j]) > -0.99 for i, j in itertools.combinations(t, 2))
+        ]
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        p = self.planner
+        if self.gait is not None:
+            return self.gait(obs)
+        sensors = split_observation(obs, p.n_limbs)
+        q = sensors["joint_pos"]
+        contact = sensors["contact"] > 0.5
+        if self.phase == "start":
+            self._plan(q, sensors["tilt"])
+        elif self.phase == "move":
+            self.t += CONTROL_DT
+            if self.t >= self.traj.duration:
+                self.phase, self.waited = "settle", 0.0
+        elif self.phase == "settle":
+            self.waited += CONTROL_DT
+            if self.waited >= self.settle:
+                down = set(np.flatnonzero(contact).tolist())
+                if down == set(self.support):
+                    self.phase = "stood"
+                    if self.roll_after:
+                        self.gait = RollingGaitController(p)
+                        return self.gait(obs)
+                else:
+                    self._plan(q, sensors["tilt"])
+        return p.to_action(self.traj(self.t) if self.traj is not None else q)
+
+    def _plan(self, q: np.ndarray, tilt: np.ndarray):
+        p = self.planner
+        on = tilt > 0.5
+        # A switch that reads 1 points below the horizontal, so gravity lies along their mean axis.
+        down = self.tilt_axes[on].mean(axis=0) if on.any() else np.zeros(3)
+        scores = [float(p.dirs[list(t)].sum(axis=0) @ down) for t in self.triples]
+        order = [self.triples[i] for i in np.argsort(scores)[::-1]]
+        fresh = [t for t in order if t not in self.tried[-2:]]
+        self.support = (fresh or order)[0]
+        self.tried.append(self.support)
+        target = q.reshape(p.n_limbs, 3).copy()
+        for limb in range(p.n_limbs):
+            target[limb] = TUCKED
+        for limb, angles in p.stance_angles(self.support).items():
+            target[limb] = angles
+        target = target.ravel()
+        duration = max(0.3, 1.5 * float(np.abs(target - q).max()) / p.rate)
+        times = np.array([0.0, duration])
+        self.traj = JointTrajectory(times, np.stack([q, target]), np.zeros((2, len(q))))
+        self.t, self.phase = 0.0, "move"

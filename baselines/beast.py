@@ -1,0 +1,144 @@
+"""Hand baselines for the Platonic beasts: the paper's rolling gait, its sharp turn, and a righting routine.
+
+They read only the sensor part of the observation (encoder angles, tilt switches, foot contacts; a privileged tail,
+when the environment has one, is ignored) and plan with :mod:`polyenvs.beast.gait`. Each keeps its plan (the current
+joint trajectory and the tumble it is in) in a controller per environment, held in the policy object; the memory
+row that ``predict`` carries is that controller's handle, so batches and episode restarts work as for every policy.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from baselines.base import Policy
+from polyenvs.beast.gait import (
+    BeastPlanner,
+    GaitConfig,
+    RightingController,
+    RollingGaitController,
+    n_limbs_of,
+    polyhedron_of,
+)
+from polyenvs.core.validation import check_bool, check_in_range, check_int
+
+__all__ = ["RollingGait", "SharpTurn", "Righting"]
+
+
+class _ControllerPolicy(Policy):
+    """A controller object per environment, found through the handle in that environment's memory row."""
+
+    memory_size = 1
+
+    def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0):
+        super().__init__(observation_space, action_space)
+        self.rate_deg_s = check_in_range("rate_deg_s", rate_deg_s, 5.0, 90.0)
+        n_limbs, _ = n_limbs_of(int(np.prod(observation_space.shape)))
+        if action_space.shape != (3 * n_limbs,):
+            raise ValueError(f"action_space must have shape ({3 * n_limbs},), got {action_space.shape}")
+        self.polyhedron = polyhedron_of(n_limbs)
+        base = GaitConfig()
+        self.planner = BeastPlanner(self.polyhedron, config=_with_rate(self.planner_config(), self.rate_deg_s, base))
+        self._controllers: dict[int, object] = {}
+        self._handles = itertools.count(1)
+
+    def planner_config(self) -> GaitConfig | None:
+        return None
+
+    def make_controller(self):
+        raise NotImplementedError
+
+    def controller(self, memory: np.ndarray):
+        """The controller of the environment whose memory row this is (a new one after a restart)."""
+        handle = int(memory[0])
+        if handle not in self._controllers:
+            handle = next(self._handles)
+            memory[0] = handle
+            self._controllers[handle] = self.make_controller()
+        return self._controllers[handle]
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
+        if state is not None and episode_start is not None:
+            # Controllers of episodes that end here are dropped, so a long evaluation does not pile them up.
+            restart = np.broadcast_to(np.asarray(episode_start, dtype=bool), (np.shape(state)[0],))
+            for handle in np.asarray(state, dtype=np.float64)[restart, 0]:
+                self._controllers.pop(int(handle), None)
+        return super().predict(observation, state, episode_start, deterministic)
+
+    def act(self, observation, memory):
+        return self.controller(memory)(observation)
+
+
+def _with_rate(config: GaitConfig | None, rate: float, default: GaitConfig) -> GaitConfig | None:
+    import dataclasses
+
+    if config is None and rate == default.rate_deg_s:
+        return None
+    return dataclasses.replace(config or default, rate_deg_s=rate)
+
+
+class RollingGait(_ControllerPolicy):
+    """The paper's rolling gait (section 4), closed loop on the robot's own sensors, re-planned every tumble.
+
+    Each tumble is planned from the feet measured by forward kinematics of the encoders (the contact switches say
+    which are planted): tip keyframe, free limb over the top to its next foothold, dynamic tip, stance over the new
+    support triangle (:mod:`polyenvs.beast.gait`). The 4-beast starts with the canonical tumble (1234) and rolls
+    along the straight strip (1234)(4213)(4321)(1342), 30 degrees left of the first tip; the 6-beast picks the edge
+    of its support face best aligned with the same heading.
+
+    Args:
+        rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s (paper's power budget: ~15).
+        max_tumbles: stop (hold the stance) after this many tumbles, in [1, 1000]; None rolls on.
+    """
+
+    def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0, max_tumbles: int | None = None):
+        super().__init__(observation_space, action_space, rate_deg_s)
+        self.max_tumbles = None if max_tumbles is None else check_int("max_tumbles", max_tumbles, 1, 1000)
+
+    def describe(self):
+        return {"name": "rolling_gait", "rate_deg_s": self.rate_deg_s, "max_tumbles": self.max_tumbles}
+
+    def make_controller(self):
+        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles)
+
+
+class SharpTurn(_ControllerPolicy):
+    """The sharp turn of the paper's Figures 10 and 11: one limb stays planted while the robot rolls about it.
+
+    Every tumble tips over an edge that contains the pivot limb, so the support triangles fan around its foot (a
+    cone swept by the body). Args: ``pivot`` (1-based limb, default 1), ``rate_deg_s`` as for :class:`RollingGait`,
+    ``max_tumbles`` (default 3, in [1, 100]).
+    """
+
+    def __init__(self, observation_space, action_space, pivot: int = 1, rate_deg_s: float = 20.0, max_tumbles=3):
+        super().__init__(observation_space, action_space, rate_deg_s)
+        self.pivot = check_int("pivot", pivot, 1, self.planner.n_limbs)
+        self.max_tumbles = check_int("max_tumbles", max_tumbles, 1, 100)
+
+    def describe(self):
+        return {"name": "sharp_turn", "pivot": self.pivot, "rate_deg_s": self.rate_deg_s}
+
+    def make_controller(self):
+        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, pivot=self.pivot)
+
+
+class Righting(_ControllerPolicy):
+    """Righting after a topple (paper section 5): from the tilt switches, stand on the three limbs pointing down.
+
+    The twelve tilt bits give gravity's direction in the body frame (the mean of the switch axes that read "below
+    horizontal"); the three limbs whose axes point most nearly down swing in joint space to their nominal stance and
+    the others fold up, and the routine repeats from the new reading until the contact switches report those three
+    feet down; then, with ``roll_after``, it hands over to the rolling gait. ``rate_deg_s`` as for
+    :class:`RollingGait`.
+    """
+
+    def __init__(self, observation_space, action_space, rate_deg_s: float = 30.0, roll_after: bool = False):
+        super().__init__(observation_space, action_space, rate_deg_s)
+        self.roll_after = check_bool("roll_after", roll_after)
+
+    def describe(self):
+        return {"name": "righting", "rate_deg_s": self.rate_deg_s, "roll_after": self.roll_after}
+
+    def make_controller(self):
+        return RightingController(self.planner, roll_after=self.roll_after)
