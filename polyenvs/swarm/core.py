@@ -193,13 +193,16 @@ def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start,
             within ``beam_m``.
         nb_index, nb_range: ``(N, k)`` out: the k nearest other active robots within ``comm_range_m`` by centre
             distance, nearest first (index -1 and range ``inf`` in unused slots).
-        clearance: ``(N,)`` out: gap (m) between the robot's rim and the nearest wall, obstacle or robot (capped
-            at the cell side for robots).
+        clearance: ``(N,)`` out: gap (m) between the robot's rim and the nearest wall, obstacle or robot (robots
+            count only within a beam's reach, ``beam_m``).
     """
     radius, beam_m, comm = params[0], params[1], params[2]
     n, n_sensors = beams.shape
     k = nb_index.shape[1]
     comm_sq = comm * comm
+    # A robot farther than this (centre to centre) is beyond every beam of robot i.
+    seen_sq = (2.0 * radius + beam_m) ** 2
+    ray = np.empty((n_sensors, 4))
     for i in range(n):
         for s in range(n_sensors):
             beams[i, s] = np.inf
@@ -220,6 +223,7 @@ def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start,
         for s in range(n_sensors):
             dx, dy = math.cos(h + angles[s]), math.sin(h + angles[s])
             ox, oy = x + radius * dx, y + radius * dy
+            ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3] = ox, oy, dx, dy
             best = beam_m
             for w in range(walls.shape[0]):
                 best = _ray_segment(ox, oy, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3], best)
@@ -236,11 +240,11 @@ def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start,
                         continue
                     ex, ey = pose[j, 0] - x, pose[j, 1] - y
                     d_sq = ex * ex + ey * ey
-                    gap = min(gap, math.sqrt(d_sq) - 2.0 * radius)
-                    for s in range(n_sensors):
-                        dx, dy = math.cos(h + angles[s]), math.sin(h + angles[s])
-                        beams[i, s] = _ray_circle(x + radius * dx, y + radius * dy, dx, dy, pose[j, 0], pose[j, 1],
-                                                  radius, beams[i, s])  # fmt: skip
+                    if d_sq <= seen_sq:
+                        gap = min(gap, math.sqrt(d_sq) - 2.0 * radius)
+                        for s in range(n_sensors):
+                            beams[i, s] = _ray_circle(ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3], pose[j, 0], pose[j, 1],
+                                                      radius, beams[i, s])  # fmt: skip
                     if d_sq <= comm_sq:
                         d = math.sqrt(d_sq)
                         q = k - 1

@@ -252,12 +252,7 @@ class SwarmEnv(ParallelEnv):
         if not self.agents:
             raise ValueError("step() called with no live agents: call reset()")
         n = self.n_robots
-        command = np.zeros((n, 2))
-        for agent, action in actions.items():
-            i = self.agent_name_mapping.get(agent)
-            if i is None or not self.active[i]:
-                raise ValueError(f"action for {show(agent)}, which is not a live agent of this episode")
-            command[i] = check_action(self.action_spaces[agent], np.asarray(action, dtype=np.float32))
+        command = self._command(actions)
         rng = self._rng
         noise = 1.0 + self.terrain_noise * rng.standard_normal((n, 2)) + self._drift
         self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
@@ -302,6 +297,27 @@ class SwarmEnv(ParallelEnv):
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
+
+    def _command(self, actions) -> np.ndarray:
+        """The ``(N, 2)`` power fractions of a step's actions, all checked before anything changes (one array
+        test for the common case; the per-agent check names the culprit)."""
+        rows = [self.agent_name_mapping.get(agent) for agent in actions]
+        if any(i is None or not self.active[i] for i in rows):
+            bad = next(a for a, i in zip(actions, rows, strict=True) if i is None or not self.active[i])
+            raise ValueError(f"action for {show(bad)}, which is not a live agent of this episode")
+        command = np.zeros((self.n_robots, 2))
+        if not rows:
+            return command
+        try:
+            values = np.array(list(actions.values()), dtype=np.float32)
+        except (TypeError, ValueError):
+            values = None
+        if values is None or values.shape != (len(rows), 2) or not (np.abs(values) <= 1.0).all():
+            for agent, action in actions.items():  # NaN fails the test above too; find and name the bad action
+                check_action(self.action_spaces[agent], np.asarray(action, dtype=np.float32))
+            raise ValueError(f"actions must be arrays of shape (2,) in [-1, 1], got {show(actions)}")
+        command[rows] = values
+        return command
 
     def state(self) -> np.ndarray:
         """Global state: per robot x, y (m), cos and sin of the heading, and 1 while it is in the episode."""
@@ -410,45 +426,47 @@ class SwarmEnv(ParallelEnv):
 
     def _infos(self, index) -> dict:
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
-        terms and the robot's episode metrics."""
-        beams_cm = np.minimum(100.0 * self._beams, ir.IR_MAX_CM)
-        powers = 100.0 * self._powers
-        turn = np.degrees(self._turn).tolist()
-        stopped = self._stopped().tolist()
-        distance = self._distance.tolist()
-        collisions = self._collisions.tolist()
-        clearance = (100.0 * np.where(np.isfinite(self._min_clearance), self._min_clearance, 0.0)).tolist()
-        ttg = self._time_to_goal.tolist()
-        arrived = self._arrived.tolist()
-        rewards = self._rewards.tolist()
-        keys = tuple(f"reward_{name}" for name in self.reward_names)
-        formation = self._formation_sum / max(self.num_cycles, 1) if self.formation else None
-        now = self._formation_now.tolist() if self.formation else None
+        terms and the robot's episode metrics. Built from per-step columns (fresh arrays; rows are views of them)."""
+        stopped = self._stopped()
+        columns = [
+            list(self.pose.copy()),
+            self._collisions.tolist(),
+            self._distance.tolist(),
+            list(np.minimum(100.0 * self._beams, ir.IR_MAX_CM)),
+            list(100.0 * self._powers),
+            np.degrees(self._turn).tolist(),
+            stopped.tolist(),
+            *self._rewards.T.tolist(),
+        ]
+        metric_columns = [
+            self._arrived.astype(np.float64).tolist(),
+            self._collisions.astype(np.float64).tolist(),
+            self._time_to_goal.tolist(),
+            (100.0 * np.where(np.isfinite(self._min_clearance), self._min_clearance, 0.0)).tolist(),
+            stopped.astype(np.float64).tolist(),
+        ]
+        if self.formation:
+            columns.append(self._formation_now.tolist())
+            metric_columns.append((self._formation_sum / max(self.num_cycles, 1)).tolist())
+        index = list(index)
+        if len(index) != self.n_robots:  # a subset: select the rows of every column first
+            columns = [[column[i] for i in index] for column in columns]
+            metric_columns = [[column[i] for i in index] for column in metric_columns]
+        keys, metric_keys = self._info_keys, self.metric_names
         infos = {}
-        for i in index:
-            info = {
-                "pose": self.pose[i].copy(),
-                "collisions": collisions[i],
-                "distance_to_goal_m": distance[i],
-                "nearest_obstacle_cm": beams_cm[i],
-                "motor_powers": powers[i],
-                "turning_angle_deg": turn[i],
-                "stopped": stopped[i],
-            }
-            info.update(zip(keys, rewards[i], strict=True))
-            metrics = {
-                "success_rate": float(arrived[i]),
-                "collisions": float(collisions[i]),
-                "time_to_goal_s": ttg[i],
-                "min_clearance_cm": clearance[i],
-                "stopped": float(stopped[i]),
-            }
-            if formation is not None:
-                info["formation_error"] = now[i]
-                metrics["formation_error"] = float(formation[i])
-            info["episode_metrics"] = metrics
+        for i, row, metric_row in zip(
+            index, zip(*columns, strict=True), zip(*metric_columns, strict=True), strict=True
+        ):
+            info = dict(zip(keys, row, strict=True))
+            info["episode_metrics"] = dict(zip(metric_keys, metric_row, strict=True))
             infos[self.possible_agents[i]] = info
         return infos
+
+    @property
+    def _info_keys(self) -> tuple[str, ...]:
+        keys = ("pose", "collisions", "distance_to_goal_m", "nearest_obstacle_cm", "motor_powers", "turning_angle_deg",
+                "stopped", *(f"reward_{name}" for name in self.reward_names))  # fmt: skip
+        return (*keys, "formation_error") if self.formation else keys
 
 
 def observation_structure(n_neighbours: int, formation: bool) -> dict[str, tuple[int, int]]:
