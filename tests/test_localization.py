@@ -1,0 +1,178 @@
+"""The estimator benchmark kind: the interface, names and import paths, the runner's scoring, the command."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import polyenvs.registry as registry
+from polyenvs.evaluation import InputError
+from polyenvs.localization import ESTIMATORS, Estimator, estimator_class, make_estimator
+from polyenvs.localization.command import add_parser
+from polyenvs.localization.report import convergence_plot, convergence_table
+from polyenvs.localization.runner import CONVERGED_CM, rollout_logs, score_estimator, summarize
+
+ENV_ID = "polyenvs/BumperCartExplore-v0"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def registered():
+    """The registry row the lead adds (``polyenvs.registry``), in place for this module only until then."""
+    with pytest.MonkeyPatch.context() as mp:
+        if not any(row.id == ENV_ID for row in registry.REGISTRY):
+            row = registry.EnvEntry(
+                id=ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200,
+                family="bumper", description="bump-only cart",
+                baselines=(registry.Baseline("random_bounce", "baselines.bumper:RandomBounce"),), paper="random_bounce",
+            )  # fmt: skip
+            mp.setattr(registry, "REGISTRY", (*registry.REGISTRY, row))
+        if ENV_ID not in gym.registry:
+            gym.register(ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200)
+        yield
+
+
+class StartPose:
+    """A user's estimator: always the start pose (so its error is how far the cart got from its start)."""
+
+    def reset(self, context, start_pose, rng):
+        self.pose = np.array(start_pose)
+
+    def update(self, log):
+        return self.pose
+
+
+class Broken(StartPose):
+    def update(self, log):
+        return np.array([np.nan, 0.0, 0.0])
+
+
+@pytest.fixture(scope="module")
+def logs():
+    return rollout_logs(ENV_ID, 6, 5, seed=11)
+
+
+def test_names_and_import_paths():
+    assert set(ESTIMATORS) == {"mcl", "dead_reckoning"}
+    for name in ESTIMATORS:
+        assert isinstance(make_estimator(name, particles=200), Estimator)
+    assert make_estimator("mcl", particles=200).n == 200
+    assert estimator_class(f"{__name__}:StartPose") is StartPose
+    with pytest.raises(ValueError, match="unknown estimator"):
+        estimator_class("kalman")
+    with pytest.raises(ValueError, match="cannot import"):
+        estimator_class("no.such.module:Thing")
+    with pytest.raises(ValueError, match="reset"):
+        estimator_class("math:pi")
+    with pytest.raises(ValueError, match="bad parameters"):
+        make_estimator("mcl", particle=3)
+
+
+def test_runner_scores_against_the_true_pose_at_each_bump(logs):
+    context, runs = logs
+    result = score_estimator(f"{__name__}:StartPose", {}, context, runs, 5)
+    for r, run in enumerate(runs):
+        at_bumps = run.truth[run.bumped][:5]
+        expected = np.hypot(*(at_bumps[:, :2] - run.start_pose[:2]).T)
+        np.testing.assert_allclose(result["position_cm"][r], expected)
+        turn = (at_bumps[:, 2] - run.start_pose[2] + np.pi) % (2 * np.pi) - np.pi
+        np.testing.assert_allclose(result["heading_deg"][r], np.abs(np.degrees(turn)))
+    summary = summarize(result)
+    assert summary["position_error_cm"]["median"][0] == pytest.approx(
+        float(np.median(result["position_cm"][:, 0])), abs=1e-4
+    )
+    close = (result["position_cm"] < CONVERGED_CM) & (result["heading_deg"] < 30)
+    assert summary["failure_rates"]["never_converged"] == pytest.approx((~close.any(axis=1)).mean())
+    assert summary["failure_rates"]["empty_particle_set"] == 0.0
+
+
+def test_an_estimator_returning_nonsense_is_an_error(logs):
+    context, runs = logs
+    with pytest.raises(ValueError, match="finite"):
+        score_estimator(f"{__name__}:Broken", {}, context, runs, 5)
+
+
+def test_an_environment_without_logs_is_refused():
+    with pytest.raises(InputError, match="localization"):
+        rollout_logs("CartPole-v1", 1, 1, policy="random")
+
+
+def test_report_table_and_plot(logs):
+    context, runs = logs
+    document = {"env_id": ENV_ID, "map": "paper", "runs": len(runs), "bumps": 5, "estimators": {},
+                "converged_within": {"position_cm": 10.0, "heading_deg": 30.0}}  # fmt: skip
+    for name in ("dead_reckoning", f"{__name__}:StartPose"):
+        document["estimators"][name] = summarize(score_estimator(name, {}, context, runs, 5))
+    table = convergence_table(document)
+    assert table.splitlines()[0].split()[0] == "bump" and len(table.splitlines()) == 1 + 5 + 2
+    image = convergence_plot(document)
+    assert image.dtype == np.uint8 and image.shape[2] == 3 and (image != 255).any()
+
+
+def _args(*argv):
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers())
+    return parser.parse_args(["localize", *argv])
+
+
+@pytest.mark.parametrize(
+    "argv,match",
+    [(["--runs", "0"], "--runs"), (["--particles", "many"], "--particles"), (["--bumps", "1.5"], "--bumps"),
+     (["--estimator", "kalman"], "--estimator kalman"), (["--env-kwargs", "[1]"], "--env-kwargs"),
+     (["--estimator-kwargs", '{"tolerance_cm": -1}'], "tolerance_cm"), (["--particles", "5"], "--particles")],
+)  # fmt: skip
+def test_command_checks_every_flag_before_any_work(tmp_path, argv, match):
+    with pytest.raises(InputError, match=match):
+        _args(*argv, "--out", str(tmp_path / "out")).func(_args(*argv, "--out", str(tmp_path / "out")))
+    assert not (tmp_path / "out").exists()
+
+
+def test_command_refuses_an_unwritable_out(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    args = _args("--out", str(blocker))
+    with pytest.raises(InputError, match="--out"):
+        args.func(args)
+
+
+def test_command_writes_json_and_png(tmp_path, capsys):
+    out = tmp_path / "loc"
+    args = _args("--runs", "3", "--bumps", "4", "--particles", "300", "--out", str(out), "--json", "--no-progress",
+                 "--estimator", "mcl", "--estimator", f"{__name__}:StartPose")  # fmt: skip
+    assert args.func(args) == 0
+    printed = json.loads(capsys.readouterr().out)
+    saved = json.loads((out / "localization.json").read_text())
+    assert printed == saved
+    assert saved["runs"] == 3 and saved["bumps"] == 4 and saved["map"] == "paper"
+    mcl = saved["estimators"]["mcl"]
+    for key in ("position_error_cm", "heading_error_deg"):
+        assert set(mcl[key]) == {"q1", "median", "q3"} and len(mcl[key]["median"]) == 4
+        assert all(q1 <= m <= q3 for q1, m, q3 in zip(mcl[key]["q1"], mcl[key]["median"], mcl[key]["q3"], strict=True))
+    assert set(mcl["failure_rates"]) == {"empty_particle_set", "never_converged"}
+    assert mcl["kwargs"] == {"particles": 300}
+    assert saved["estimators"][f"{__name__}:StartPose"]["kwargs"] == {}
+    assert (out / "convergence.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(out.glob(".*.tmp*"))
+
+
+def test_command_map_flag_and_table(tmp_path, capsys):
+    args = _args("--runs", "2", "--bumps", "3", "--map", "l_room", "--estimator", "dead_reckoning", "--out",
+                 str(tmp_path))  # fmt: skip
+    assert args.func(args) == 0
+    text = capsys.readouterr().out
+    assert "dead_reckoning" in text and "wrote" in text
+    assert json.loads((tmp_path / "localization.json").read_text())["env_kwargs"] == {"map": "l_room"}
+    args = _args("--map", "atlantis", "--out", str(tmp_path / "x"))
+    with pytest.raises(InputError, match="map"):
+        args.func(args)
+
+
+def test_heading_in_scores_is_degrees(logs):
+    context, runs = logs
+    result = score_estimator("dead_reckoning", {}, context, runs, 5)
+    assert np.nanmax(result["heading_deg"]) <= 180.0
+    assert math.isfinite(np.nanmedian(result["position_cm"]))
