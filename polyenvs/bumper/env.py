@@ -213,10 +213,14 @@ class BumperCartExploreEnv(gym.Env):
         if isinstance(action, np.ndarray) and action.shape == (1,) and -1.0 <= action[0] <= 1.0:
             turn = float(action[0])  # the common case, checked without the space's slower generic test
         else:
-            check_action(
-                self.action_space, np.asarray(action, dtype=np.float32) if isinstance(action, list) else action
-            )
-            turn = float(np.asarray(action).reshape(-1)[0])
+            try:
+                array = np.asarray(action, dtype=np.float32)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"action {show(action)} is not a turn in the action space {self.action_space}"
+                ) from None
+            check_action(self.action_space, array)
+            turn = float(array[0])
         self._turns[0] = math.pi * turn
         self._advance(self._turns)
         out = self._out[0]
