@@ -275,7 +275,7 @@ class BeastPlanner:
         pose0: tuple[np.ndarray, np.ndarray],
         pose1: tuple[np.ndarray, np.ndarray],
         free_targets: dict[int, np.ndarray],
-    ) -> JointTrajectory:
+    ) -> JointTrajectory | None:
         """Joint trajectory moving the body from pose0 to pose1 (rotation body -> tumble, centre) with feet fixed.
 
         ``feet_tumble`` (n_limbs, 3) holds the planted feet in the tumble frame; the body's centre moves in a
@@ -303,6 +303,8 @@ class BeastPlanner:
                 rel = feet_tumble[planted] - centre
                 p_body = rel @ rot  # rot.T @ rel, row-wise
                 p_limb = np.einsum("lji,lj->li", base, p_body)
+                if not np.all(K.reachable(p_limb, self.links)):
+                    return None
                 prev = self.ik_near(p_limb, prev)
                 q[k, planted] = prev
                 # d(foot in body)/ds = -R^T (omega x (p - c) + dc); then into the limb frame, through J^-1.
@@ -363,7 +365,7 @@ class BeastPlanner:
         free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in tumble}
         free[l4] = q_pre
         traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
-        if not self.in_range(traj.q):
+        if traj is None or not self.in_range(traj.q):
             return None
         # The stance after landing must be reachable too: each new support limb's joint 1 turns continuously from
         # its tip angle to its nominal stance angle, and must not have to pass the end of its range to get there
@@ -394,7 +396,7 @@ class BeastPlanner:
         c1 = rot0 @ (tk - origin)
         free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in (l1, l2, l3)}
         traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
-        return traj if self.in_range(traj.q) else None
+        return traj if traj is not None and self.in_range(traj.q) else None
 
 
 class RollingGaitController:

@@ -1,0 +1,216 @@
+"""The beasts' rolling gait: planning geometry, trajectories, and the closed-loop tumble in MuJoCo."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+from polyenvs.beast import kinematics as K
+from polyenvs.beast.gait import (
+    TUCKED,
+    BeastPlanner,
+    JointTrajectory,
+    RollingGaitController,
+    n_limbs_of,
+    rotation_exp,
+    rotation_log,
+    split_observation,
+)
+
+DEG = math.pi / 180
+#: The working tumble's K0 and K1 joint angles (spec beast.md, appendix), limbs 1-4, degrees.
+K0 = np.array([[0, 56.0, 115.8], [120, 56.0, 115.8], [-120, 56.0, 115.8], [0, 90, 0]])
+K1 = np.array([[-17.2, 15.9, 139.9], [105.2, 15.1, 141.7], [-120.8, 143.8, 27.8], [-123.3, 150.5, 43.5]])
+
+
+@pytest.fixture(scope="module")
+def planner():
+    return BeastPlanner()
+
+
+def test_stance_angles_are_the_working_tumbles_k0(planner):
+    angles = planner.stance_angles((0, 1, 2))
+    for limb in range(3):
+        np.testing.assert_allclose(angles[limb] / DEG, K0[limb], atol=0.1)
+
+
+def test_nominal_stance_feet_form_the_300_mm_triangle_under_the_body(planner):
+    feet, centre = planner.nominal_feet(0, 1, 2)
+    sides = [np.linalg.norm(feet[i] - feet[j]) for i, j in ((0, 1), (1, 2), (2, 0))]
+    np.testing.assert_allclose(sides, 0.300, atol=1e-9)
+    # The stance's up axis is limb 4's: every foot is 168 - 18 mm below the centre along it.
+    np.testing.assert_allclose(feet @ K.limb_directions()[3], -(0.168 - 0.018), atol=1e-9)
+    np.testing.assert_allclose(centre[:2], [-0.3 / (2 * math.sqrt(3)), 0.0], atol=1e-12)
+
+
+def test_tip_plan_reaches_the_working_tumbles_k1_from_k0(planner):
+    traj = planner.tip_plan((K0 * DEG).ravel(), (0, 1, 2, 3))
+    assert traj is not None
+    np.testing.assert_allclose(traj.q[0], (K0 * DEG).ravel(), atol=1e-9)
+    # Within 0.5 degrees of the feasibility study's keyframe (its numbers are rounded to 0.1 degree and 0.1 mm).
+    np.testing.assert_allclose(traj.q[-1].reshape(4, 3) / DEG, K1, atol=0.5)
+
+
+def test_tip_plan_keeps_planted_feet_fixed_on_the_ground(planner):
+    q0 = (K0 * DEG).ravel()
+    traj = planner.tip_plan(q0, (0, 1, 2, 3))
+    feet0 = planner.feet(q0)
+    rot0, origin = planner.tumble_frame(feet0, 0, 1, 2)
+    body0 = -rot0 @ origin
+    ground0 = feet0 @ rot0.T + body0
+    # Recover the body pose at every knot from the planted feet and check they never moved in the ground frame.
+    for q in traj.q:
+        feet = planner.feet(q)
+        rot, org = planner.tumble_frame(feet, 0, 1, 2)
+        np.testing.assert_allclose(feet[:3] @ rot.T - rot @ org, ground0[:3] - body0 + body0, atol=1e-9)
+
+
+def test_knot_velocities_are_the_jacobian_solution_and_the_path_is_continuous(planner):
+    traj = planner.tip_plan((K0 * DEG).ravel(), (0, 1, 2, 3))
+    # Finite differences of the piecewise cubic agree with its knot velocities (C1 at interior knots).
+    for i in range(1, len(traj.times) - 1):
+        t, h = traj.times[i], 1e-6
+        np.testing.assert_allclose((traj(t + h) - traj(t - h)) / (2 * h), traj.qd[i], atol=1e-4)
+    # Planted limbs: J qd = d(foot in limb frame)/dt; check it through finite differences of the foot positions.
+    t = 0.5 * (traj.times[5] + traj.times[6])
+    dq = (traj(t + 1e-5) - traj(t - 1e-5)) / 2e-5
+    q = traj(t).reshape(4, 3)
+    jac = K.limb_jacobian(q[:3])
+    foot_rate = np.einsum("lij,lj->li", jac, dq.reshape(4, 3)[:3])
+    fd = K.forward_kinematics(traj(t + 1e-5).reshape(4, 3)[:3]) - K.forward_kinematics(traj(t - 1e-5).reshape(4, 3)[:3])
+    np.testing.assert_allclose(foot_rate, fd / 2e-5, atol=1e-6)
+    # No jump anywhere: at 10 ms ticks every joint moves less than 1 degree.
+    ticks = np.arange(0.0, traj.duration + 0.01, 0.01)
+    path = np.stack([traj(t) for t in ticks])
+    assert np.abs(np.diff(path, axis=0)).max() < 1.0 * DEG
+
+
+def test_trajectory_respects_the_joint_rate(planner):
+    traj = planner.tip_plan((K0 * DEG).ravel(), (0, 1, 2, 3))
+    ticks = np.arange(0.0, traj.duration, 0.002)
+    path = np.stack([traj(t) for t in ticks])
+    rate = np.abs(np.diff(path, axis=0)).max() / 0.002
+    assert rate < 1.6 * planner.rate  # a cubic between rate-limited knots peaks at most 1.5x its mean
+
+
+def test_ik_near_stays_on_the_knee_branch_and_continuous(planner):
+    rng = np.random.default_rng(0)
+    q = np.array([[0.3, 1.0, 2.0]])
+    for _ in range(200):
+        step = q + rng.normal(0, 0.02, q.shape)
+        step[:, 2] = np.abs(step[:, 2])
+        target = K.forward_kinematics(step)
+        new = planner.ik_near(target, q)
+        np.testing.assert_allclose(K.forward_kinematics(new), target, atol=1e-9)
+        assert new[0, 2] > 0
+        assert np.abs(new - q).max() < 0.2
+        q = new
+
+
+def test_rotation_log_inverts_exp():
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        w = rng.normal(size=3)
+        w *= rng.uniform(0, 3.0) / np.linalg.norm(w)
+        np.testing.assert_allclose(rotation_log(rotation_exp(w)), w, atol=1e-9)
+
+
+def test_hermite_trajectory_hits_knots_and_holds_the_end():
+    traj = JointTrajectory(np.array([0.0, 1.0, 3.0]), np.array([[0.0], [1.0], [0.0]]), np.array([[0.0], [0.5], [0.0]]))
+    assert traj(1.0)[0] == pytest.approx(1.0)
+    assert traj(10.0)[0] == 0.0 and traj(-1.0)[0] == 0.0
+    assert traj.duration == 3.0
+
+
+def test_four_tumbles_plannable_in_sequence_only_with_theta1_in_range(planner):
+    # Of the 12 tumbles, those plannable from the nominal stance of their own support (theta1 within +-180 degrees
+    # for the tip and the stance after it) are the feasibility study's 8.
+    plannable = []
+    for t in K.tumbles(4):
+        l1, l2, l3, l4 = (int(v) - 1 for v in t)
+        q = np.tile(TUCKED, (4, 1))
+        for limb, angles in planner.stance_angles((l1, l2, l3)).items():
+            q[limb] = angles
+        if planner.tip_plan(q.ravel(), (l1, l2, l3, l4)) is not None:
+            plannable.append("".join(str(int(v)) for v in t))
+    assert plannable == ["1234", "1342", "2143", "2431", "3124", "3412", "4213", "4321"]
+
+
+def test_observation_split_and_sizes():
+    assert n_limbs_of(52) == (4, False)
+    assert n_limbs_of(65) == (4, True)
+    assert n_limbs_of(72) == (6, False)
+    with pytest.raises(ValueError):
+        n_limbs_of(50)
+    obs = np.arange(52, dtype=np.float32)
+    parts = split_observation(obs, 4)
+    assert parts["contact"].tolist() == [36.0, 37.0, 38.0, 39.0]
+    assert parts["prev_action"].shape == (12,)
+
+
+def _spaces(n_limbs=4):
+    nj = 3 * n_limbs
+    obs = spaces.Box(-np.inf, np.inf, shape=(10 * n_limbs + 12,), dtype=np.float32)
+    return obs, spaces.Box(-1.0, 1.0, shape=(nj,), dtype=np.float32)
+
+
+def test_policies_validate_their_arguments():
+    from baselines.beast import Righting, RollingGait, SharpTurn
+
+    obs_space, act_space = _spaces()
+    for kwargs in ({"rate_deg_s": 0.0}, {"rate_deg_s": True}, {"rate_deg_s": float("nan")}, {"max_tumbles": 0}):
+        with pytest.raises(ValueError, match=next(iter(kwargs))):
+            RollingGait(obs_space, act_space, **kwargs)
+    with pytest.raises(ValueError, match="pivot"):
+        SharpTurn(obs_space, act_space, pivot=5)
+    with pytest.raises(ValueError, match="roll_after"):
+        Righting(obs_space, act_space, roll_after=1)
+    with pytest.raises(ValueError, match="action_space"):
+        RollingGait(obs_space, spaces.Box(-1, 1, shape=(18,)))
+
+
+def test_policy_keeps_one_plan_per_environment_and_drops_it_on_restart():
+    from baselines.beast import RollingGait
+
+    obs_space, act_space = _spaces()
+    policy = RollingGait(obs_space, act_space)
+    obs = np.zeros((2, 52), dtype=np.float32)
+    obs[:, :12] = (K0 * DEG).ravel()
+    obs[:, 36:39] = 1.0  # feet 1, 2, 3 down
+    actions, state = policy.predict(obs, episode_start=np.array([True, True]))
+    assert actions.shape == (2, 12) and np.all(np.abs(actions) <= 1)
+    assert len(set(state[:, 0])) == 2 and len(policy._controllers) == 2
+    _, state2 = policy.predict(obs, state=state, episode_start=np.array([False, True]))
+    assert state2[0, 0] == state[0, 0] and state2[1, 0] != state[1, 0]
+    assert len(policy._controllers) == 2
+
+
+# ------------------------------------------------------------------------------------------------ MuJoCo
+mujoco = pytest.importorskip("mujoco")
+
+
+def _tumble_env(**kwargs):
+    from polyenvs.beast.tasks import BeastTumbleEnv
+
+    return BeastTumbleEnv(**kwargs)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_canonical_tumble_succeeds_closed_loop(seed):
+    env = _tumble_env()
+    obs, _ = env.reset(seed=seed)
+    controller = RollingGaitController(BeastPlanner(), max_tumbles=1)
+    start = env.data.qpos[:2].copy()
+    for _ in range(2000):
+        obs, _, terminated, _, info = env.step(controller(obs))
+        if controller.phase == "done":
+            break
+    assert controller.history == [(1, 2, 3, 4)]
+    assert info["episode_metrics"]["success"] == 1.0
+    contact = obs[env.observation_structure["foot_contact"]]
+    assert contact.tolist() == [1.0, 1.0, 0.0, 1.0]  # limbs 1, 4, 2 down, 3 free
+    advance = env.data.qpos[:2] - start
+    assert 0.13 < advance[0] < 0.19 and abs(advance[1]) < 0.03  # along +x, the feasibility study's ~155 mm
