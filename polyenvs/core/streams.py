@@ -18,12 +18,95 @@ Conventions every batched family inherits from here:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["BLOCK_STEPS", "RowStreams"]
+from polyenvs.core.jit import njit
+
+__all__ = ["BLOCK_STEPS", "RowStreams", "standard_normals"]
 
 #: Draw rows per block: the generator call's own cost, amortised over 256 steps, is negligible next to the draws.
 BLOCK_STEPS = 256
+
+try:  # NumPy's ziggurat tables, as numba ships them for its own bit-exact Generator.standard_normal
+    from numba.np.random._constants import fi_double as _FI
+    from numba.np.random._constants import ki_double as _KI
+    from numba.np.random._constants import wi_double as _WI
+    from numba.np.random._constants import ziggurat_nor_inv_r as _INV_R
+    from numba.np.random._constants import ziggurat_nor_r as _R
+except ImportError:  # pragma: no cover - without numba the loop below would be slower than NumPy's own
+    _KI = None
+else:
+    _KI = _KI.astype(np.int64)  # every entry is below 2**52, and the draws are read as signed integers
+_TO_UNIT = 1.0 / 9007199254740992.0  # a raw draw's top 53 bits as a double in [0, 1), as PCG64's next_double
+_TOP53 = (1 << 53) - 1
+
+
+def standard_normals(rng: np.random.Generator, out: np.ndarray) -> None:
+    """Fill the contiguous float64 array ``out`` with ``rng.standard_normal(out=out)``'s numbers, bit for bit,
+    leaving ``rng`` in the same state, about twice as fast for a PCG64 generator (any other calls NumPy).
+
+    NumPy spends most of a normal on calling its bit generator once per draw; here the raw 64-bit draws come in
+    one ``random_raw`` call and NumPy's ziggurat (the same tables, the same order of draws) runs compiled. A draw
+    rejected by the ziggurat needs more raw draws than were fetched; each refetch asks for one per normal still
+    missing, which never exceeds what they will consume, so the generator ends exactly where NumPy leaves it.
+    """
+    if _KI is None or type(rng.bit_generator) is not np.random.PCG64:
+        rng.standard_normal(out=out)
+        return
+    flat = out.reshape(-1)
+    bits = rng.bit_generator
+    raw, done, at = bits.random_raw(flat.size), 0, 0
+    while True:
+        done, at = _ziggurat(raw, at, flat, done)
+        if done == flat.size:
+            return
+        # The unread tail belongs to a normal that needs more than it: keep it, fetch one per normal missing.
+        raw, at = np.concatenate((raw[at:], bits.random_raw(flat.size - done))), 0
+
+
+@njit(cache=True)
+def _ziggurat(raw, at, out, done):
+    """NumPy's ``random_standard_normal`` on the draws ``raw[at:]`` into ``out[done:]``; returns ``(done, at)``,
+    stopping before the first normal whose draws ``raw`` does not hold."""
+    bits = raw.view(np.int64)  # signed, so every operation below stays in integers: masks drop the sign bits
+    m, n = bits.shape[0], out.shape[0]
+    while done < n:
+        p = at
+        while True:
+            if p >= m:
+                return done, at
+            r = bits[p]
+            p += 1
+            idx = r & 0xFF
+            rabs = (r >> 9) & 0x000FFFFFFFFFFFFF
+            x = rabs * _WI[idx]
+            if (r >> 8) & 1:
+                x = -x
+            if rabs < _KI[idx]:
+                break  # 99.3% of the time
+            if idx == 0:  # the base strip's tail
+                accepted = False
+                while not accepted:
+                    if p + 2 > m:
+                        return done, at
+                    xx = -_INV_R * math.log1p(-((bits[p] >> 11) & _TOP53) * _TO_UNIT)
+                    yy = -math.log1p(-((bits[p + 1] >> 11) & _TOP53) * _TO_UNIT)
+                    p += 2
+                    accepted = yy + yy > xx * xx
+                x = -(_R + xx) if (rabs >> 8) & 1 else _R + xx
+                break
+            if p >= m:
+                return done, at
+            u = ((bits[p] >> 11) & _TOP53) * _TO_UNIT
+            p += 1
+            if (_FI[idx - 1] - _FI[idx]) * u + _FI[idx] < math.exp(-0.5 * x * x):
+                break
+        out[done] = x
+        done += 1
+        at = p
+    return done, at
 
 
 class RowStreams:
@@ -66,5 +149,5 @@ class RowStreams:
                 self._refill_row(row)
 
     def _refill_row(self, row: int) -> None:
-        self.normals[row] = self.generators[row].standard_normal((BLOCK_STEPS, self.draws_per_step))
+        standard_normals(self.generators[row], self.normals[row])
         self.cursor[row] = 0
