@@ -1,0 +1,122 @@
+"""Bumper cart throughput: cycles per second against CartPole-v1, and localizer updates per second.
+
+Two rows against their targets (``../shared/spec/performance.md``):
+
+- ``polyenvs/BumperCartExplore-v0`` through ``gym.make``, one step = one cycle (turn, drive to the bump, back up),
+  random turns, resets included: steps/s as a ratio to CartPole-v1 timed in the same rounds (target >= 0.1x; a
+  time-stepped sketch managed 0.001x);
+- the bump-space Monte Carlo localizer at 1,000 particles, one update per logged cycle including its
+  densest-cluster estimate, on seeded logs of the paper's arena (target >= 1,000 updates/s; a plain numpy sketch
+  managed 47, its feasibility model 214).
+
+``python -m benchmarks.bumper [--quick]`` prints a Markdown table; :func:`measure` is the importable form.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import gymnasium as gym
+import numpy as np
+
+from benchmarks.harness import Case, Measurement, env_case, measure_rounds, paired_ratio, progress
+
+__all__ = ["ENV_ID", "LocalizerRunner", "measure", "main"]
+
+ENV_ID = "polyenvs/BumperCartExplore-v0"
+CARTPOLE = "CartPole-v1"
+PARTICLES = 1000
+
+
+def _ensure_registered() -> None:
+    import polyenvs  # noqa: F401  (registers the ids the registry has)
+
+    if ENV_ID not in gym.registry:  # until the registry row is in polyenvs.registry
+        gym.register(ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200)
+
+
+class LocalizerRunner:
+    """Times :class:`polyenvs.bumper.localizers.BumpSpaceMCL` updates over a fixed set of logged cycles (the
+    filter is reset, untimed, whenever the logs run out)."""
+
+    num_envs = 1
+    vector = False
+
+    def __init__(self, particles: int = PARTICLES, *, min_seconds: float, seed: int = 0, runs: int = 20):
+        from polyenvs.bumper.env import BumperCartExploreEnv
+        from polyenvs.bumper.localizers import BumpSpaceMCL
+
+        env = BumperCartExploreEnv()
+        self.context = env.localization_context()
+        rng = np.random.default_rng(seed)
+        self.logs = []
+        for r in range(runs):
+            env.reset(seed=seed + r)
+            self.logs.append([env.step(rng.uniform(-1, 1, 1).astype(np.float32))[0] for _ in range(15)])
+        self.mcl = BumpSpaceMCL(particles=particles)
+        self.min_seconds, self.seed = min_seconds, seed
+
+    def warm_up(self) -> None:
+        self.mcl.reset(self.context, np.zeros(3), np.random.default_rng(self.seed))
+        for log in self.logs[0]:
+            self.mcl.update(log)
+
+    def timed_repeat(self) -> float:
+        updates, elapsed, r = 0, 0.0, 0
+        while elapsed < self.min_seconds:
+            self.mcl.reset(self.context, np.zeros(3), np.random.default_rng(self.seed + r))
+            logs = self.logs[r % len(self.logs)]
+            start = time.perf_counter()
+            for log in logs:
+                self.mcl.update(log)
+            elapsed += time.perf_counter() - start
+            updates += len(logs)
+            r += 1
+        return updates / elapsed
+
+    def close(self) -> None:
+        pass
+
+
+def measure(*, min_seconds: float = 2.0, repeats: int = 3, seed: int = 0) -> tuple[list[Measurement], dict]:
+    """The rows (CartPole, the cart, the localizer) timed in interleaved rounds, and the two ratios."""
+    _ensure_registered()
+    kw = {"min_seconds": min_seconds, "seed": seed}
+    cases = [
+        env_case(CARTPOLE, "`gym.make`", lambda: gym.make(CARTPOLE), **kw),
+        env_case(ENV_ID, "`gym.make`, one cycle per step", lambda: gym.make(ENV_ID), **kw),
+        Case(
+            f"BumpSpaceMCL, {PARTICLES} particles",
+            "updates/s with the estimate",
+            start=lambda: LocalizerRunner(min_seconds=min_seconds, seed=seed),
+        ),  # fmt: skip
+    ]
+    rows = measure_rounds(
+        cases, repeats=repeats, on_repeat=lambda i, case, rate: progress(f"{case.label}: {rate:,.0f}/s")
+    )
+    cartpole, cart, localizer = rows
+    return rows, {
+        "cycles_vs_cartpole": paired_ratio(cart, cartpole),
+        "localizer_updates_per_s": localizer.steps_per_second,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="1 repeat of 0.5 s per row instead of 3 of 2 s")
+    args = parser.parse_args(argv)
+    rows, ratios = measure(min_seconds=0.5 if args.quick else 2.0, repeats=1 if args.quick else 3)
+    print("| row | setting | steps/s | µs/step | peak MB |")
+    print("| --- | --- | ---: | ---: | ---: |")
+    for row in rows:
+        memory = f"{row.peak_memory_mb:.2f}" if row.peak_memory_mb is not None else "-"
+        print(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} | {row.us_per_step:.1f} | {memory} |")
+    ratio = ratios["cycles_vs_cartpole"]
+    print(f"\ncart cycles vs CartPole-v1: {ratio:.2f}x (target >= 0.1x)" if ratio is not None else "\nno ratio")
+    print(f"localizer updates/s at {PARTICLES} particles: {ratios['localizer_updates_per_s']:,.0f} (target >= 1,000)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
