@@ -17,6 +17,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_action, check_bool, check_in_range, check_int, show
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
@@ -52,6 +53,50 @@ ARRIVAL_BONUS = 10.0
 FORMATION_PENALTY = 0.1
 #: The wheels' speed factor under terrain noise is clipped to [0, MAX_SPEED_FACTOR].
 MAX_SPEED_FACTOR = 1.5
+
+
+#: Columns of the per-robot bookkeeping array ``SwarmEnv._track``.
+DISTANCE, TURN, STILL, COLLISIONS, WAS_BLOCKED, ARRIVED, TIME_TO_GOAL, MIN_CLEARANCE = range(8)
+N_TRACK = 8
+
+
+@njit(cache=True)
+def account(pose, before, active, blocked, clearance, goal, params, track, rewards, terminated):
+    """Score one step for every active robot: the three reward terms, arrival and termination, and the running
+    episode metrics in ``track`` (turn, still steps, contact events, time, smallest clearance).
+
+    Args:
+        before: ``(N, 3)`` poses before the step.
+        params: ``[goal_radius_m, dt_s, cycles so far, terminate_on_collision, still_m]``.
+    """
+    goal_radius, dt, cycles, stop_on_contact, still_m = params[0], params[1], params[2], params[3] > 0.5, params[4]
+    for i in range(pose.shape[0]):
+        terminated[i] = 0
+        rewards[i, 0] = 0.0
+        rewards[i, 1] = 0.0
+        rewards[i, 2] = 0.0
+        track[i, TURN] = 0.0
+        if not active[i]:
+            continue
+        turn = pose[i, 2] - before[i, 2]
+        track[i, TURN] = math.atan2(math.sin(turn), math.cos(turn))
+        moved = math.hypot(pose[i, 0] - before[i, 0], pose[i, 1] - before[i, 1])
+        track[i, STILL] = track[i, STILL] + 1.0 if moved < still_m else 0.0
+        contact = blocked[i] > 0
+        if contact and track[i, WAS_BLOCKED] == 0.0:
+            track[i, COLLISIONS] += 1.0
+        track[i, WAS_BLOCKED] = 1.0 if contact else 0.0
+        distance = math.hypot(pose[i, 0] - goal[0], pose[i, 1] - goal[1])
+        arrived = distance <= goal_radius
+        rewards[i, 0] = PROGRESS_PER_M * (track[i, DISTANCE] - distance)
+        rewards[i, 1] = -COLLISION_PENALTY if contact else 0.0
+        rewards[i, 2] = ARRIVAL_BONUS if arrived else 0.0
+        track[i, DISTANCE] = distance
+        if arrived:
+            track[i, ARRIVED] = 1.0
+        track[i, TIME_TO_GOAL] = cycles * dt
+        track[i, MIN_CLEARANCE] = min(track[i, MIN_CLEARANCE], clearance[i])
+        terminated[i] = 1 if arrived or (contact and stop_on_contact) else 0
 
 
 @dataclass
@@ -168,6 +213,17 @@ class SwarmEnv(ParallelEnv):
         )
         self._move_params = np.array([self.control_period_s, self.platform.wheel_base_m, radius])
         self._sense_params = np.array([radius, BEAM_M, self.comm_range_m])
+        self._observe_params = np.array([
+            self.ir_noise, self.ir_raw_sd, math.radians(self.light_noise_deg), self.range_noise_m,
+            math.radians(self.bearing_noise_deg), self.comm_range_m, float(self.platform.ir_scale == "x80pro"),
+            LIGHT_REFERENCE_M,
+        ])  # fmt: skip
+        self._leader_at = self.observation_structure["leader"][0] if self.formation else -1
+        self._track = np.zeros((n, N_TRACK))
+        self._account_params = np.array([
+            self.goal_radius_m, self.control_period_s, 0.0, float(self.terminate_on_collision), STILL_M,
+        ])  # fmt: skip
+        self._obs_size = size
         self.pose = np.zeros((n, 3))
         self.active = np.zeros(n, dtype=np.uint8)
         self._proposal = np.zeros((n, 3))
@@ -229,19 +285,14 @@ class SwarmEnv(ParallelEnv):
         # Per-episode wheel drift (terrain: slopes and grass pull one wheel), then per-step noise.
         self._drift = self.terrain_noise * 0.5 * rng.standard_normal((n, 2))
         self._powers = np.zeros((n, 2))
-        self._turn = np.zeros(n)
         self._blocked[:] = 0
-        self._was_blocked = np.zeros(n, dtype=bool)
-        self._collisions = np.zeros(n, dtype=np.int64)
-        self._still = np.zeros(n, dtype=np.int64)
-        self._arrived = np.zeros(n, dtype=bool)
-        self._time_to_goal = np.zeros(n)
-        self._min_clearance = np.full(n, np.inf)
         self._formation_sum = np.zeros(n)
         self._formation_swarm = []
         self._rewards = np.zeros((n, len(self.reward_names)))
         obs = self._sense(rng)
-        self._distance = np.hypot(*(self.pose[:, :2] - self.goal).T)
+        self._track[:] = 0.0
+        self._track[:, DISTANCE] = np.hypot(*(self.pose[:, :2] - self.goal).T)
+        self._track[:, MIN_CLEARANCE] = self._clearance
         self._update_metrics()
         infos = self._infos(range(n))
         if self.render_mode == "human":
@@ -256,32 +307,20 @@ class SwarmEnv(ParallelEnv):
         rng = self._rng
         noise = 1.0 + self.terrain_noise * rng.standard_normal((n, 2)) + self._drift
         self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
-        heading_before = self.pose[:, 2].copy()
-        xy_before = self.pose[:, :2].copy()
+        before = self.pose.copy()
         g = self._grid
         core.build_grid(self.pose, self.active, g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of)
         core.move(self.pose, self.active, self._wheels, self._move_params, self.layout.walls, self.circles,
                   g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._proposal, self._blocked)  # fmt: skip
         self.num_cycles += 1
+        self._powers = command * self.active[:, None]
         obs = self._sense(rng)
-        live = self.active.astype(bool)
-        blocked = (self._blocked > 0) & live
-        self._powers = np.where(live[:, None], command, 0.0)
-        self._turn = np.where(live, np.angle(np.exp(1j * (self.pose[:, 2] - heading_before))), 0.0)
-        moved = np.hypot(*(self.pose[:, :2] - xy_before).T)
-        self._still = np.where(moved < STILL_M, self._still + 1, 0)
-        self._collisions += blocked & ~self._was_blocked
-        self._was_blocked = blocked
-        distance = np.hypot(*(self.pose[:, :2] - self.goal).T)
-        arrived = live & (distance <= self.goal_radius_m)
-        self._rewards[:, 0] = np.where(live, PROGRESS_PER_M * (self._distance - distance), 0.0)
-        self._rewards[:, 1] = -COLLISION_PENALTY * blocked
-        self._rewards[:, 2] = ARRIVAL_BONUS * arrived
-        self._distance = distance
-        self._arrived |= arrived
-        self._time_to_goal = np.where(live, self.num_cycles * self.control_period_s, self._time_to_goal)
+        self._account_params[2] = self.num_cycles
+        terminated = np.zeros(n, dtype=np.uint8)
+        account(self.pose, before, self.active, self._blocked, self._clearance, self.goal, self._account_params,
+                self._track, self._rewards, terminated)  # fmt: skip
         self._update_metrics()
-        terminated = arrived | (blocked & self.terminate_on_collision)
+        terminated = terminated.astype(bool)
         truncate = self.num_cycles >= self.max_cycles
         agents = self.agents
         index = [self.agent_name_mapping[a] for a in agents]
@@ -348,10 +387,10 @@ class SwarmEnv(ParallelEnv):
         the goal (robots not there count the time so far), smallest clearance, robots stopped short of the goal,
         and (formation) the mean formation error over the steps."""
         metrics = {
-            "success_rate": float(self._arrived.mean()),
-            "collisions": float(self._collisions.sum()),
-            "time_to_goal_s": float(self._time_to_goal.mean()),
-            "min_clearance_cm": float(100.0 * self._min_clearance.min()),
+            "success_rate": float(self._track[:, ARRIVED].mean()),
+            "collisions": float(self._track[:, COLLISIONS].sum()),
+            "time_to_goal_s": float(self._track[:, TIME_TO_GOAL].mean()),
+            "min_clearance_cm": float(100.0 * self._track[:, MIN_CLEARANCE].min()),
             "stopped": float(self._stopped().sum()),
         }
         if self.formation:
@@ -360,14 +399,13 @@ class SwarmEnv(ParallelEnv):
 
     def _stopped(self) -> np.ndarray:
         window = max(1, round(STOPPED_WINDOW_S / self.control_period_s))
-        return (self._still >= window) & ~self._arrived
+        return (self._track[:, STILL] >= window) & (self._track[:, ARRIVED] == 0)
 
     def _update_metrics(self) -> None:
-        live = self.active.astype(bool)
-        self._min_clearance = np.where(live, np.minimum(self._min_clearance, self._clearance), self._min_clearance)
         if self.formation:
+            live = self.active.astype(bool)
             per_robot, swarm = self._formation_error()
-            self._formation_now = per_robot
+            self._formation_now = per_robot.copy()
             self._formation_sum += np.where(live, per_robot, 0.0)
             self._formation_swarm.append(swarm)
             if self.num_cycles:
@@ -382,47 +420,12 @@ class SwarmEnv(ParallelEnv):
                    g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._beams, self._nb_index, self._nb_range,
                    self._clearance)  # fmt: skip
         n, k = self.n_robots, self.n_neighbours
-        z = rng.standard_normal((n, 2 * 4 + 2 * k + 3))
+        normals = rng.standard_normal((n, 11 + 2 * k))
         floor = rng.random((n, 4))
-        obs = np.zeros((n, self.observation_spaces[self.possible_agents[0]].shape[0]), dtype=np.float32)
-        raw = ir.ir_readings(100.0 * self._beams, z[:, :8].reshape(n, 4, 2), floor, self.ir_noise, self.ir_raw_sd)
-        obs[:, 0:4] = ir.observation_from_raw(raw, self.platform.ir_scale)
-        x, y, h = self.pose[:, 0], self.pose[:, 1], self.pose[:, 2]
-        to_goal = self.goal - self.pose[:, :2]
-        light_noise = math.radians(self.light_noise_deg)
-        obs[:, 4] = _wrap(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - h + light_noise * z[:, 8]) / np.pi
-        obs[:, 5] = 1.0 / (1.0 + (np.hypot(to_goal[:, 0], to_goal[:, 1]) / LIGHT_REFERENCE_M) ** 2)
-        valid = self._nb_index >= 0
-        j = np.where(valid, self._nb_index, 0)
-        bearing_noise = math.radians(self.bearing_noise_deg)
-        nb = obs[:, 6 : 6 + 3 * k].reshape(n, k, 3)
-        rng_noise, bear_noise = z[:, 9 : 9 + k], z[:, 9 + k : 9 + 2 * k]
-        measured = np.clip(self._nb_range + self.range_noise_m * rng_noise, 0.0, self.comm_range_m)
-        bearing = _wrap(np.arctan2(y[j] - y[:, None], x[j] - x[:, None]) - h[:, None] + bearing_noise * bear_noise)
-        nb[..., 0] = np.where(valid, measured / self.comm_range_m, 0.0)
-        nb[..., 1] = np.where(valid, bearing / np.pi, 0.0)
-        nb[..., 2] = valid
-        obs[:, 6 : 6 + 3 * k] = nb.reshape(n, 3 * k)
-        if self.formation:
-            start = self.observation_structure["leader"][0]
-            d = np.hypot(x[0] - x, y[0] - y)
-            seen = (d <= self.comm_range_m) & bool(self.active[0])
-            seen[0] = False
-            b = _wrap(np.arctan2(y[0] - y, x[0] - x) - h + bearing_noise * z[:, 9 + 2 * k])
-            measured = np.clip(d + self.range_noise_m * z[:, 10 + 2 * k], 0.0, self.comm_range_m)
-            obs[:, start] = np.where(seen, measured / self.comm_range_m, 0.0)
-            obs[:, start + 1] = np.where(seen, b / np.pi, 0.0)
-            obs[:, start + 2] = seen
-            obs[0, start + 3] = 1.0
-        p = self.observation_structure["powers"][0]
-        obs[:, p : p + 2] = self._powers
-        np.clip(obs, self._obs_low, 1.0, out=obs)
-        obs[~self.active.astype(bool)] = 0.0
+        obs = np.empty((n, self._obs_size), dtype=np.float32)
+        ir.write_observations(self.pose, self.active, self._beams, self._nb_index, self._nb_range, self.goal,
+                              self._powers, normals, floor, self._observe_params, self._leader_at, obs)  # fmt: skip
         return obs
-
-    @property
-    def _obs_low(self) -> np.ndarray:
-        return self.observation_spaces[self.possible_agents[0]].low
 
     def _infos(self, index) -> dict:
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
@@ -430,19 +433,19 @@ class SwarmEnv(ParallelEnv):
         stopped = self._stopped()
         columns = [
             list(self.pose.copy()),
-            self._collisions.tolist(),
-            self._distance.tolist(),
+            self._track[:, COLLISIONS].astype(np.int64).tolist(),
+            self._track[:, DISTANCE].tolist(),
             list(np.minimum(100.0 * self._beams, ir.IR_MAX_CM)),
             list(100.0 * self._powers),
-            np.degrees(self._turn).tolist(),
+            np.degrees(self._track[:, TURN]).tolist(),
             stopped.tolist(),
             *self._rewards.T.tolist(),
         ]
         metric_columns = [
-            self._arrived.astype(np.float64).tolist(),
-            self._collisions.astype(np.float64).tolist(),
-            self._time_to_goal.tolist(),
-            (100.0 * np.where(np.isfinite(self._min_clearance), self._min_clearance, 0.0)).tolist(),
+            self._track[:, ARRIVED].tolist(),
+            self._track[:, COLLISIONS].tolist(),
+            self._track[:, TIME_TO_GOAL].tolist(),
+            (100.0 * self._track[:, MIN_CLEARANCE]).tolist(),
             stopped.astype(np.float64).tolist(),
         ]
         if self.formation:
@@ -489,10 +492,6 @@ def structure_for(dim: int) -> dict[str, tuple[int, int]]:
     if k < 1 or (dim - (12 if formation else 8)) % 3:
         raise ValueError(f"an observation of length {dim} is not a swarm robot's")
     return observation_structure(k, formation)
-
-
-def _wrap(angle):
-    return np.arctan2(np.sin(angle), np.cos(angle))
 
 
 def _copy_box(box: spaces.Box) -> spaces.Box:

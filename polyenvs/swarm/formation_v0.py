@@ -5,9 +5,12 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
 
+from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv
 from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
@@ -88,6 +91,8 @@ class FormationEnv(SwarmEnv):
         self.lattice = hex_lattice(self.n_robots, self.spacing_m)
         self.pairs = lattice_pairs(self.lattice, self.spacing_m)
         self._lattice_radius = float(np.hypot(*self.lattice.T).max())
+        self._per_robot = np.zeros(self.n_robots)
+        self._pair_count = np.zeros(self.n_robots)
 
     def _fixed_layout(self) -> Layout:
         extent = self._lattice_radius
@@ -107,15 +112,32 @@ class FormationEnv(SwarmEnv):
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
     def _formation_error(self):
-        i, j = self.pairs[:, 0], self.pairs[:, 1]
-        both = (self.active[i] > 0) & (self.active[j] > 0)
-        err = np.abs(np.hypot(*(self.pose[i, :2] - self.pose[j, :2]).T) - self.spacing_m) / self.spacing_m
-        err = np.where(both, err, 0.0)
-        total = np.bincount(i, err, self.n_robots) + np.bincount(j, err, self.n_robots)
-        count = np.bincount(i, both, self.n_robots) + np.bincount(j, both, self.n_robots)
-        per_robot = np.where(count > 0, total / np.maximum(count, 1), 0.0)
-        swarm = float(err.sum() / both.sum()) if both.any() else 0.0
+        per_robot, count = self._per_robot, self._pair_count
+        swarm = formation_error(self.pose, self.active, self.pairs, self.spacing_m, per_robot, count)
         return per_robot, swarm
+
+
+@njit(cache=True)
+def formation_error(pose, active, pairs, spacing, per_robot, count):
+    """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode: the mean per robot (over
+    its pairs, written into ``per_robot``) and the swarm's mean (returned; 0 without such pairs)."""
+    per_robot[:] = 0.0
+    count[:] = 0.0
+    total, pairs_in = 0.0, 0
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        if active[i] and active[j]:
+            err = abs(math.hypot(pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]) - spacing) / spacing
+            per_robot[i] += err
+            per_robot[j] += err
+            count[i] += 1.0
+            count[j] += 1.0
+            total += err
+            pairs_in += 1
+    for i in range(per_robot.shape[0]):
+        if count[i] > 0:
+            per_robot[i] /= count[i]
+    return total / pairs_in if pairs_in else 0.0
 
 
 def parallel_env(**kwargs) -> FormationEnv:
