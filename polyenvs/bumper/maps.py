@@ -199,9 +199,11 @@ class BumperMap:
 
     @functools.cached_property
     def _free_grid(self) -> np.ndarray:
-        """Centres of a 1 cm grid over the map with their clearance: ``(n, 3)``."""
+        """Centres of a grid over the map (1 cm cells, coarser for maps over 4 m so that it stays under 160,000
+        points) with their clearance: ``(n, 3)``."""
         x0, y0, x1, y1 = self.bounds
-        xs, ys = np.arange(x0 + 0.5, x1, 1.0), np.arange(y0 + 0.5, y1, 1.0)
+        step = max(1.0, max(x1 - x0, y1 - y0) / 400.0)
+        xs, ys = np.arange(x0 + 0.5 * step, x1, step), np.arange(y0 + 0.5 * step, y1, step)
         grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
         return np.concatenate([grid, self.clearance(grid)[:, None]], axis=1)
 
@@ -273,7 +275,8 @@ def make_map(spec, clearance_cm: float = 0.0) -> BumperMap:
         world = _builtin(spec)
     else:
         world = BumperMap(spec)
-    if clearance_cm > 0 and not world.has_room(clearance_cm):
+    # A margin over the needed clearance, so the start poses drawn by rejection fill an area, not a point.
+    if clearance_cm > 0 and not world.has_room(clearance_cm + 0.5):
         raise ValueError(
             f"map {world.name!r} has no free point {clearance_cm:g} cm from every wall: the cart does not fit"
         )
