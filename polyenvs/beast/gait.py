@@ -243,14 +243,17 @@ class BeastPlanner:
         return (tumble - centre) @ rot, centre
 
     def stance_angles(self, support) -> dict[int, np.ndarray]:
-        """Joint angles of the nominal stance on ``support`` (knee branch, thigh raised: the working tumble's stance), by limb."""
+        """Joint angles of the nominal stance on ``support``, by limb: of the two knee-branch (theta3 > 0) solutions,
+        the one with the knee higher above the ground (the working tumble's K0 for the 4-beast), clear of the floor."""
         feet = self.dirs * 0.2  # feet lie roughly along their limb axes; enough to order the triangle
         l1, l2, l3 = self.order_edge(feet, *support)
+        limbs = [l1, l2, l3]
         nominal, _ = self.nominal_feet(l1, l2, l3)
-        q = K.inverse_kinematics(
-            np.einsum("lji,lj->li", self.base[[l1, l2, l3]], nominal), self.links, knee=1, flip=True
-        )
-        return dict(zip((l1, l2, l3), q, strict=True))
+        p_limb = np.einsum("lji,lj->li", self.base[limbs], nominal)
+        sols = K.inverse_kinematics(p_limb[:, None, :], self.links, knee=1, flip=np.array([False, True]))
+        knees = np.einsum("lij,lsj->lsi", self.base[limbs], K.dh_frames(sols, self.links)[..., 1, :3, 3])
+        best = np.argmax(knees @ self.up_axis(limbs), axis=1)
+        return {limb: sols[i, best[i]] for i, limb in enumerate(limbs)}
 
     def ik_near(self, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
         """Knee-branch (theta3 > 0) inverse kinematics closest to ``q_prev`` (both (m, 3)); theta1 unwrapped."""
@@ -346,9 +349,10 @@ class BeastPlanner:
         r_k0 = self.stance_orientation(l1, l2, l3)
         r1 = K.rot_y(a) @ K.rot_x(b) @ K.rot_z(c) @ r_k0
         c1 = np.array(cfg.tip_centre) + np.array([extra, 0.0, 0.0])
-        # Landing foothold: foot l3 mirrored across the edge, on the ground; rolled back by the free roll's angle.
-        land = feet_t[l1] + feet_t[l2] - feet_t[l3]
-        land[2] = self.foot_radius
+        # Landing foothold: the apex of the nominal triangle on the edge, on the ground (foot l3 mirrored across the
+        # edge when the feet are on the nominal pattern; a pattern that has spread or shrunk returns to it within
+        # two tumbles), rolled back by the free roll's angle.
+        land = np.array([cfg.stance_side * math.sqrt(3) / 2, (feet_t[l1, 1] + feet_t[l2, 1]) / 2, self.foot_radius])
         alpha = math.radians(cfg.roll_deg)
         pre = land.copy()
         pre[0], pre[2] = (
@@ -367,14 +371,11 @@ class BeastPlanner:
         traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
         if traj is None or not self.in_range(traj.q):
             return None
-        # The stance after landing must be reachable too: each new support limb's joint 1 turns continuously from
-        # its tip angle to its nominal stance angle, and must not have to pass the end of its range to get there
-        # (this is what leaves 4 of the 4-beast's 12 tumbles unplannable within +-180 degrees).
-        end = traj.q[-1].reshape(self.n_limbs, 3)
-        for limb, angles in self.stance_angles((l1, l2, l4)).items():
-            turn = np.mod(angles[0] - end[limb, 0] + np.pi, 2 * np.pi) - np.pi
-            if not self.joint_ranges[0, 0] <= end[limb, 0] + turn <= self.joint_ranges[0, 1]:
-                return None
+        # The stance after landing must be plannable too. The joints hold through the free roll, so the landed robot
+        # has K1's joint angles and the stance plan from there is exactly the one that will run (this is what leaves
+        # 4 of the 4-beast's 12 tumbles unplannable: joint 1 would have to pass +-180 degrees).
+        if self.stance_plan(traj.q[-1], (l1, l2, l4), (l3,)) is None:
+            return None
         return traj
 
     def stance_plan(self, q_now: np.ndarray, support: tuple[int, int, int], lifted: tuple[int, ...]):
@@ -402,7 +403,8 @@ class BeastPlanner:
 class RollingGaitController:
     """Closed-loop rolling gait for one environment: observation in, joint-target action out, plan kept inside.
 
-    ``first_tumble`` (1-based, default (1 2 3 4)) is taken when its first three limbs are the measured support;
+    ``first_tumble`` (1-based) is taken when its first three limbs are the measured support (by default: over the
+    edge of the two lowest-numbered support limbs, which is (1 2 3 4) for the 4-beast);
     ``heading`` (tumble frame of the first tumble) defaults to the 4-beast's straight strip, 30 degrees left of the
     first tip; ``pivot`` (1-based) keeps that limb planted: every tumble tips over an edge containing it, the sharp
     turn of the paper's Figures 10 and 11.
@@ -418,8 +420,7 @@ class RollingGaitController:
     ):
         self.planner = planner
         self.pivot = None if pivot is None else int(pivot) - 1
-        # Without a heading yet, the first tumble fixes it: the canonical (1234) when limbs 1, 2, 3 stand.
-        self.first_tumble = tuple(int(v) - 1 for v in (first_tumble or (1, 2, 3, 4)))
+        self.first_tumble = None if first_tumble is None else tuple(int(v) - 1 for v in first_tumble)
         self.max_tumbles = max_tumbles
         self.heading_first = heading
         self.phase = "start"
@@ -525,8 +526,10 @@ class RollingGaitController:
         rot = self._edge_frame(feet, l1, l2)
         body = self._heading_body(feet)
         if body is None:
-            # The first tumble fixes the heading: the straight strip runs 30 degrees to the left of its tip direction.
-            body = rot.T @ (self.heading_first if self.heading_first is not None else np.array([0.866, 0.5, 0.0]))
+            # The first tumble fixes the heading: the 4-beast's straight strip runs 30 degrees to the left of its tip
+            # direction; the other beasts keep rolling the first tumble's way.
+            default = np.array([0.866, 0.5, 0.0]) if self.planner.n_limbs == 4 else np.array([1.0, 0.0, 0.0])
+            body = rot.T @ (self.heading_first if self.heading_first is not None else default)
         h = rot @ body
         h[2] = 0.0
         self.heading_vec, self.heading_edge = _unit(h), (l1, l2)
@@ -535,8 +538,14 @@ class RollingGaitController:
         """Tumbles from the current support, best aligned with the heading first, never straight back."""
         p = self.planner
         s = self.support
-        if self.tumbles_done == 0 and set(self.first_tumble[:3]) == set(s):
-            return [self.first_tumble]
+        if self.tumbles_done == 0:
+            if self.first_tumble is not None and set(self.first_tumble[:3]) == set(s):
+                return [self.first_tumble]
+            # Without a heading yet, the first tumble fixes it: over the edge of the two lowest-numbered support
+            # limbs, lifting the highest (the canonical (1234) of the 4-beast; along world +x in the tasks' stances).
+            a, b, c = sorted(s)
+            l1, l2, l3 = p.order_edge(feet, a, b, c)
+            return [(l1, l2, l3, self._landing_limb(l1, l2, l3))]
         heading = self._heading_body(feet)
         out = []
         for c in s:
