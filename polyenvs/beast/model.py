@@ -24,9 +24,18 @@ import math
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.core.validation import check_choice, check_in_range
+from polyenvs.core.validation import check_choice, check_in_range, check_int, show
 
-__all__ = ["PARAMETER_RANGES", "BeastModelParams", "beast_xml", "build_model"]
+__all__ = [
+    "PARAMETER_RANGES",
+    "START_STANCE",
+    "BeastModelParams",
+    "beast_xml",
+    "build_model",
+    "check_limbs",
+    "stance_orientation",
+    "stance_qpos",
+]
 
 #: Plausible ranges of every physical parameter (SI units; joint limits in degrees). Outside: ValueError.
 PARAMETER_RANGES = {
@@ -79,6 +88,7 @@ class BeastModelParams:
     | timestep | 0.002 | s | implicitfast integrator |
     | joint{k}_low_deg, joint{k}_high_deg | -180/180, -120/160, -150/150 | deg | ours: the ranges the gaits need |
     | control | "position" | | "torque" makes the actuators plain motors limited to +-torque_limit |
+    | locked_limbs | () | | 1-based limbs whose joints are locked (a failed worm drive does not backdrive) |
     """
 
     polyhedron: str = "tetrahedron"
@@ -105,10 +115,12 @@ class BeastModelParams:
     joint3_low_deg: float = -150.0
     joint3_high_deg: float = 150.0
     control: str = "position"
+    locked_limbs: tuple = ()
 
     def __post_init__(self):
         check_choice("polyhedron", self.polyhedron, K.POLYHEDRA)
         check_choice("control", self.control, CONTROLS)
+        object.__setattr__(self, "locked_limbs", check_limbs("locked_limbs", self.locked_limbs, self.n_limbs))
         for name, (low, high) in PARAMETER_RANGES.items():
             object.__setattr__(self, name, check_in_range(name, getattr(self, name), low, high))
         if self.foot_radius >= self.a3 / 2:
@@ -135,6 +147,16 @@ class BeastModelParams:
     def total_mass(self) -> float:
         per_limb = self.link1_mass + self.link2_mass + self.link3_mass + self.foot_mass
         return self.body_mass + self.n_limbs * per_limb
+
+
+def check_limbs(name: str, value, n_limbs: int) -> tuple[int, ...]:
+    """A tuple of distinct 1-based limb numbers, sorted."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise ValueError(f"{name} must be a tuple of limb numbers 1..{n_limbs}, got {show(value)}")
+    limbs = [check_int(name, v, 1, n_limbs) for v in value]
+    if len(set(limbs)) != len(limbs):
+        raise ValueError(f"{name} must not repeat a limb, got {show(value)}")
+    return tuple(sorted(limbs))
 
 
 def _body_vertices(params: BeastModelParams) -> np.ndarray:
@@ -206,6 +228,17 @@ def beast_xml(params: BeastModelParams) -> str:
             ctrl = f'ctrlrange="{_f(rad[k - 1])}" ' if p.control == "position" else ""
             actuators.append(f'    <{actuator} name="limb{i}_joint{k}" joint="limb{i}_joint{k}" {ctrl}{gains}/>')
     standing = p.d1 + p.a2 + p.a3
+    # Evaluated inside mj_step (so the raw step cost includes them): contacts of each foot with the floor, all
+    # contacts of the robot with the floor, and the world's up direction in the body frame (for the tilt switches).
+    sensors = [
+        f'    <contact name="limb{i}_foot_floor" geom1="limb{i}_foot" geom2="floor" data="found"/>'
+        for i in range(1, p.n_limbs + 1)
+    ]
+    sensors.append('    <contact name="robot_floor" subtree1="torso" geom2="floor" data="found"/>')
+    sensors.append('    <framezaxis name="up" objtype="body" objname="world" reftype="body" refname="torso"/>')
+    # Locked joints hold the angle the environment writes into eq_data at reset.
+    locks = [f'    <joint name="lock{i}_{k}" joint1="limb{i}_joint{k}"/>' for i in p.locked_limbs for k in (1, 2, 3)]
+    equality = f"\n  <equality>\n{chr(10).join(locks)}\n  </equality>" if locks else ""
     return f"""<mujoco model="beast_{p.polyhedron}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{p.timestep:.9g}" integrator="implicitfast"/>
@@ -226,17 +259,20 @@ def beast_xml(params: BeastModelParams) -> str:
     <material name="foot" rgba="0.1 0.1 0.1 1"/>
   </asset>
   <worldbody>
-    <light pos="0 0 3" dir="0 0 -1" directional="true"/>
     <geom name="floor" type="plane" size="0 0 0.05" material="grid"/>
     <body name="torso" pos="0 0 {standing:.9g}">
       <freejoint name="root"/>
-      <camera name="track" mode="track" pos="0.9 -0.9 0.7" xyaxes="0.7071 0.7071 0 -0.35 0.35 0.87"/>
+      <light name="sun" mode="track" pos="0 0 3" dir="0 0 -1" directional="true"/>
+      <camera name="track" mode="track" pos="0.75 -0.75 0.55" xyaxes="0.7071 0.7071 0 -0.35 0.35 0.87"/>
       <geom name="torso" type="mesh" mesh="body" mass="{p.body_mass:.9g}" material="body"/>{"".join(limbs)}
     </body>
   </worldbody>
   <actuator>
 {chr(10).join(actuators)}
   </actuator>
+  <sensor>
+{chr(10).join(sensors)}
+  </sensor>{equality}
 </mujoco>
 """
 

@@ -1,0 +1,388 @@
+"""The Gymnasium surface shared by the beast tasks, on Gymnasium's ``MujocoEnv`` (model loading, state, renderer).
+
+A task subclasses :class:`BeastEnv` and provides ``reward_names`` and ``metric_names``, ``_initial_state`` (the
+start state, drawn from the env's generator without touching the simulation) and ``_task_step`` (reward terms,
+termination, running metrics). Everything else lives here:
+
+- the model is generated from the constructor's parameters (:mod:`polyenvs.beast.model`) and loaded through a
+  temporary file, so nothing is shipped that cannot be regenerated;
+- a step checks the action (raising ``ValueError`` before anything changes), writes the controls, runs one
+  ``mj_step(model, data, nstep=frame_skip)`` and builds the observation in one compiled call
+  (:mod:`polyenvs.beast.sensors`);
+- a diverged simulation (non-finite or huge state) never reaches the user: the episode is truncated with
+  ``info["sim_unstable"] = True``, the last finite observation and a zero reward;
+- ``info`` always holds the named reward terms (``reward_<name>``, summing to the reward), ``sim_unstable`` and the
+  running ``episode_metrics`` (final at the episode's end, which ``polyenvs evaluate`` reports).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+from gymnasium.envs.mujoco.mujoco_env import MujocoEnv
+
+from polyenvs.beast import kinematics as K
+from polyenvs.beast import model as M
+from polyenvs.beast import sensors as S
+from polyenvs.core.validation import check_bool, check_choice, check_in_range, show
+
+__all__ = ["CONTROL_DT", "BeastEnv", "TumbleCounter"]
+
+#: Control tick (s): one action every 10 ms, i.e. frame_skip 5 at the default 2 ms physics step.
+CONTROL_DT = 0.01
+#: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
+STANCE_TICKS = 20
+#: Defaults of the sensor model (*ours*): encoder backlash band (deg) and tilt-switch threshold below horizontal (deg).
+BACKLASH_DEG = 0.5
+TILT_THRESHOLD_DEG = 10.0
+#: Plausible ranges of the sensor and reward parameters.
+SENSOR_RANGES = {"backlash_deg": (0.0, 5.0), "tilt_threshold_deg": (0.0, 45.0), "ctrl_cost_weight": (0.0, 10.0)}
+#: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
+PHYSICS_KEYS = tuple(
+    f.name
+    for f in M.BeastModelParams.__dataclass_fields__.values()
+    if f.name not in ("polyhedron", "control", "locked_limbs")
+)
+
+
+def _rotation_angle(q0: np.ndarray, q1: np.ndarray) -> float:
+    """Angle (rad) of the rotation between two unit quaternions."""
+    return 2.0 * math.acos(min(1.0, abs(float(np.dot(q0, q1)))))
+
+
+class TumbleCounter:
+    """Support changes that are tumbles, from the foot-contact bits.
+
+    A support is a set of three or more feet on the floor held for ``STANCE_TICKS`` ticks. A change of support is a
+    tumble when the body has turned by more than 45 degrees since the previous support (a tumble of the 4-beast
+    turns it by 109.5 degrees; re-placing a foot without rolling turns it hardly at all).
+    """
+
+    def __init__(self, support: int, qpos: np.ndarray):
+        self.support = support  # bitmask of the current stance's feet (bit i = limb i + 1)
+        self.quat = qpos[3:7].copy()
+        self.xy = qpos[:2].copy()  # body position at the last stance
+        self.candidate = -1
+        self.held = 0
+        self.count = 0
+
+    def update(self, mask: int, n_feet: float, qpos: np.ndarray) -> bool:
+        """Feed one tick (the feet bitmask and count, MuJoCo's qpos); True when a tumble has just completed."""
+        if mask != self.candidate:
+            self.candidate, self.held = mask, 0
+            return False
+        self.held += 1
+        if self.held != STANCE_TICKS or n_feet < 3 or mask == self.support:
+            return False
+        quat, xy = qpos[3:7], qpos[:2]
+        tumbled = _rotation_angle(self.quat, quat) > math.radians(45)
+        self.support = mask
+        self.quat = quat.copy()
+        if tumbled:
+            self.count += 1
+        self.xy = xy.copy()
+        return tumbled
+
+
+class BeastEnv(MujocoEnv):
+    """Base of the beast tasks (not registered itself); see the task classes for the documented environments."""
+
+    metadata = {"render_modes": ["rgb_array", "depth_array"], "render_fps": round(1 / CONTROL_DT)}
+    reward_names: tuple[str, ...] = ()
+    metric_names: tuple[str, ...] = ()
+    option_names: tuple[str, ...] = ("qpos", "qvel")
+    #: Direction (rad, counter-clockwise from world +x) along which the summary measures velocity and distance.
+    heading_rad: float = 0.0
+
+    def __init__(
+        self,
+        polyhedron: str = "tetrahedron",
+        privileged: bool = False,
+        disabled_limbs=(),
+        control: str = "position",
+        backlash_deg: float = BACKLASH_DEG,
+        tilt_threshold_deg: float = TILT_THRESHOLD_DEG,
+        ctrl_cost_weight: float = 0.01,
+        physics: dict | None = None,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 480,
+    ):
+        # Everything is checked before anything is built.
+        check_choice("polyhedron", polyhedron, K.POLYHEDRA)
+        self.privileged = check_bool("privileged", privileged)
+        self.backlash_deg = check_in_range("backlash_deg", backlash_deg, *SENSOR_RANGES["backlash_deg"])
+        self.tilt_threshold_deg = check_in_range(
+            "tilt_threshold_deg", tilt_threshold_deg, *SENSOR_RANGES["tilt_threshold_deg"]
+        )
+        self.ctrl_cost_weight = check_in_range("ctrl_cost_weight", ctrl_cost_weight, *SENSOR_RANGES["ctrl_cost_weight"])
+        if physics is None:
+            physics = {}
+        if not isinstance(physics, dict):
+            raise ValueError(f"physics must be a dict of model parameters, got {show(physics)}")
+        unknown = sorted(set(physics) - set(PHYSICS_KEYS))
+        if unknown:
+            raise ValueError(f"physics has unknown parameter(s) {unknown}; expected some of {list(PHYSICS_KEYS)}")
+        if render_mode is not None:
+            check_choice("render_mode", render_mode, self.metadata["render_modes"])
+            if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+                # Headless: Gymnasium's renderer would try a GLFW window and fail; EGL renders off-screen.
+                os.environ["MUJOCO_GL"] = "egl"
+        for name, value in (("width", width), ("height", height)):
+            if isinstance(value, bool) or not isinstance(value, int) or not 16 <= value <= 4096:
+                raise ValueError(f"{name} must be an integer in [16, 4096], got {show(value)}")
+        params = M.BeastModelParams(polyhedron=polyhedron, control=control, locked_limbs=disabled_limbs, **physics)
+        frame_skip = round(CONTROL_DT / params.timestep)
+        if not math.isclose(frame_skip * params.timestep, CONTROL_DT, rel_tol=1e-9):
+            raise ValueError(f"timestep must divide the 10 ms control tick, got {params.timestep!r}")
+        self.params = params
+        self.polyhedron = polyhedron
+        self.control = control
+        self.disabled_limbs = params.locked_limbs
+        self.n_limbs = params.n_limbs
+        self.n_joints = 3 * params.n_limbs
+        self.observation_structure = self._layout()
+        size = max(s.stop for s in self.observation_structure.values())
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, f"beast_{polyhedron}.xml")
+            with open(path, "w") as f:
+                f.write(M.beast_xml(params))
+            MujocoEnv.__init__(
+                self,
+                path,
+                frame_skip,
+                observation_space=self._observation_space(size),
+                render_mode=render_mode,
+                width=width,
+                height=height,
+                camera_name="track",
+            )
+        self.fullpath = None  # generated, not a file
+        nj = self.n_joints
+        ranges = np.tile(params.joint_ranges, (params.n_limbs, 1))
+        if control == "position":
+            self._low, self._span = ranges[:, 0].copy(), ranges[:, 1] - ranges[:, 0]
+        else:
+            self._low, self._span = np.full(nj, -params.torque_limit), np.full(nj, 2 * params.torque_limit)
+        self._frozen = np.zeros(nj, dtype=np.bool_)
+        for limb in self.disabled_limbs:
+            self._frozen[3 * (limb - 1) : 3 * limb] = True
+        self._hold = np.zeros(nj)
+        self._applied = np.zeros(nj)
+        self._motor = np.zeros(nj)
+        self._reading = np.zeros(nj)
+        self._obs = np.zeros(size, dtype=np.float32)
+        self._consts = np.array(
+            [
+                math.radians(self.backlash_deg) / 2,
+                1.0 / CONTROL_DT,
+                math.sin(math.radians(self.tilt_threshold_deg)),
+                float(self.privileged),
+                1.0 / (params.torque_limit**2 * self.n_joints),
+            ]
+        )
+        self._track = np.zeros(6)
+        self._scalars = np.zeros(S.N_SCALARS)
+        self._unstable = False
+        self._elapsed = 0
+        self._bind()
+
+    # --- set-up helpers ---------------------------------------------------------------------------------------
+    def _layout(self) -> dict[str, slice]:
+        nj, names = self.n_joints, []
+        names += [("joint_pos", nj), ("joint_vel", nj), ("tilt", S.N_TILT), ("foot_contact", self.n_limbs)]
+        names += [("prev_action", nj)]
+        if self.privileged:
+            names += [("body_pos", 3), ("body_quat", 4), ("body_linvel", 3), ("body_angvel", 3)]
+        layout, start = {}, 0
+        for name, n in names:
+            layout[name] = slice(start, start + n)
+            start += n
+        return layout
+
+    def _observation_space(self, size: int) -> spaces.Box:
+        low, high = np.empty(size, np.float32), np.empty(size, np.float32)
+        bounds = {
+            "joint_pos": 2 * math.pi,
+            "joint_vel": S.VELOCITY_CLIP,
+            "tilt": 1.0,
+            "foot_contact": 1.0,
+            "prev_action": 1.0,
+            "body_pos": np.inf,
+            "body_quat": 1.0,
+            "body_linvel": S.VELOCITY_CLIP,
+            "body_angvel": S.VELOCITY_CLIP,
+        }
+        for name, part in self.observation_structure.items():
+            high[part] = bounds[name]
+            low[part] = 0.0 if name in ("tilt", "foot_contact") else -bounds[name]
+        return spaces.Box(low, high, dtype=np.float32)
+
+    def _set_action_space(self):
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.model.nu,), dtype=np.float32)
+        return self.action_space
+
+    def _bind(self) -> None:
+        """Views into MjData used every step (rebuilt after unpickling: a pickled view would be a copy)."""
+        d = self.data
+        self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
+        self._sensordata, self._force, self._warnings = d.sensordata, d.actuator_force, d.warning.number
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        for name in ("_qpos", "_qvel", "_ctrl", "_sensordata", "_force", "_warnings"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._bind()
+
+    # --- Gymnasium API ------------------------------------------------------------------------------------------
+    @property
+    def dt(self) -> float:
+        return CONTROL_DT
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self._applied.shape:
+            raise ValueError(f"action must have shape {self._applied.shape}, got {show(action)}")
+        bad = S.actuate(a, self._low, self._span, self._frozen, self._hold, self._ctrl, self._applied)
+        if bad:
+            raise ValueError(f"action[{bad - 1}] = {show(a[bad - 1])} is outside [-1, 1]")
+        mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
+        self._elapsed += 1
+        if self._unstable or S.sense(
+            self._qpos,
+            self._qvel,
+            self._sensordata,
+            self._force,
+            self._warnings,
+            self._motor,
+            self._reading,
+            self._applied,
+            S.TILT_AXES,
+            self._consts,
+            self._track,
+            self._obs,
+            self._scalars,
+        ):
+            self._unstable = True
+            info = dict.fromkeys(self._reward_keys, 0.0)
+            info["sim_unstable"] = True
+            info["episode_metrics"] = dict(self._metrics)
+            return self._obs.copy(), 0.0, False, True, info
+        terms, terminated = self._task_step(*self._scalars.tolist())
+        info = dict(zip(self._reward_keys, terms, strict=True))
+        info["sim_unstable"] = False
+        info["episode_metrics"] = dict(self._metrics)
+        return self._obs.copy(), sum(terms), terminated, False, info
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        options = self._check_options(options)
+        gym.Env.reset(self, seed=seed)
+        rng = self.np_random
+        if "qpos" in options:
+            qpos = options["qpos"]
+            qvel = options.get("qvel", np.zeros(self.model.nv))
+        else:
+            qpos, qvel = self._initial_state(rng)
+        d, m = self.data, self.model
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = qpos
+        d.qvel[:] = qvel
+        joints = d.qpos[7:]
+        self._hold[:] = joints if self.control == "position" else 0.0
+        for k, limb in enumerate(self.disabled_limbs):
+            m.eq_data[3 * k : 3 * k + 3, 0] = joints[3 * (limb - 1) : 3 * limb]
+        d.ctrl[:] = self._hold
+        # The previous action is the one that holds the start pose (what a servo was last told).
+        self._applied[:] = np.clip(2 * (self._hold - self._low) / self._span - 1, -1, 1)
+        mujoco.mj_forward(m, d)
+        half = self._consts[S.HALF_BAND]
+        self._motor[:] = joints + rng.uniform(-half, half, self.n_joints)
+        self._reading[:] = self._motor
+        self._unstable = False
+        self._elapsed = 0
+        x, y = d.qpos[0], d.qpos[1]
+        self._track[:] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
+        S.sense(
+            self._qpos,
+            self._qvel,
+            self._sensordata,
+            self._force,
+            self._warnings,
+            self._motor,
+            self._reading,
+            self._applied,
+            S.TILT_AXES,
+            self._consts,
+            self._track,
+            self._obs,
+            self._scalars,
+        )
+        self._task_reset(int(self._scalars[S.FEET_MASK]))
+        info = dict.fromkeys(self._reward_keys, 0.0)
+        info["sim_unstable"] = False
+        info["episode_metrics"] = dict(self._metrics)
+        return self._obs.copy(), info
+
+    def _check_options(self, options) -> dict:
+        if options is None:
+            return {}
+        if not isinstance(options, dict):
+            raise ValueError(f"options must be a dict or None, got {show(options)}")
+        unknown = sorted(set(options) - set(self.option_names))
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; expected some of {list(self.option_names)}")
+        checked = dict(options)
+        for name, size in (("qpos", self.model.nq), ("qvel", self.model.nv)):
+            if name in options:
+                value = np.asarray(options[name], dtype=np.float64) if not isinstance(options[name], str) else None
+                if value is None or value.shape != (size,) or not np.isfinite(value).all():
+                    raise ValueError(f"option {name} must be {size} finite numbers, got {show(options[name])}")
+                checked[name] = value.copy()
+        if "qvel" in checked and "qpos" not in checked:
+            raise ValueError("option qvel needs qpos too")
+        if "qpos" in checked:
+            quat = checked["qpos"][3:7]
+            if not 0.5 < np.linalg.norm(quat) < 2:
+                raise ValueError(f"option qpos must hold a unit quaternion at 3:7, got {show(quat)}")
+            checked["qpos"][3:7] = quat / np.linalg.norm(quat)
+        return checked
+
+    # --- shared task helpers -----------------------------------------------------------------------------------
+    @property
+    def _reward_keys(self) -> tuple[str, ...]:
+        return tuple(f"reward_{name}" for name in self.reward_names)
+
+    def _stance_state(self, rng: np.random.Generator, position_noise=0.005, yaw_noise_deg=2.0, free_noise_deg=2.0):
+        """The start stance, turned by a small random yaw and shifted a few mm; free limbs jittered a little."""
+        radius, height = M.START_STANCE[self.polyhedron]
+        yaw = math.radians(yaw_noise_deg) * rng.uniform(-1, 1)
+        qpos = M.stance_qpos(self.params, radius, height, yaw)
+        qpos[:2] += position_noise * rng.uniform(-1, 1, 2)
+        _, stance = M.stance_orientation(self.polyhedron)
+        free = np.ones(self.n_limbs, dtype=bool)
+        free[stance] = False
+        jitter = math.radians(free_noise_deg) * rng.uniform(-1, 1, (self.n_limbs, 3))
+        qpos[7:] += (jitter * free[:, None]).ravel()
+        return qpos, np.zeros(self.model.nv)
+
+    # --- what a task provides -------------------------------------------------------------------------------------
+    def _initial_state(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        return self._stance_state(rng)
+
+    def _task_reset(self, feet_mask: int) -> None:
+        """Set up the episode's bookkeeping (``self._metrics``) once the start state is sensed."""
+        raise NotImplementedError
+
+    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+        """(reward terms in ``reward_names`` order, terminated) from the step's summary (``sensors.sense``)."""
+        raise NotImplementedError

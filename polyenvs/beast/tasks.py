@@ -1,0 +1,324 @@
+"""The four beast tasks: one canonical tumble, rolling along a heading, the sharp turn, recovery from a throw.
+
+Each is a small subclass of :class:`polyenvs.beast.env.BeastEnv`: its start state, its reward terms and its metrics.
+The docstrings share their Action Space, Observation Space and common Arguments sections (``_doc``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from polyenvs.beast import kinematics as K
+from polyenvs.beast.env import CONTROL_DT, STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.core.validation import check_in_range
+
+__all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", "STRIP_OFFSET_DEG"]
+
+#: Direction of the straight rolling strip relative to the first tumble's direction (deg). For the 4-beast the
+#: working tumble's sequence (1234)(4213)(4321)(1342) runs from foot 3 towards foot 2 of K0, 30 degrees to the left
+#: of the first tumble (spec appendix); the other beasts have no measured strip and roll along their first tumble.
+STRIP_OFFSET_DEG = {"tetrahedron": 30.0, "octahedron": 0.0, "cube": 0.0}
+#: Limbs on the floor after the canonical tumble (1234): 1, 4 and 2, with 3 free (bitmask of limb numbers).
+CANONICAL_END = (1 << 0) | (1 << 3) | (1 << 1)
+
+_SHARED = """
+    ## Action Space
+    ``Box(-1, 1, (n_joints,), float32)``, n_joints = 3 x limbs (12 for the 4-beast), ordered limb-major: joint k of
+    limb i (1-based) is index 3(i - 1) + (k - 1), the MuJoCo joint and actuator ``limb{{i}}_joint{{k}}``. With
+    ``control="position"`` (default) an action is a joint position target scaled linearly to the joint's range,
+    target = low + (a + 1)/2 (high - low), tracked by a servo of kp 300 N m/rad limited to +-6 N m; ranges (deg)
+    theta1 [-180, 180], theta2 [-120, 160], theta3 [-150, 150]. With ``control="torque"`` an action is a torque,
+    a x 6 N m. The joint angles are the DH angles of Table 1 (``polyenvs.beast.kinematics``). Joints of
+    ``disabled_limbs`` are locked where they start (a failed worm drive does not backdrive) and ignore the action.
+    An action outside [-1, 1], non-finite or of the wrong shape raises ``ValueError`` and changes nothing.
+
+    ## Observation Space
+    ``Box(float32)``: the robot's own sensors, concatenated (``env.unwrapped.observation_structure`` maps each name
+    to its slice):
+
+    | part | size | meaning | unit |
+    | --- | --- | --- | --- |
+    | joint_pos | n_joints | encoder angles, behind a backlash dead band of ``backlash_deg`` | rad |
+    | joint_vel | n_joints | encoder angle differences over the 10 ms tick, clipped to +-50 | rad/s |
+    | tilt | 12 | tilt switches on the icosahedron's vertex axes: 1 when the axis points more than ``tilt_threshold_deg`` below horizontal | 0/1 |
+    | foot_contact | n_limbs | foot switches: 1 while the foot sphere touches the floor | 0/1 |
+    | prev_action | n_joints | the last action applied (at reset: the action that holds the start pose) | |
+    | body_pos, body_quat, body_linvel, body_angvel | 3, 4, 3, 3 | only with ``privileged=True``: torso position (world, m), orientation (w, x, y, z), linear velocity (world, m/s), angular velocity (body frame, rad/s), velocities clipped to +-50 | |
+"""
+
+_ARGS = """
+    | polyhedron | "tetrahedron" | the 4-beast; "octahedron" (6-beast, limbs on +-x, +-y, +-z), "cube" (8-beast) |
+    | privileged | False | append the true body pose and velocity to the observation |
+    | disabled_limbs | () | 1-based limb numbers whose joints are locked (paper section 5's faults) |
+    | control | "position" | "position" servos or "torque" motors |
+    | backlash_deg | 0.5 | encoder dead band, [0, 5] deg (*ours*) |
+    | tilt_threshold_deg | 10 | tilt-switch threshold below horizontal, [0, 45] deg (*ours*) |
+    | ctrl_cost_weight | 0.01 | weight of the control cost, mean squared torque / limit^2, [0, 10] |
+    | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded |
+    | render_mode | None | "rgb_array" or "depth_array" through MuJoCo's renderer, camera ``track`` following the torso |
+    | width, height | 480, 480 | frame size, fixed per instance |
+"""
+
+
+def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
+    return f"""{summary}
+{_SHARED}
+    ## Rewards
+{rewards}
+    Each term is in ``info["reward_<name>"]``; they sum to the reward. ``info["sim_unstable"]`` is True on the step
+    where the simulation diverged, ``info["episode_metrics"]`` holds the running metrics (final at the episode end).
+
+    ## Starting State
+{start}
+    ## Episode End
+{end}
+    A diverged simulation (non-finite or speeds over 1000) truncates the episode with ``info["sim_unstable"]``,
+    the last finite observation and a reward of 0.
+
+    ## Arguments
+    | argument | default | meaning |
+    | --- | --- | --- |
+{args}{_ARGS}
+    ## Version History
+    - v0: first version (MuJoCo 4.0).
+"""
+
+
+class BeastTumbleEnv(BeastEnv):
+    __doc__ = _doc(
+        """One canonical tumble (1234) of a Platonic beast (Pai, Barman and Ralph, section 3).
+
+    ## Description
+    The 4-beast stands on limbs 1, 2, 3 with limb 4 straight up, in the working tumble's start stance K0 (feet on
+    an equilateral pattern of side 300 mm, body centre 168 mm up, ``../shared/spec/beast.md``). The task is the
+    paper's canonical tumble: move the centre of mass over the edge of feet 1 and 2, place foot 4 so that it lands
+    after the tip, and end standing on limbs 1, 4 and 2 with limb 3 free. The tumble goes along world +x. For the
+    6- and 8-beast any tumble (a new stance after the body has rolled by more than 45 degrees) counts.""",
+        """    - ``progress``: body velocity along +x (m/s);
+    - ``success``: ``success_reward`` on the step the tumble completes;
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        """    K0 (or the start stance of the 6-/8-beast: three or four feet down, free limbs straight out), turned by a
+    random yaw of up to 2 degrees and shifted up to 5 mm; free limbs jittered by up to 2 degrees; the encoders'
+    positions in their backlash band drawn at random. ``reset(options={"qpos": ..., "qvel": ...})`` starts from a
+    given MuJoCo state instead.
+""",
+        """    Terminates on success: limbs 1, 4, 2 on the floor and 3 free, held 0.2 s, after the body rolled by more than
+    45 degrees. Metrics: ``success`` (0/1), ``time_s`` (time to success, or elapsed), ``distance_m`` (along +x).
+    Truncated after 3000 steps (30 s; the working tumble takes 17 s at 20 deg/s) by the registry's time limit.
+""",
+        """    | success_reward | 10 | reward for completing the tumble |
+""",
+    )
+    reward_names = ("progress", "success", "ctrl")
+    metric_names = ("success", "time_s", "distance_m")
+
+    def __init__(self, success_reward: float = 10.0, **kwargs):
+        self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
+        super().__init__(**kwargs)
+
+    def _task_reset(self, feet_mask: int) -> None:
+        self._counter = TumbleCounter(feet_mask, self._qpos)
+        self._target = CANONICAL_END if self.polyhedron == "tetrahedron" else None
+        self._metrics = {"success": 0.0, "time_s": 0.0, "distance_m": 0.0}
+
+    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+        mask = int(feet_mask)
+        success = self._counter.update(mask, n_feet, self._qpos) and (self._target is None or mask == self._target)
+        m = self._metrics
+        m["distance_m"] = distance
+        m["time_s"] = self._elapsed * CONTROL_DT
+        if success:
+            m["success"] = 1.0
+        bonus = self.success_reward if success else 0.0
+        return (velocity, bonus, -self.ctrl_cost_weight * torque_sq), success
+
+
+class BeastRollEnv(BeastEnv):
+    __doc__ = _doc(
+        """Rolling along a commanded heading by a sequence of tumbles (the paper's rolling gait, section 3).
+
+    ## Description
+    A Platonic beast starts in its start stance (the working tumble's K0 for the 4-beast) and is rewarded for
+    moving its body along the commanded heading. The start stance is turned so that the straight strip of
+    support triangles of the working tumble's sequence (1234)(4213)(4321)(1342), which runs from foot 3 towards
+    foot 2, points along the heading (for the 6- and 8-beast, the first tumble's direction does). The feasibility
+    study's rolling gait makes about 0.155 m per tumble and 17 s per tumble at 20 deg/s joint rates.""",
+        """    - ``forward``: body velocity along the commanded heading (m/s);
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        """    The start stance turned to the heading (see Description), plus a random yaw of up to 2 degrees and a shift
+    of up to 5 mm; free limbs jittered by up to 2 degrees; encoder backlash positions random.
+""",
+        """    Never terminates; truncated after 8000 steps (80 s) by the registry's time limit. Metrics: ``distance_m``
+    (body displacement along the heading), ``tumbles`` (support changes after which the body has rolled by more
+    than 45 degrees), ``speed_m_s`` (distance / elapsed time).
+""",
+        """    | heading_deg | 0 | commanded heading, counter-clockwise from world +x, [-180, 180] |
+""",
+    )
+    reward_names = ("forward", "ctrl")
+    metric_names = ("distance_m", "tumbles", "speed_m_s")
+
+    def __init__(self, heading_deg: float = 0.0, **kwargs):
+        self.heading_deg = check_in_range("heading_deg", heading_deg, -180.0, 180.0)
+        self.heading_rad = math.radians(self.heading_deg)
+        super().__init__(**kwargs)
+
+    def _initial_state(self, rng):
+        qpos, qvel = self._stance_state(rng)
+        yaw = math.radians(self.heading_deg - STRIP_OFFSET_DEG[self.polyhedron])
+        return _turned(qpos, yaw), qvel
+
+    def _task_reset(self, feet_mask: int) -> None:
+        self._counter = TumbleCounter(feet_mask, self._qpos)
+        self._metrics = {"distance_m": 0.0, "tumbles": 0.0, "speed_m_s": 0.0}
+
+    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+        counter = self._counter
+        counter.update(int(feet_mask), n_feet, self._qpos)
+        m = self._metrics
+        m["distance_m"] = distance
+        m["tumbles"] = float(counter.count)
+        m["speed_m_s"] = distance / (self._elapsed * CONTROL_DT)
+        return (velocity, -self.ctrl_cost_weight * torque_sq), False
+
+
+class BeastTurnEnv(BeastEnv):
+    __doc__ = _doc(
+        """The sharp turn of a Platonic beast (paper section 5, Figures 10 and 11): change the rolling direction.
+
+    ## Description
+    The beast starts as in ``BeastRoll-v0``, facing world +x along its strip, and must roll off in the direction
+    turned by ``turn_deg`` from it, as a beast turning a sharp corner or passing a wall does: the paper keeps limb 1
+    planted while the robot rolls about it, synthesising a cone. The heading of travel is measured over the last
+    two tumbles (a straight strip zig-zags by +-30 degrees from one tumble to the next, and two tumbles follow it).""",
+        """    - ``forward``: body velocity along the target direction (+x turned by ``turn_deg``) (m/s);
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        """    As ``BeastRoll-v0`` with heading 0: the strip along world +x; random yaw up to 2 degrees, shift up to 5 mm.
+""",
+        """    Never terminates; truncated after 8000 steps (80 s). Metrics: ``heading_change_deg`` (direction of the body's
+    displacement over the last two tumbles, counter-clockwise from +x; 0 before two tumbles), ``heading_error_deg``
+    (its difference from ``turn_deg``, 180 before two tumbles), ``tumbles``, ``distance_m`` (along the target).
+""",
+        """    | turn_deg | 60 | commanded change of heading, counter-clockwise, [-180, 180] |
+""",
+    )
+    reward_names = ("forward", "ctrl")
+    metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m")
+
+    def __init__(self, turn_deg: float = 60.0, **kwargs):
+        self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
+        self.heading_rad = math.radians(self.turn_deg)
+        super().__init__(**kwargs)
+
+    def _initial_state(self, rng):
+        qpos, qvel = self._stance_state(rng)
+        return _turned(qpos, math.radians(-STRIP_OFFSET_DEG[self.polyhedron])), qvel
+
+    def _task_reset(self, feet_mask: int) -> None:
+        self._counter = TumbleCounter(feet_mask, self._qpos)
+        self._stances = [self._qpos[:2].copy()]
+        self._metrics = {"heading_change_deg": 0.0, "heading_error_deg": 180.0, "tumbles": 0.0, "distance_m": 0.0}
+
+    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+        m = self._metrics
+        if self._counter.update(int(feet_mask), n_feet, self._qpos):
+            self._stances = [*self._stances[-2:], self._qpos[:2].copy()]
+            if len(self._stances) == 3:
+                dx, dy = self._stances[2] - self._stances[0]
+                change = math.degrees(math.atan2(dy, dx))
+                m["heading_change_deg"] = change
+                m["heading_error_deg"] = abs((change - self.turn_deg + 180.0) % 360.0 - 180.0)
+            m["tumbles"] = float(self._counter.count)
+        m["distance_m"] = distance
+        return (velocity, -self.ctrl_cost_weight * torque_sq), False
+
+
+class BeastRecoverEnv(BeastEnv):
+    __doc__ = _doc(
+        """Recovering from a throw (paper section 5: a Platonic beast has no preferred "up" and can recover from a
+    topple).
+
+    ## Description
+    The beast starts in the air in a random orientation with random joint angles, moving and spinning as if
+    thrown, falls, and must reach a stance: three or more feet on the floor, nothing else touching it, the body
+    turning slower than 0.1 rad/s, held for 0.2 s.""",
+        """    - ``support``: 0.01 x (feet on the floor - 3 if the body or a link touches the floor);
+    - ``success``: ``success_reward`` on the step the stance is reached;
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        """    Orientation uniform over rotations; joint angles uniform over their ranges (redrawn while limbs or body
+    overlap; after 20 draws the limbs straight out); lowest point 5-25 cm above the floor; horizontal velocity up to
+    0.5 m/s, angular velocity up to 2 rad/s about each axis. All drawn from the env's generator.
+""",
+        """    Terminates on success. Metrics: ``success`` (0/1), ``time_to_stance_s`` (time when the final stance began;
+    the elapsed time if none). Truncated after 2000 steps (20 s).
+""",
+        """    | success_reward | 10 | reward for reaching the stance |
+""",
+    )
+    reward_names = ("support", "success", "ctrl")
+    metric_names = ("success", "time_to_stance_s")
+
+    def __init__(self, success_reward: float = 10.0, **kwargs):
+        self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
+        super().__init__(**kwargs)
+
+    def _initial_state(self, rng):
+        m = self.model
+        data = mujoco.MjData(m)  # a scratch copy: drawing a start state must not touch the live simulation
+        ranges = np.tile(self.params.joint_ranges, (self.n_limbs, 1))
+        floor = m.geom("floor").id
+        for attempt in range(21):
+            quat = rng.normal(size=4)
+            quat /= np.linalg.norm(quat)
+            if attempt < 20:
+                joints = rng.uniform(ranges[:, 0], ranges[:, 1])
+            else:
+                joints = np.tile([0.0, math.pi / 2, 0.0], self.n_limbs)
+            data.qpos[:] = np.concatenate([[0.0, 0.0, 2.0], quat, joints])
+            mujoco.mj_forward(m, data)
+            clash = any(c.geom1 != floor and c.geom2 != floor for c in data.contact[: data.ncon])
+            if not clash:
+                break
+        lowest = min(
+            data.geom_xpos[g, 2] - m.geom_rbound[g] if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE else np.inf
+            for g in range(m.ngeom)
+        )
+        qpos = data.qpos.copy()
+        qpos[2] += -lowest + rng.uniform(0.05, 0.25)
+        qvel = np.zeros(m.nv)
+        qvel[:2] = rng.uniform(-0.5, 0.5, 2)
+        qvel[3:6] = rng.uniform(-2.0, 2.0, 3)
+        return qpos, qvel
+
+    def _task_reset(self, feet_mask: int) -> None:
+        self._held = 0
+        self._metrics = {"success": 0.0, "time_to_stance_s": 0.0}
+
+    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+        other = other_contacts > 0
+        self._held = self._held + 1 if (n_feet >= 3 and not other and spin_sq < 0.01) else 0
+        success = self._held >= STANCE_TICKS
+        m = self._metrics
+        m["time_to_stance_s"] = (self._elapsed - (self._held if success else 0)) * CONTROL_DT
+        if success:
+            m["success"] = 1.0
+        support = 0.01 * (n_feet - (3.0 if other else 0.0))
+        bonus = self.success_reward if success else 0.0
+        return (support, bonus, -self.ctrl_cost_weight * torque_sq), success
+
+
+def _turned(qpos: np.ndarray, yaw: float) -> np.ndarray:
+    """A free-body qpos turned by ``yaw`` about the vertical through the body centre."""
+    out = qpos.copy()
+    half = yaw / 2
+    turn = np.array([math.cos(half), 0.0, 0.0, math.sin(half)])
+    mujoco.mju_mulQuat(out[3:7], turn, qpos[3:7].copy())
+    out[:2] = K.rot_z(yaw)[:2, :2] @ qpos[:2]
+    return out
