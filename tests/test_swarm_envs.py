@@ -269,3 +269,22 @@ def test_single_robot_gymnasium_envs(cls):
         env.step(np.zeros(2, np.float32))
     with pytest.raises(ValueError, match="n_robots"):
         cls(n_robots=3)
+
+
+def test_supersuit_conversion_to_an_sb3_vector_env_trains():
+    """Parameter sharing through SuperSuit: ``black_death_v3`` keeps arrived robots' slots (zero observations),
+    then ``pettingzoo_env_to_vec_env_v1`` and ``concat_vec_envs_v1`` make an SB3 VecEnv of robots."""
+    ss = pytest.importorskip("supersuit")
+    sb3 = pytest.importorskip("stable_baselines3")
+    import torch
+
+    torch.set_num_threads(1)
+    env = ss.black_death_v3(corridor_v0.parallel_env(n_robots=3, max_cycles=40))
+    venv = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(env), 2, num_cpus=0, base_class="stable_baselines3")
+    assert venv.num_envs == 6
+    model = sb3.PPO(
+        "MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, verbose=0
+    )  # no seed=: ConcatVecEnv lacks seed()
+    model.learn(200)
+    assert model.num_timesteps >= 192
+    venv.close()

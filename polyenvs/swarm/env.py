@@ -300,10 +300,11 @@ class SwarmEnv(ParallelEnv):
         return {a: obs[i] for i, a in enumerate(self.agents)}, infos
 
     def step(self, actions):
-        if not self.agents:
-            raise ValueError("step() called with no live agents: call reset()")
         n = self.n_robots
         command = self._command(actions)
+        if not self.agents:
+            # Every robot has left: nothing moves (SuperSuit's black_death wrapper steps once more with no actions).
+            return {}, {}, {}, {}, {}
         rng = self._rng
         noise = 1.0 + self.terrain_noise * rng.standard_normal((n, 2)) + self._drift
         self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
