@@ -6,4 +6,11 @@ Paper: Pai, Barman and Ralph, "Platonic Beasts: spherically symmetric multilimbe
 | module | what |
 | --- | --- |
 | ``kinematics`` | Tables 1 and 2: limb frames, forward/inverse kinematics, the limb Jacobian, the 12 tumbles (numpy only) |
+| ``model`` | the MJCF generated from bounded physical parameters; the start stances (K0 for the 4-beast) |
+| ``sensors`` | encoders with backlash, tilt switches, foot contacts, the tasks' summary: one compiled call per step |
+| ``env`` | the Gymnasium surface on ``MujocoEnv``: actions, observation, divergence, reward terms, metrics |
+| ``tasks`` | ``BeastTumbleEnv``, ``BeastRollEnv``, ``BeastTurnEnv``, ``BeastRecoverEnv`` |
+
+Importing this package imports nothing heavy; MuJoCo (the ``mujoco`` extra) is loaded by ``model.build_model`` and
+by the environment modules.
 """
