@@ -215,7 +215,8 @@ def test_bad_actions_and_options_raise_and_change_nothing():
         np.testing.assert_array_equal(env.step(hold)[0], twin.step(hold)[0])
 
 
-def test_divergence_truncates_with_the_last_finite_observation():
+def test_divergence_truncates_with_the_last_finite_observation(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT in the working directory
     env = BeastRollEnv()
     obs, _ = env.reset(seed=0)
     qpos = env.data.qpos.copy()
@@ -229,6 +230,7 @@ def test_divergence_truncates_with_the_last_finite_observation():
     assert all(np.isfinite(v) for v in info["episode_metrics"].values())
     obs, *_ = env.reset(seed=0)
     assert not env.step(_hold_action(env, obs))[4]["sim_unstable"]
+    assert (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
 def test_roll_metrics_follow_the_body_along_the_heading():
