@@ -167,9 +167,8 @@ def test_no_robot_ever_passes_through_a_wall_an_obstacle_or_another_robot():
     contacts = 0
     for _ in range(400):
         wheels = rng.uniform(-0.5, 1.0, (n, 2)) * 0.75  # up to 0.075 m a step, below the radius
-        core.build_grid(pose, active, grid.geometry, grid.nx, grid.ny, grid.start, grid.items, grid.cell_of)
-        core.move(pose, active, wheels, params, walls, circles, grid.geometry, grid.nx, grid.ny, grid.start,
-                  grid.items, grid.cell_of, proposal, blocked)  # fmt: skip
+        core.build_grid(pose, active, *grid.arrays)
+        core.move(pose, active, wheels, params, walls[None], circles[None], *grid.arrays, proposal, blocked)
         contacts += int(blocked.sum())
         assert min(_gaps(pose, walls, circles, radius)) >= -1e-12
         assert (pose[:, :2] > 0).all() and (pose[:, :2] < 6).all()
@@ -185,10 +184,10 @@ def test_beams_and_trilateration_match_brute_force():
     angles = np.radians([-60.0, -15.0, 15.0, 60.0])
     comm = 1.5
     grid = core.Grid((0.0, 0.0, 8.0, 8.0), core.cell_size(radius, 0.8, comm, 0.1), n)
-    core.build_grid(pose, active, grid.geometry, grid.nx, grid.ny, grid.start, grid.items, grid.cell_of)
+    core.build_grid(pose, active, *grid.arrays)
     beams, idx, rng_out, clearance = np.zeros((n, 4)), np.zeros((n, k), np.int64), np.zeros((n, k)), np.zeros(n)
-    core.sense(pose, active, np.array([radius, 0.8, comm]), angles, walls, circles, grid.geometry, grid.nx, grid.ny,
-               grid.start, grid.items, grid.cell_of, beams, idx, rng_out, clearance)  # fmt: skip
+    core.sense(pose, active, np.array([radius, 0.8, comm]), angles, walls[None], circles[None], *grid.arrays, beams,
+               idx, rng_out, clearance)  # fmt: skip
     # Brute force: sample points densely along each beam against every disc and wall.
     t = np.linspace(0.0, 0.8, 8001)
     for i in np.flatnonzero(active)[:30]:

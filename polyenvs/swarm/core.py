@@ -4,12 +4,15 @@ Physics apart from task apart from API: nothing here knows about Gymnasium, Pett
 
 Layout (batch axis first, one row per robot):
 
-- ``pose`` ``(N, 3)``: x, y (m), heading (rad, counter-clockwise from +x);
-- ``active`` ``(N,)`` uint8: robots still in the episode (the others are neither moved, sensed nor hit);
-- ``walls`` ``(W, 4)``: segments x0, y0, x1, y1 (m); ``circles`` ``(C, 3)``: x, y, radius (m);
-- a uniform grid of cells (a cell list rebuilt every step by a counting sort), so that beams, contacts and
-  trilateration look at the robots of the 3 x 3 cells around a robot instead of all N: the cell side is at least
-  the farthest any of those reaches (see :func:`cell_size`), so N = 256 costs about what N = 20 costs per robot.
+- ``pose`` ``(E * N, 3)``: x, y (m), heading (rad, counter-clockwise from +x), for E environments of N robots
+  (rows ``e * N .. e * N + N - 1`` are environment e's; a single environment is a batch of one);
+- ``active`` ``(E * N,)`` uint8: robots still in the episode (the others are neither moved, sensed nor hit);
+- ``walls`` ``(E or 1, W, 4)``: segments x0, y0, x1, y1 (m); ``circles`` ``(E or 1, C, 3)``: x, y, radius (m)
+  (a leading 1 shares them between environments; unused circle slots sit far away with radius 0);
+- a uniform grid of cells per environment (a cell list rebuilt every step by a counting sort), so that beams,
+  contacts and trilateration look at the robots of the 3 x 3 cells around a robot instead of all N: the cell
+  side is at least the farthest any of those reaches (see :func:`cell_size`), so N = 256 costs about what N = 20
+  costs per robot, and robots of different environments never meet.
 
 Contacts: every robot proposes its move (an exact arc of the differential drive), and a proposal whose disc would
 overlap a wall, an obstacle, another robot's current disc or another robot's proposed disc is refused (the robot
@@ -38,31 +41,40 @@ def cell_size(radius: float, beam_m: float, comm_range_m: float, max_step_m: flo
 class Grid:
     """The cell list over the arena's bounding box (robots never leave it: walls enclose every arena)."""
 
-    def __init__(self, bounds, cell: float, n_robots: int):
+    def __init__(self, bounds, cell: float, n_robots: int, n_envs: int = 1):
         xmin, ymin, xmax, ymax = bounds
-        self.nx = max(1, math.ceil((xmax - xmin) / cell))
-        self.ny = max(1, math.ceil((ymax - ymin) / cell))
+        nx = max(1, math.ceil((xmax - xmin) / cell))
+        ny = max(1, math.ceil((ymax - ymin) / cell))
+        #: ``[nx, ny, robots per environment]``.
+        self.shape = np.array([nx, ny, n_robots], dtype=np.int64)
         self.geometry = np.array([xmin, ymin, 1.0 / cell, 0.0])
-        self.start = np.zeros(self.nx * self.ny + 1, dtype=np.int64)
-        self.items = np.zeros(n_robots, dtype=np.int64)
-        self.cell_of = np.zeros(n_robots, dtype=np.int64)
+        self.start = np.zeros(n_envs * nx * ny + 1, dtype=np.int64)
+        self.items = np.zeros(n_envs * n_robots, dtype=np.int64)
+        self.cell_of = np.zeros(n_envs * n_robots, dtype=np.int64)
+
+    @property
+    def arrays(self) -> tuple:
+        """What the kernels take: ``(geometry, shape, start, items, cell_of)``."""
+        return self.geometry, self.shape, self.start, self.items, self.cell_of
 
 
 @njit(cache=True)
-def build_grid(pose, active, geometry, nx, ny, start, items, cell_of):
-    """Counting sort of the active robots into cells: cell ``c`` holds ``items[start[c]:start[c + 1]]``."""
+def build_grid(pose, active, geometry, shape, start, items, cell_of):
+    """Counting sort of the active robots into cells (environment-major): cell ``c`` holds
+    ``items[start[c]:start[c + 1]]``."""
+    nx, ny, per = shape[0], shape[1], shape[2]
     start[:] = 0
     n = pose.shape[0]
     for i in range(n):
         if active[i]:
             cx = min(max(int((pose[i, 0] - geometry[0]) * geometry[2]), 0), nx - 1)
             cy = min(max(int((pose[i, 1] - geometry[1]) * geometry[2]), 0), ny - 1)
-            c = cy * nx + cx
+            c = (i // per) * nx * ny + cy * nx + cx
             cell_of[i] = c
             start[c + 1] += 1
         else:
             cell_of[i] = -1
-    for c in range(nx * ny):
+    for c in range(start.shape[0] - 1):
         start[c + 1] += start[c]
     fill = start[:-1].copy()
     for i in range(n):
@@ -115,7 +127,7 @@ def _ray_segment(ox, oy, dx, dy, x0, y0, x1, y1, best):
 
 
 @njit(cache=True)
-def move(pose, active, wheels, params, walls, circles, geometry, nx, ny, start, items, cell_of, proposal, blocked):
+def move(pose, active, wheels, params, walls, circles, geometry, shape, start, items, cell_of, proposal, blocked):
     """Advance every active robot by one control period; ``blocked[i]`` = 1 where a contact refused the move.
 
     Args:
@@ -124,6 +136,7 @@ def move(pose, active, wheels, params, walls, circles, geometry, nx, ny, start, 
         proposal: ``(N, 3)`` scratch.
     """
     dt, base, radius = params[0], params[1], params[2]
+    nx, ny, per = shape[0], shape[1], shape[2]
     n = pose.shape[0]
     r2 = radius * radius
     contact = 4.0 * r2
@@ -147,23 +160,27 @@ def move(pose, active, wheels, params, walls, circles, geometry, nx, ny, start, 
         px, py = proposal[i, 0], proposal[i, 1]
         if px == pose[i, 0] and py == pose[i, 1]:
             continue  # turning in place never overlaps anything
+        e = i // per
+        ws = walls[e if walls.shape[0] > 1 else 0]
+        cs = circles[e if circles.shape[0] > 1 else 0]
         hit = False
-        for w in range(walls.shape[0]):
-            if _segment_distance_sq(px, py, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]) < r2:
+        for w in range(ws.shape[0]):
+            if _segment_distance_sq(px, py, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3]) < r2:
                 hit = True
                 break
         if not hit:
-            for c in range(circles.shape[0]):
-                ex, ey = px - circles[c, 0], py - circles[c, 1]
-                reach = circles[c, 2] + radius
+            for c in range(cs.shape[0]):
+                ex, ey = px - cs[c, 0], py - cs[c, 1]
+                reach = cs[c, 2] + radius
                 if ex * ex + ey * ey < reach * reach:
                     hit = True
                     break
         if not hit:
-            cx, cy = cell_of[i] % nx, cell_of[i] // nx
+            first = e * nx * ny
+            cx, cy = (cell_of[i] - first) % nx, (cell_of[i] - first) // nx
             for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
                 for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                    c = gy * nx + gx
+                    c = first + gy * nx + gx
                     for s in range(start[c], start[c + 1]):
                         j = items[s]
                         if j == i:
@@ -182,7 +199,7 @@ def move(pose, active, wheels, params, walls, circles, geometry, nx, ny, start, 
 
 
 @njit(cache=True)
-def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start, items, cell_of, beams, nb_index,
+def sense(pose, active, params, angles, walls, circles, geometry, shape, start, items, cell_of, beams, nb_index,
           nb_range, clearance):  # fmt: skip
     """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance.
 
@@ -197,6 +214,7 @@ def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start,
             count only within a beam's reach, ``beam_m``).
     """
     radius, beam_m, comm = params[0], params[1], params[2]
+    nx, ny, per = shape[0], shape[1], shape[2]
     n, n_sensors = beams.shape
     k = nb_index.shape[1]
     comm_sq = comm * comm
@@ -213,27 +231,31 @@ def sense(pose, active, params, angles, walls, circles, geometry, nx, ny, start,
         if not active[i]:
             continue
         x, y, h = pose[i, 0], pose[i, 1], pose[i, 2]
+        e = i // per
+        ws = walls[e if walls.shape[0] > 1 else 0]
+        cs = circles[e if circles.shape[0] > 1 else 0]
         gap = np.inf
-        for w in range(walls.shape[0]):
-            d = math.sqrt(_segment_distance_sq(x, y, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]))
+        for w in range(ws.shape[0]):
+            d = math.sqrt(_segment_distance_sq(x, y, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3]))
             gap = min(gap, d - radius)
-        for c in range(circles.shape[0]):
-            d = math.hypot(x - circles[c, 0], y - circles[c, 1]) - circles[c, 2] - radius
+        for c in range(cs.shape[0]):
+            d = math.hypot(x - cs[c, 0], y - cs[c, 1]) - cs[c, 2] - radius
             gap = min(gap, d)
         for s in range(n_sensors):
             dx, dy = math.cos(h + angles[s]), math.sin(h + angles[s])
             ox, oy = x + radius * dx, y + radius * dy
             ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3] = ox, oy, dx, dy
             best = beam_m
-            for w in range(walls.shape[0]):
-                best = _ray_segment(ox, oy, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3], best)
-            for c in range(circles.shape[0]):
-                best = _ray_circle(ox, oy, dx, dy, circles[c, 0], circles[c, 1], circles[c, 2], best)
+            for w in range(ws.shape[0]):
+                best = _ray_segment(ox, oy, dx, dy, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3], best)
+            for c in range(cs.shape[0]):
+                best = _ray_circle(ox, oy, dx, dy, cs[c, 0], cs[c, 1], cs[c, 2], best)
             beams[i, s] = best
-        cx, cy = cell_of[i] % nx, cell_of[i] // nx
+        first = e * nx * ny
+        cx, cy = (cell_of[i] - first) % nx, (cell_of[i] - first) // nx
         for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
             for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                c = gy * nx + gx
+                c = first + gy * nx + gx
                 for t in range(start[c], start[c + 1]):
                     j = items[t]
                     if j == i:

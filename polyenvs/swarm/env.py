@@ -208,6 +208,7 @@ class SwarmEnv(ParallelEnv):
         )
 
         self._angles = np.radians(np.array(self.sensor_angles_deg))
+        self._walls = np.ascontiguousarray(self.layout.walls, dtype=np.float64)[None]
         self._grid = core.Grid(
             self.layout.bounds, core.cell_size(radius, BEAM_M, self.comm_range_m, self.max_step_m), n
         )
@@ -277,6 +278,7 @@ class SwarmEnv(ParallelEnv):
         self._rng, self._np_random_seed = rng, used
         n = self.n_robots
         self.circles = np.ascontiguousarray(episode.circles, dtype=np.float64).reshape(-1, 3)
+        self._circles = self.circles[None]
         self.goal = np.asarray(episode.goal, dtype=np.float64)
         self.pose[:] = episode.starts
         self.active[:] = 1
@@ -310,9 +312,9 @@ class SwarmEnv(ParallelEnv):
         self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
         before = self.pose.copy()
         g = self._grid
-        core.build_grid(self.pose, self.active, g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of)
-        core.move(self.pose, self.active, self._wheels, self._move_params, self.layout.walls, self.circles,
-                  g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._proposal, self._blocked)  # fmt: skip
+        core.build_grid(self.pose, self.active, *g.arrays)
+        core.move(self.pose, self.active, self._wheels, self._move_params, self._walls, self._circles, *g.arrays,
+                  self._proposal, self._blocked)  # fmt: skip
         self.num_cycles += 1
         self._powers = command * self.active[:, None]
         obs = self._sense(rng)
@@ -416,10 +418,9 @@ class SwarmEnv(ParallelEnv):
     def _sense(self, rng: np.random.Generator) -> np.ndarray:
         """Run the sensing kernel and build every robot's observation row (a fresh array)."""
         g = self._grid
-        core.build_grid(self.pose, self.active, g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of)
-        core.sense(self.pose, self.active, self._sense_params, self._angles, self.layout.walls, self.circles,
-                   g.geometry, g.nx, g.ny, g.start, g.items, g.cell_of, self._beams, self._nb_index, self._nb_range,
-                   self._clearance)  # fmt: skip
+        core.build_grid(self.pose, self.active, *g.arrays)
+        core.sense(self.pose, self.active, self._sense_params, self._angles, self._walls, self._circles, *g.arrays,
+                   self._beams, self._nb_index, self._nb_range, self._clearance)  # fmt: skip
         n, k = self.n_robots, self.n_neighbours
         normals = rng.standard_normal((n, 11 + 2 * k))
         floor = rng.random((n, 4))
