@@ -8,13 +8,14 @@ import pickle
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils import seeding
 from gymnasium.utils.env_checker import check_env
+from gymnasium.vector import AutoresetMode
 
 from baselines.bumper import RandomBounce
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.env import OBSERVATION_STRUCTURE, BumperCartExploreEnv
 from polyenvs.bumper.maps import MAPS
+from polyenvs.bumper.vector import BumperCartExploreVectorEnv
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 if ENV_ID not in gym.registry:  # until the registry row is in polyenvs.registry
@@ -144,24 +145,29 @@ def test_reset_pose_option():
     assert env.np_random.bit_generator.state == generator
 
 
-def test_rows_of_a_batch_reproduce_single_environments():
-    """The batched core a native vector env builds on: row i of a batch reset with seed s + i is the single
-    environment reset with seed s + i, cycle for cycle."""
-    batch_cls = type("Batch", (BumperCartExploreEnv,), {"_batch_size": 3})
-    batch = batch_cls(map="maze")
-    for i in range(3):
-        rng, _ = seeding.np_random(100 + i)
-        batch._commit_row(i, rng, batch._draw_row(rng, None), reseeded=True)
-    singles = [BumperCartExploreEnv(map="maze") for _ in range(3)]
-    for i, env in enumerate(singles):
-        env.reset(seed=100 + i)
-    turns = np.random.default_rng(0).uniform(-1, 1, (40, 3)).astype(np.float32)  # actions are float32
-    for step in turns:
-        batch._advance(math.pi * step.astype(np.float64))
-        for i, env in enumerate(singles):
-            obs, *_ = env.step(np.array([step[i]], dtype=np.float32))
-            np.testing.assert_array_equal(batch._observations[i], obs)
-            np.testing.assert_array_equal(batch.state[i], env.state[0])
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_native_vector_env_equals_sync_vector_env(mode):
+    """Sub-environment i reset with seed s reproduces gym.make(id) reset with seed s + i, through autoresets."""
+    kwargs = {"map": "maze", "max_episode_steps": 15}
+    native = BumperCartExploreVectorEnv(num_envs=3, autoreset_mode=mode, **kwargs)
+    sync = gym.vector.SyncVectorEnv(
+        [lambda: gym.make(ENV_ID, map="maze", max_episode_steps=15)] * 3, autoreset_mode=mode
+    )
+    obs_n, info_n = native.reset(seed=100)
+    obs_s, info_s = sync.reset(seed=100)
+    np.testing.assert_array_equal(obs_n, obs_s)
+    np.testing.assert_array_equal(info_n["pose"], info_s["pose"])
+    actions = np.random.default_rng(0).uniform(-1, 1, (40, 3, 1)).astype(np.float32)
+    for a in actions:
+        step_n, step_s = native.step(a), sync.step(a)
+        for x, y in zip(step_n[:4], step_s[:4], strict=True):
+            np.testing.assert_array_equal(x, y)
+        for key in ("pose", "dead_reckoned_pose", "touched_cells", "reward_touch"):
+            np.testing.assert_array_equal(step_n[4][key], step_s[4][key])
+        for key in BumperCartExploreEnv.metric_names:
+            np.testing.assert_array_equal(step_n[4]["episode_metrics"][key], step_s[4]["episode_metrics"][key])
+    with pytest.raises(ValueError, match="actions"):
+        native.step(np.full((3, 1), np.nan, dtype=np.float32))
 
 
 @pytest.mark.parametrize("name", sorted(MAPS))

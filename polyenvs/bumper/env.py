@@ -7,7 +7,6 @@ newly touched wall and writes observation, reward and metric rows into prealloca
 
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -16,13 +15,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
 from polyenvs.bumper.maps import BumperMap, make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.jit import njit
+from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
 
@@ -37,9 +36,24 @@ OBSERVATION_STRUCTURE = {
 }
 #: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
 TRAIL_POINTS = 3000
-# Columns of the per-row task state: touched wall fraction, bumps, large slips.
-_TOUCHED, _BUMPS, _SLIPS = range(3)
-_COLUMNS = ("reward_touch", "wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips", "reward")
+# Columns of the per-row task state: touched wall fraction, bumps, large slips, cycles into the episode.
+_TOUCHED, _BUMPS, _SLIPS, _STEPS = range(4)
+
+
+#: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
+_POSE_COLUMNS = [C.X, C.Y, C.HEADING, C.DR_X, C.DR_Y, C.DR_HEADING, C.BUMP_X, C.BUMP_Y, C.BUMP_HEADING]
+
+
+@dataclass
+class _RowReset:
+    """Everything a row's reset decided, drawn and validated before any state changes."""
+
+    row: int
+    rng: np.random.Generator
+    reseeded: bool
+    pose: np.ndarray
+    mismatch: float
+    wheel_base: float
 
 
 @dataclass(frozen=True)
@@ -63,13 +77,13 @@ class LocalizationContext:
 
 
 @njit(cache=True)
-def _step_kernel(turns, state, walls, params, normals, cursor, obs, out, task, touched, cell_first, cell_count,
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, touched, cell_first, cell_count,
                  cell_share):  # fmt: skip
-    for b in range(turns.shape[0]):
-        if not math.isfinite(turns[b]):
-            continue  # a row that was just reset: it neither moves nor scores
+    for b in range(actions.shape[0]):
+        if actions[b, 1] < 0.5:
+            continue  # no action: a row that was just reset neither moves nor scores
         row = state[b]
-        cycle_row(row, turns[b], normals[b, cursor[b]], params, walls)
+        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls)
         cursor[b] += 1
         fresh = 0.0
         if row[C.BUMP] > 0.5:
@@ -82,6 +96,7 @@ def _step_kernel(turns, state, walls, params, normals, cursor, obs, out, task, t
             task[b, _BUMPS] += 1.0
         task[b, _TOUCHED] += fresh
         task[b, _SLIPS] += row[C.BIG_SLIP]
+        task[b, _STEPS] += 1.0
         for k in range(6):
             obs[b, k] = row[C.TICKS + k]
         obs[b, 6] = row[C.BUMP]
@@ -93,7 +108,7 @@ def _step_kernel(turns, state, walls, params, normals, cursor, obs, out, task, t
         out[b, 5] = out[b, 0]
 
 
-class BumperCartExploreEnv(gym.Env):
+class BumperCartExploreEnv(RowsEnv):
     """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
     wheel encoders.
 
@@ -159,8 +174,6 @@ class BumperCartExploreEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
     reward_names = ("touch",)
     metric_names = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
-    #: Rows (carts) this instance simulates; a vector env builds the class with more.
-    _batch_size = 1
 
     def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
         unknown = set(cart) - set(C.CART_PARAMETER_RANGES)
@@ -181,54 +194,17 @@ class BumperCartExploreEnv(gym.Env):
             np.array([-t] * 6 + [0.0], dtype=np.float32), np.array([t] * 6 + [1.0], dtype=np.float32), dtype=np.float32
         )
         self.observation_structure = dict(OBSERVATION_STRUCTURE)
+        # A row's action is (turn in rad, 1); the base marks a row that gets none by writing NO_ACTION (-1) over it.
+        self._allocate_rows(action_dtype=np.float64, action_shape=(2,))
         self.state = np.zeros((n, C.N_STATE))
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
         self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
         self._cell_share = lengths / self.world.wall_length_cm
         self._touched = np.zeros((n, len(lengths)), dtype=np.uint8)
-        self._task = np.zeros((n, 3))
-        self._observations = np.zeros((n, 7), dtype=np.float32)
-        self._out = np.zeros((n, len(_COLUMNS)))
-        self._turns = np.zeros(n)
-        self._started = False
+        self._task = np.zeros((n, 4))
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
-
-    # --- Gymnasium API ----------------------------------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        pose = self._option_pose(options)
-        if seed is not None:
-            rng, used_seed = seeding.np_random(seed)
-        else:
-            rng, used_seed = copy.deepcopy(self.np_random), self._np_random_seed
-        draws = self._draw_row(rng, pose)
-        self._commit_row(0, rng, draws, reseeded=seed is not None)
-        self._np_random, self._np_random_seed = rng, used_seed
-        return self._observations[0].copy(), self._get_info(0)
-
-    def step(self, action):
-        if not self._started:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        if isinstance(action, np.ndarray) and action.shape == (1,) and -1.0 <= action[0] <= 1.0:
-            turn = float(action[0])  # the common case, checked without the space's slower generic test
-        else:
-            try:
-                array = np.asarray(action, dtype=np.float32)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"action {show(action)} is not a turn in the action space {self.action_space}"
-                ) from None
-            check_action(self.action_space, array)
-            turn = float(array[0])
-        self._turns[0] = math.pi * turn
-        self._advance(self._turns)
-        out = self._out[0]
-        if self.render_mode is not None:
-            self._record_paths()
-            if self.render_mode == "human":
-                self.render()
-        return self._observations[0].copy(), float(out[-1]), False, False, self._get_info(0)
 
     def render(self):
         if self.render_mode is None:
@@ -254,16 +230,16 @@ class BumperCartExploreEnv(gym.Env):
             self.world, TICK_CM, m.wheel_base_cm, m.bumper_offset_cm, m.bumper_width_cm, dict(OBSERVATION_STRUCTURE)
         )
 
-    # --- the batched core (shared with a vector env) ----------------------------------------------------------
-    def _option_pose(self, options) -> np.ndarray | None:
+    # --- the batched core (:class:`polyenvs.core.rows.RowsEnv`) ----------------------------------------------
+    def _check_options(self, options) -> dict:
         if options is None:
-            return None
+            return {}
         if not isinstance(options, dict):
             raise ValueError(f"options must be a dict or None, got {show(options)}")
         if set(options) - {"pose"}:
             raise ValueError(f"unknown reset option(s) {sorted(set(options) - {'pose'})}; expected 'pose'")
         if "pose" not in options:
-            return None
+            return {}
         try:
             x, y, heading_deg = (float(v) for v in options["pose"])
         except (TypeError, ValueError):
@@ -278,58 +254,103 @@ class BumperCartExploreEnv(gym.Env):
                 f"reset option 'pose' puts the cart {clearance:.1f} cm from a wall (at least "
                 f"{self.start_clearance_cm:.1f} cm, its body's reach, in free space)"
             )
-        return np.array([x, y, math.radians(heading_deg)])
+        return {"pose": np.array([x, y, math.radians(heading_deg)])}
 
-    def _draw_row(self, rng: np.random.Generator, pose) -> tuple:
-        """A new episode's random choices, drawn on ``rng``; writes nothing."""
-        if pose is None:
-            pose = self.world.sample_pose(rng, self.start_clearance_cm)
-        return pose, *self.model.draw_episode(rng)
+    def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
+        pose = options["pose"] if "pose" in options else self.world.sample_pose(rng, self.start_clearance_cm)
+        return _RowReset(row, rng, reseeded, pose, *self.model.draw_episode(rng))
 
-    def _commit_row(self, row: int, rng: np.random.Generator, draws: tuple, reseeded: bool) -> None:
-        pose, mismatch, base = draws
-        place_row(self.state[row], pose, mismatch, base)
-        self.streams.restart(row, rng, reseeded)
-        self._touched[row] = 0
-        self._task[row] = 0.0
-        self._observations[row] = 0.0
-        self._out[row] = 0.0
+    def _commit_rows(self, prepared: list[_RowReset]) -> None:
+        for r in prepared:
+            place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
+            self.streams.restart(r.row, r.rng, r.reseeded)
+            self._touched[r.row] = 0
+            self._task[r.row] = 0.0
+            self._observations[r.row] = 0.0
+            self._out[r.row] = 0.0
+            if r.row == 0:
+                for path in self._paths:
+                    path.clear()
+                self._paths[0].append(tuple(r.pose[:2]))
+                self._paths[1].append(tuple(r.pose[:2]))
         self._started = True
-        if row == 0:
-            for path in self._paths:
-                path.clear()
-            self._paths[0].append(tuple(pose[:2]))
-            self._paths[1].append(tuple(pose[:2]))
 
-    def _advance(self, turns: np.ndarray) -> None:
+    def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
         _step_kernel(
-            turns, self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
+            actions, self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
             self._observations, self._out, self._task, self._touched, self._cell_first, self._cell_count,
             self._cell_share,
         )  # fmt: skip
 
-    def _record_paths(self) -> None:
+    def _row_generator(self, row: int) -> np.random.Generator | None:
+        return self.streams.generators[row]
+
+    def _row_steps(self) -> np.ndarray:
+        return self._task[:, _STEPS]
+
+    def _check_action(self, action) -> np.ndarray:
+        if isinstance(action, np.ndarray) and action.shape == (1,) and -1.0 <= action[0] <= 1.0:
+            turn = float(action[0])  # the common case, checked without the space's slower generic test
+        else:
+            try:
+                array = np.asarray(action, dtype=np.float32)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"action {show(action)} is not a turn in the action space {self.action_space}"
+                ) from None
+            check_action(self.action_space, array)
+            turn = float(array[0])
+        return np.array([math.pi * turn, 1.0])
+
+    def _check_actions(self, actions: np.ndarray) -> np.ndarray:
+        array = np.asarray(actions, dtype=np.float32)
+        if array.shape != (self._batch_size, 1) or np.isnan(array).any() or (np.abs(array) > 1.0).any():
+            raise ValueError(f"actions must be ({self._batch_size}, 1) turns in [-1, 1], got {show(actions)}")
+        return np.stack([math.pi * array[:, 0].astype(np.float64), np.ones(self._batch_size)], axis=1)
+
+    def _on_row0_step(self) -> None:
+        if self.render_mode is None:
+            return
         s = self.state[0]
         true_path, dead_reckoned, bumps = self._paths
         true_path.extend(((s[C.TURN_X], s[C.TURN_Y]), (s[C.BUMP_X], s[C.BUMP_Y]), (s[C.X], s[C.Y])))
         dead_reckoned.append((s[C.DR_X], s[C.DR_Y]))
         if s[C.BUMP] > 0.5:
             bumps.append((s[C.CONTACT_X], s[C.CONTACT_Y]))
+        if self.render_mode == "human":
+            self.render()
 
     def _get_info(self, row: int) -> dict[str, Any]:
         s = self.state[row]
-        out = self._out[row]
-        poses = np.array([s[C.X], s[C.Y], s[C.HEADING], s[C.DR_X], s[C.DR_Y], s[C.DR_HEADING], s[C.BUMP_X],
-                          s[C.BUMP_Y], s[C.BUMP_HEADING]])  # fmt: skip
+        poses = s[_POSE_COLUMNS]  # one fresh array; the poses below are views of it
         poses[2::3] = np.degrees(poses[2::3])
+        out = self._out[row].tolist()
         return {
             "pose": poses[0:3],
             "dead_reckoned_pose": poses[3:6],
             "pose_at_bump": poses[6:9],
             "bumped": bool(s[C.BUMP] > 0.5),
-            "contact_point": np.array([s[C.CONTACT_X], s[C.CONTACT_Y]]),
+            "contact_point": s[[C.CONTACT_X, C.CONTACT_Y]],
             "touched_cells": int(self._touched[row].sum()),
-            "reward_touch": float(out[0]),
-            "episode_metrics": dict(zip(self.metric_names, out[1:5].tolist(), strict=True)),
+            "reward_touch": out[0],
+            "episode_metrics": dict(zip(self._metric_names, out[1 : self._reward_column], strict=True)),
         }
+
+    def _vector_info(self) -> dict[str, Any]:
+        """:meth:`_get_info` for every row, in Gymnasium's vector convention."""
+        s = self.state
+        poses = s[:, _POSE_COLUMNS]
+        poses[:, 2::3] = np.degrees(poses[:, 2::3])
+        scores = self._out[:, : self._reward_column].copy()
+        values = {
+            "pose": poses[:, 0:3],
+            "dead_reckoned_pose": poses[:, 3:6],
+            "pose_at_bump": poses[:, 6:9],
+            "bumped": s[:, C.BUMP] > 0.5,
+            "contact_point": s[:, [C.CONTACT_X, C.CONTACT_Y]],
+            "touched_cells": self._touched.sum(axis=1, dtype=np.int64),
+            "reward_touch": scores[:, 0],
+        }
+        metrics = {name: scores[:, 1 + j] for j, name in enumerate(self._metric_names)}
+        return vector_convention(values, metrics, self._batch_size)

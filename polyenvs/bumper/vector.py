@@ -1,0 +1,19 @@
+"""Native vector environment: many bumper carts in one process, cycled by the single env's own compiled kernel.
+
+``gym.make_vec("polyenvs/BumperCartExplore-v0", num_envs=1024)`` builds one: :class:`BumperCartExploreEnv`
+constructed with 1024 rows behind the shared :class:`polyenvs.core.rows.RowsVectorEnv`, which gives what
+``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit, in either autoreset mode.
+"""
+
+from __future__ import annotations
+
+from polyenvs.bumper.env import BumperCartExploreEnv
+from polyenvs.core.rows import RowsVectorEnv
+
+__all__ = ["BumperCartExploreVectorEnv"]
+
+
+class BumperCartExploreVectorEnv(RowsVectorEnv):
+    """Vector form of :class:`~polyenvs.bumper.env.BumperCartExploreEnv` (same arguments and reset options)."""
+
+    env_class = BumperCartExploreEnv
