@@ -4,12 +4,12 @@ Targets (``spec/performance.md``): each beast id's step costs at most 1.15x a ra
 nstep=frame_skip)`` on our own model, and runs at least as many steps per second as Ant-v5 (``gym.make``, which
 pays about 1.6x over its own raw step).
 
-How it is measured: every row steps pre-sampled random actions for at least ``min_seconds`` per repeat, resets
-included, and the rows are timed in interleaved rounds (serpentine order), so drift on a shared machine cancels in
-the per-round ratios, whose median is reported. The raw rows replay the same action block on the same model from the
-same start state: ``data.ctrl`` = the actions scaled to the joint ranges, one ``mj_step(..., nstep=frame_skip)``,
-and a reset (``mj_resetData`` + the env's start state) wherever the environment's episode ended, so both do the same
-physics and differ only by what the environment adds. Ant's raw row does the same with Ant's model.
+How it is measured: every environment steps pre-sampled random actions through ``gym.make`` (resets included) in
+chunks of 100 steps; before each chunk its MuJoCo state is copied to a second ``MjData``, on which the raw row
+replays the same controls (the actions scaled to the joint ranges) with ``mj_step(..., nstep=frame_skip)``. Both
+clocks thus run the same physics, alternating every 100 steps, and differ only by what the environment adds (for
+Ant-v5, Gymnasium's ``MujocoEnv`` step). Rows are timed in rounds (order reversed every other round); each figure is
+the median over rounds, each ratio the median of per-round ratios.
 
 ``python -m benchmarks.beast [--quick] [--ids Tumble,Roll]``; :func:`run` returns the rows for
 ``benchmarks/throughput.py``.
@@ -34,6 +34,7 @@ _CLASSES = {
     "polyenvs/BeastRecover-v0": ("BeastRecoverEnv", 2000),
 }
 _BLOCK = 2000  # actions per block (a repeat cycles through it)
+_CHUNK = 100  # steps timed between state copies
 
 
 def _ensure_registered() -> None:
@@ -58,110 +59,87 @@ class Row:
         return statistics.median(self.rates)
 
 
-class _EnvLoop:
-    """``gym.make(env_id)`` stepped through a block of random actions, reset when an episode ends."""
+class _Pair:
+    """An environment and a raw ``mj_step`` loop on a copy of its state, timed chunk by chunk on the same physics.
+
+    Before each chunk of ``_CHUNK`` steps the environment's MuJoCo state is copied into a second ``MjData``; the
+    environment then steps the chunk's actions through ``gym.make``'s wrappers (resetting if an episode ends), and
+    the raw loop replays the same controls from the copied state. Copies are outside the timers, so the two clocks
+    differ only by what the environment adds to ``mj_step``.
+    """
 
     def __init__(self, env_id: str, seed: int):
         import gymnasium as gym
-
-        self.env = gym.make(env_id)
-        self.env.reset(seed=seed)
-        self.env.action_space.seed(seed)
-        self.actions = [self.env.action_space.sample() for _ in range(_BLOCK)]
-        self.seed = seed
-        self.ends: list[int] = []  # indices after which the episode ended (for the raw replay)
-
-    def repeat(self, min_seconds: float) -> float:
-        env, actions = self.env, self.actions
-        env.reset(seed=self.seed)
-        self.ends = []
-        steps, start = 0, time.perf_counter()
-        while True:
-            for i, action in enumerate(actions):
-                _, _, terminated, truncated, _ = env.step(action)
-                if terminated or truncated:
-                    env.reset()
-                    self.ends.append(i)
-            steps += len(actions)
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_seconds:
-                return steps / elapsed
-
-
-class _RawLoop:
-    """Raw ``mj_step(nstep=frame_skip)`` on the same model, replaying an env loop's actions and resets."""
-
-    def __init__(self, loop: _EnvLoop):
         import mujoco
 
         self.mujoco = mujoco
-        self.loop = loop
-        env = loop.env.unwrapped
-        self.model, self.data, self.frame_skip = env.model, env.data, env.frame_skip
-        if hasattr(env, "_low"):  # ours: actions in [-1, 1] scaled to the joint ranges
-            self.ctrls = [env._low + (np.asarray(a, dtype=np.float64) + 1) / 2 * env._span for a in loop.actions]
+        self.env = gym.make(env_id)
+        self.env.reset(seed=seed)
+        self.env.action_space.seed(seed)
+        inner = self.env.unwrapped
+        self.model, self.data, self.nstep = inner.model, inner.data, inner.frame_skip
+        self.raw = mujoco.MjData(self.model)
+        self.actions = [self.env.action_space.sample() for _ in range(_BLOCK)]
+        if hasattr(inner, "_low"):  # ours: actions in [-1, 1] scaled to the joint ranges
+            self.ctrls = [inner._low + (np.asarray(a, dtype=np.float64) + 1) / 2 * inner._span for a in self.actions]
         else:  # Gymnasium's MuJoCo envs take the control itself
-            self.ctrls = [np.asarray(a, dtype=np.float64) for a in loop.actions]
+            self.ctrls = [np.asarray(a, dtype=np.float64) for a in self.actions]
 
-    def repeat(self, min_seconds: float) -> float:
-        mujoco, model, data, nstep = self.mujoco, self.model, self.data, self.frame_skip
-        env = self.loop.env
-        env.reset(seed=self.loop.seed)
-        start_state = (data.qpos.copy(), data.qvel.copy())
-        ends = set(self.loop.ends)
-        ctrl, step = data.ctrl, mujoco.mj_step
-        steps, start = 0, time.perf_counter()
-        while True:
-            for i, c in enumerate(self.ctrls):
-                ctrl[:] = c
-                step(model, data, nstep=nstep)
-                if i in ends:
-                    mujoco.mj_resetData(model, data)
-                    data.qpos[:], data.qvel[:] = start_state
-                    mujoco.mj_forward(model, data)
-            steps += len(self.ctrls)
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_seconds:
-                return steps / elapsed
+    def repeat(self, min_seconds: float) -> tuple[float, float]:
+        """(environment steps/s, raw steps/s) over at least ``min_seconds`` of environment time."""
+        mujoco, model, data, raw, nstep = self.mujoco, self.model, self.data, self.raw, self.nstep
+        env_step, reset, mj_step, ctrl = self.env.step, self.env.reset, mujoco.mj_step, raw.ctrl
+        clock = time.perf_counter
+        t_env = t_raw = 0.0
+        steps = 0
+        while t_env < min_seconds:
+            for i in range(0, _BLOCK, _CHUNK):
+                mujoco.mj_copyData(raw, model, data)
+                start = clock()
+                for action in self.actions[i : i + _CHUNK]:
+                    _, _, terminated, truncated, _ = env_step(action)
+                    if terminated or truncated:
+                        reset()
+                t_env += clock() - start
+                start = clock()
+                for c in self.ctrls[i : i + _CHUNK]:
+                    ctrl[:] = c
+                    mj_step(model, raw, nstep=nstep)
+                t_raw += clock() - start
+                steps += _CHUNK
+        return steps / t_env, steps / t_raw
 
 
 def run(*, min_seconds: float = 2.0, rounds: int = 3, ids=BEAST_IDS, seed: int = 0) -> tuple[list[Row], list[str]]:
-    """Time Ant-v5, its raw step, each beast id and its raw step in interleaved rounds; rows and ratio notes."""
+    """Time Ant-v5 and each beast id, each against its raw step, in interleaved rounds; rows and ratio notes."""
     _ensure_registered()
-    loops: list[tuple[Row, object]] = []
-    ant = _EnvLoop("Ant-v5", seed)
-    loops.append((Row("Ant-v5", "gym.make, frame_skip 5"), ant))
-    loops.append((Row("Ant-v5 raw mj_step", "nstep=5, same actions"), _RawLoop(ant)))
-    for env_id in ids:
-        loop = _EnvLoop(env_id, seed)
-        loops.append((Row(env_id, "gym.make, frame_skip 5"), loop))
-        loops.append((Row(f"{env_id} raw mj_step", "nstep=5, same actions and resets"), _RawLoop(loop)))
-    for _, loop in loops:  # warm up: numba compilation, caches, and the env loops' episode ends
-        if isinstance(loop, _EnvLoop):
-            loop.repeat(min(0.2, min_seconds))
+    names = ["Ant-v5", *ids]
+    pairs = [_Pair(name, seed) for name in names]
+    rows = {name: (Row(name, "gym.make, frame_skip 5"), Row(f"{name} raw mj_step", "nstep=5, same states and controls"))
+            for name in names}  # fmt: skip
+    for pair in pairs:  # warm up: numba compilation, caches
+        pair.repeat(min(0.2, min_seconds))
     for r in range(rounds):
-        # An env loop records its episode ends, which its raw replay (timed next) uses: keep the pairs together.
-        pairs = [(loops[i], loops[i + 1]) for i in range(0, len(loops), 2)]
-        for pair in pairs if r % 2 == 0 else reversed(pairs):
-            for row, loop in pair:
-                row.rates.append(loop.repeat(min_seconds))
-    rows = [row for row, _ in loops]
-    notes = []
-    ant_rates = rows[0].rates
-    ant_raw = rows[1].rates
-    notes.append(
-        f"Ant-v5: {1e6 / rows[0].steps_per_second:.0f} µs/step through gym.make, "
-        f"{statistics.median(a_raw / a for a, a_raw in zip(ant_rates, ant_raw, strict=True)):.2f}x its raw mj_step"
-    )
-    for i in range(2, len(rows), 2):
-        ours, raw = rows[i], rows[i + 1]
+        for name, pair in (
+            zip(names, pairs, strict=True) if r % 2 == 0 else reversed(list(zip(names, pairs, strict=True)))
+        ):
+            ours, raw = pair.repeat(min_seconds)
+            rows[name][0].rates.append(ours)
+            rows[name][1].rates.append(raw)
+    ant, ant_raw = rows["Ant-v5"]
+    notes = [
+        f"Ant-v5: {ant.steps_per_second:,.0f} steps/s ({1e6 / ant.steps_per_second:.0f} µs/step through gym.make), "
+        f"{statistics.median(r / a for a, r in zip(ant.rates, ant_raw.rates, strict=True)):.2f}x its raw mj_step"
+    ]
+    for name in ids:
+        ours, raw = rows[name]
         overhead = statistics.median(r / o for o, r in zip(ours.rates, raw.rates, strict=True))
-        vs_ant = statistics.median(o / a for o, a in zip(ours.rates, ant_rates, strict=True))
+        vs_ant = statistics.median(o / a for o, a in zip(ours.rates, ant.rates, strict=True))
         notes.append(
-            f"{ours.name}: {ours.steps_per_second:,.0f} steps/s ({1e6 / ours.steps_per_second:.0f} µs/step); "
+            f"{name}: {ours.steps_per_second:,.0f} steps/s ({1e6 / ours.steps_per_second:.0f} µs/step); "
             f"{overhead:.3f}x the raw mj_step (target <= 1.15); {vs_ant:.2f}x Ant-v5's steps/s (target >= 1)"
         )
-    return rows, notes
+    return [row for pair in rows.values() for row in pair], notes
 
 
 def main(argv=None) -> None:
