@@ -61,12 +61,13 @@ N_TRACK = 8
 
 
 @njit(cache=True)
-def account(pose, before, active, blocked, clearance, goal, params, track, rewards, terminated):
+def account(pose, before, active, blocked, clearance, goals, per, params, track, rewards, terminated):
     """Score one step for every active robot: the three reward terms, arrival and termination, and the running
     episode metrics in ``track`` (turn, still steps, contact events, time, smallest clearance).
 
     Args:
         before: ``(N, 3)`` poses before the step.
+        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment.
         params: ``[goal_radius_m, dt_s, cycles so far, terminate_on_collision, still_m]``.
     """
     goal_radius, dt, cycles, stop_on_contact, still_m = params[0], params[1], params[2], params[3] > 0.5, params[4]
@@ -86,7 +87,8 @@ def account(pose, before, active, blocked, clearance, goal, params, track, rewar
         if contact and track[i, WAS_BLOCKED] == 0.0:
             track[i, COLLISIONS] += 1.0
         track[i, WAS_BLOCKED] = 1.0 if contact else 0.0
-        distance = math.hypot(pose[i, 0] - goal[0], pose[i, 1] - goal[1])
+        e = i // per
+        distance = math.hypot(pose[i, 0] - goals[e, 0], pose[i, 1] - goals[e, 1])
         arrived = distance <= goal_radius
         rewards[i, 0] = PROGRESS_PER_M * (track[i, DISTANCE] - distance)
         rewards[i, 1] = -COLLISION_PENALTY if contact else 0.0
@@ -225,6 +227,7 @@ class SwarmEnv(ParallelEnv):
             self.goal_radius_m, self.control_period_s, 0.0, float(self.terminate_on_collision), STILL_M,
         ])  # fmt: skip
         self._obs_size = size
+        self._sense_draws = 11 + 2 * k
         self.pose = np.zeros((n, 3))
         self.active = np.zeros(n, dtype=np.uint8)
         self._proposal = np.zeros((n, 3))
@@ -291,7 +294,7 @@ class SwarmEnv(ParallelEnv):
         self._formation_sum = np.zeros(n)
         self._formation_swarm = []
         self._rewards = np.zeros((n, len(self.reward_names)))
-        obs = self._sense(rng)
+        obs = self._sense(rng.standard_normal((n, self._sense_draws)), rng.random((n, 4)))
         self._track[:] = 0.0
         self._track[:, DISTANCE] = np.hypot(*(self.pose[:, :2] - self.goal).T)
         self._track[:, MIN_CLEARANCE] = self._clearance
@@ -308,7 +311,11 @@ class SwarmEnv(ParallelEnv):
             # Every robot has left: nothing moves (SuperSuit's black_death wrapper steps once more with no actions).
             return {}, {}, {}, {}, {}
         rng = self._rng
-        noise = 1.0 + self.terrain_noise * rng.standard_normal((n, 2)) + self._drift
+        # One draw per step, in a fixed order (wheels, then sensors; then the IR floor), so a batched vector env
+        # drawing from each sub-environment's generator reproduces this environment bit for bit.
+        normals = rng.standard_normal((n, 2 + self._sense_draws))
+        floor = rng.random((n, 4))
+        noise = 1.0 + self.terrain_noise * normals[:, :2] + self._drift
         self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
         before = self.pose.copy()
         g = self._grid
@@ -317,11 +324,11 @@ class SwarmEnv(ParallelEnv):
                   self._proposal, self._blocked)  # fmt: skip
         self.num_cycles += 1
         self._powers = command * self.active[:, None]
-        obs = self._sense(rng)
+        obs = self._sense(normals[:, 2:], floor)
         self._account_params[2] = self.num_cycles
         terminated = np.zeros(n, dtype=np.uint8)
-        account(self.pose, before, self.active, self._blocked, self._clearance, self.goal, self._account_params,
-                self._track, self._rewards, terminated)  # fmt: skip
+        account(self.pose, before, self.active, self._blocked, self._clearance, self.goal[None], self.n_robots,
+                self._account_params, self._track, self._rewards, terminated)  # fmt: skip
         self._update_metrics()
         terminated = terminated.astype(bool)
         truncate = self.num_cycles >= self.max_cycles
@@ -415,18 +422,17 @@ class SwarmEnv(ParallelEnv):
                 self._rewards[:, 3] = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
 
     # --- sensing ----------------------------------------------------------------------------------------------
-    def _sense(self, rng: np.random.Generator) -> np.ndarray:
-        """Run the sensing kernel and build every robot's observation row (a fresh array)."""
+    def _sense(self, normals: np.ndarray, floor: np.ndarray) -> np.ndarray:
+        """Run the sensing kernel and build every robot's observation row (a fresh array) with the noise draws
+        ``normals`` ``(N, 11 + 2k)`` and ``floor`` ``(N, 4)`` (see :func:`polyenvs.swarm.sensors.write_observations`)."""
         g = self._grid
         core.build_grid(self.pose, self.active, *g.arrays)
         core.sense(self.pose, self.active, self._sense_params, self._angles, self._walls, self._circles, *g.arrays,
                    self._beams, self._nb_index, self._nb_range, self._clearance)  # fmt: skip
-        n, k = self.n_robots, self.n_neighbours
-        normals = rng.standard_normal((n, 11 + 2 * k))
-        floor = rng.random((n, 4))
-        obs = np.empty((n, self._obs_size), dtype=np.float32)
-        ir.write_observations(self.pose, self.active, self._beams, self._nb_index, self._nb_range, self.goal,
-                              self._powers, normals, floor, self._observe_params, self._leader_at, obs)  # fmt: skip
+        obs = np.empty((self.n_robots, self._obs_size), dtype=np.float32)
+        ir.write_observations(self.pose, self.active, self._beams, self._nb_index, self._nb_range, self.goal[None],
+                              self.n_robots, self._powers, normals, floor, self._observe_params, self._leader_at,
+                              obs)  # fmt: skip
         return obs
 
     def _infos(self, index) -> dict:

@@ -139,7 +139,8 @@ def _wrap(angle):
 
 
 @njit(cache=True)
-def write_observations(pose, active, beams, nb_index, nb_range, goal, powers, normals, floor, params, leader_at, out):
+def write_observations(pose, active, beams, nb_index, nb_range, goals, per, powers, normals, floor, params, leader_at,
+                       out):  # fmt: skip
     """Every robot's observation row, written into ``out`` ``(N, D)`` float32 (rows of inactive robots are 0).
 
     Layout (``env.observation_structure``): IR 0-3, light 4-5, neighbours 6.. (range / comm, bearing / pi, mask
@@ -147,6 +148,8 @@ def write_observations(pose, active, beams, nb_index, nb_range, goal, powers, no
     last powers in the last two columns.
 
     Args:
+        goals: ``(E, 2)`` each environment's light; ``per``: robots per environment (row i is in environment
+            ``i // per``, whose leader is row ``(i // per) * per``).
         beams: ``(N, 4)`` true beam distances (m, ``inf`` for nothing within reach).
         nb_index, nb_range: ``(N, k)`` the trilateration neighbours from :func:`polyenvs.swarm.core.sense`.
         normals: ``(N, 11 + 2k)`` standard normals: IR (distance, raw) x 4, light bearing, k ranges, k bearings,
@@ -168,7 +171,8 @@ def write_observations(pose, active, beams, nb_index, nb_range, goal, powers, no
             raw = raw_reading(100.0 * beams[i, s], normals[i, 2 * s], normals[i, 2 * s + 1], floor[i, s], ir_noise,
                               raw_sd)  # fmt: skip
             out[i, s] = x80pro_reading(raw) / X80PRO_NOTHING if x80 else raw / MAXELBOT_RAW_MAX
-        gx, gy = goal[0] - x, goal[1] - y
+        e = i // per
+        gx, gy = goals[e, 0] - x, goals[e, 1] - y
         out[i, 4] = _wrap(math.atan2(gy, gx) - h + light_noise * normals[i, 8]) / math.pi
         d = math.hypot(gx, gy) / reference
         out[i, 5] = 1.0 / (1.0 + d * d)
@@ -182,12 +186,14 @@ def write_observations(pose, active, beams, nb_index, nb_range, goal, powers, no
             out[i, 7 + 3 * q] = _wrap(bearing) / math.pi
             out[i, 8 + 3 * q] = 1.0
         if leader_at >= 0:
-            if i == 0:
+            leader = e * per
+            if i == leader:
                 out[i, leader_at + 3] = 1.0
-            elif active[0]:
-                d = math.hypot(pose[0, 0] - x, pose[0, 1] - y)
+            elif active[leader]:
+                lx, ly = pose[leader, 0], pose[leader, 1]
+                d = math.hypot(lx - x, ly - y)
                 if d <= comm:
-                    bearing = math.atan2(pose[0, 1] - y, pose[0, 0] - x) - h + bearing_noise * normals[i, 9 + 2 * k]
+                    bearing = math.atan2(ly - y, lx - x) - h + bearing_noise * normals[i, 9 + 2 * k]
                     out[i, leader_at] = min(max(d + range_noise * normals[i, 10 + 2 * k], 0.0), comm) / comm
                     out[i, leader_at + 1] = _wrap(bearing) / math.pi
                     out[i, leader_at + 2] = 1.0
