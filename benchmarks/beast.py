@@ -80,8 +80,8 @@ class _Pair:
         self.model, self.data, self.nstep = inner.model, inner.data, inner.frame_skip
         self.raw = mujoco.MjData(self.model)
         self.actions = [self.env.action_space.sample() for _ in range(_BLOCK)]
-        if hasattr(inner, "_low"):  # ours: actions in [-1, 1] scaled to the joint ranges
-            self.ctrls = [inner._low + (np.asarray(a, dtype=np.float64) + 1) / 2 * inner._span for a in self.actions]
+        if hasattr(inner, "action_to_control"):  # ours: actions in [-1, 1] scaled to the joint ranges
+            self.ctrls = [inner.action_to_control(a) for a in self.actions]
         else:  # Gymnasium's MuJoCo envs take the control itself
             self.ctrls = [np.asarray(a, dtype=np.float64) for a in self.actions]
 

@@ -108,18 +108,16 @@ def test_tilt_axes_are_the_icosahedron_vertices():
 
 
 def test_backlash_is_a_dead_band():
-    motor, reading = np.zeros(1), np.zeros(1)
-    consts = np.array([math.radians(1.0) / 2, 100.0, 0.17, 0.0, 0.0])
-    obs, scalars = np.zeros(1 * 2 + 12 + 0 + 1, np.float32), np.zeros(S.N_SCALARS)
+    joints, misc = np.zeros((S.N_JOINT_ROWS, 1)), np.zeros(S.N_MISC)
+    misc[S.HALF_BAND], misc[S.INV_DT] = math.radians(1.0) / 2, 100.0
+    obs = np.zeros(1 * 2 + 12 + 0 + 1, np.float32)
     sensordata = np.array([0.0, 0.0, 0.0, 1.0])  # no limbs: robot-floor count, then the up vector
     readings = []
     for q in np.radians([0.0, 0.3, 2.0, 1.8, 0.5, 2.5]):
         qpos = np.zeros(8)
         qpos[3], qpos[7] = 1.0, q
-        assert not S.sense(
-            qpos, np.zeros(7), sensordata, np.zeros(1), np.zeros(7, np.int32), motor, reading, np.zeros(1), S.TILT_AXES, consts,
-            np.zeros(6), obs, scalars,
-        )  # fmt: skip
+        warnings = np.zeros(7, np.int32)
+        assert not S.sense(qpos, np.zeros(7), sensordata, np.zeros(1), warnings, S.TILT_AXES, joints, misc, obs)
         readings.append(obs[0])
     # Inside the band the motor side does not move; beyond it, it trails the joint by half the band.
     np.testing.assert_allclose(readings, np.radians([0.0, 0.0, 1.5, 1.5, 1.0, 2.0]), atol=1e-7)
@@ -279,7 +277,7 @@ def test_tumble_success_when_limbs_1_4_2_stand_and_3_is_free():
     # Teleport the robot into the end stance mid-episode (as if it had tumbled) and hold it there.
     env.data.qpos[:] = k3
     env.data.ctrl[:] = k3[7:]
-    hold = np.clip(2 * (k3[7:] - env._low) / env._span - 1, -1, 1).astype(np.float32)
+    hold = env.control_to_action(k3[7:])
     for _ in range(STANCE_TICKS + 5):
         obs, reward, terminated, truncated, info = env.step(hold)
         if terminated:
@@ -354,3 +352,24 @@ def test_render_rgb_array_follows_the_torso():
     assert body_first.sum() > 50
     assert (body_first & body_moved).sum() > 0.9 * body_first.sum()
     env.close()
+
+
+def test_torque_control_acts_as_torques():
+    # Zero torque: the limbs give (slowed by the drives' damping) and the body sinks, where the position servos hold
+    # it within a few millimetres (test above); full torque on one joint swings it.
+    limp = BeastTumbleEnv(control="torque")
+    limp.reset(seed=0)
+    height = limp.data.qpos[2]
+    for _ in range(100):
+        limp.step(np.zeros(12, np.float32))
+    assert limp.data.qpos[2] < height - 0.008
+    np.testing.assert_allclose(limp.data.ctrl, 0)
+    push = BeastTumbleEnv(control="torque")
+    obs, _ = push.reset(seed=0)
+    action = np.zeros(12, np.float32)
+    action[11] = 1.0  # limb 4's joint 3 (free, straight up): +6 N m
+    push.step(action)
+    assert push.data.ctrl[11] == push.params.torque_limit
+    for _ in range(50):
+        push.step(action)
+    assert push.data.qpos[7 + 11] > math.radians(30)

@@ -41,6 +41,7 @@ STANCE_TICKS = 20
 #: Defaults of the sensor model (*ours*): encoder backlash band (deg) and tilt-switch threshold below horizontal (deg).
 BACKLASH_DEG = 0.5
 TILT_THRESHOLD_DEG = 10.0
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 #: Plausible ranges of the sensor and reward parameters.
 SENSOR_RANGES = {"backlash_deg": (0.0, 5.0), "tilt_threshold_deg": (0.0, 45.0), "ctrl_cost_weight": (0.0, 10.0)}
 #: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
@@ -166,29 +167,22 @@ class BeastEnv(MujocoEnv):
         self.fullpath = None  # generated, not a file
         nj = self.n_joints
         ranges = np.tile(params.joint_ranges, (params.n_limbs, 1))
+        self._joints = np.zeros((S.N_JOINT_ROWS, nj))
         if control == "position":
-            self._low, self._span = ranges[:, 0].copy(), ranges[:, 1] - ranges[:, 0]
+            self._joints[S.LOW], self._joints[S.SPAN] = ranges[:, 0], ranges[:, 1] - ranges[:, 0]
         else:
-            self._low, self._span = np.full(nj, -params.torque_limit), np.full(nj, 2 * params.torque_limit)
-        self._frozen = np.zeros(nj, dtype=np.bool_)
+            self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
         for limb in self.disabled_limbs:
-            self._frozen[3 * (limb - 1) : 3 * limb] = True
-        self._hold = np.zeros(nj)
-        self._applied = np.zeros(nj)
-        self._motor = np.zeros(nj)
-        self._reading = np.zeros(nj)
+            self._joints[S.FROZEN, 3 * (limb - 1) : 3 * limb] = 1.0
         self._obs = np.zeros(size, dtype=np.float32)
-        self._consts = np.array(
-            [
-                math.radians(self.backlash_deg) / 2,
-                1.0 / CONTROL_DT,
-                math.sin(math.radians(self.tilt_threshold_deg)),
-                float(self.privileged),
-                1.0 / (params.torque_limit**2 * self.n_joints),
-            ]
-        )
-        self._track = np.zeros(6)
-        self._scalars = np.zeros(S.N_SCALARS)
+        self._misc = np.zeros(S.N_MISC)
+        self._misc[: S.TORQUE_NORM + 1] = [
+            math.radians(self.backlash_deg) / 2,
+            1.0 / CONTROL_DT,
+            math.sin(math.radians(self.tilt_threshold_deg)),
+            float(self.privileged),
+            1.0 / (params.torque_limit**2 * self.n_joints),
+        ]
         self._unstable = False
         self._elapsed = 0
         self._bind()
@@ -233,6 +227,7 @@ class BeastEnv(MujocoEnv):
         d = self.data
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._sensordata, self._force, self._warnings = d.sensordata, d.actuator_force, d.warning.number
+        self._shape = (self.n_joints,)
 
     def __getstate__(self):
         state = self.__dict__.copy()
@@ -249,36 +244,35 @@ class BeastEnv(MujocoEnv):
     def dt(self) -> float:
         return CONTROL_DT
 
+    def action_to_control(self, action) -> np.ndarray:
+        """The actuator controls an action in [-1, 1] asks for: joint targets (rad) or torques (N m)."""
+        return self._joints[S.LOW] + (np.asarray(action, dtype=np.float64) + 1) / 2 * self._joints[S.SPAN]
+
+    def control_to_action(self, control) -> np.ndarray:
+        """The action (float32, clipped to [-1, 1]) that asks for these controls: joint targets or torques."""
+        action = 2 * (np.asarray(control, dtype=np.float64) - self._joints[S.LOW]) / self._joints[S.SPAN] - 1
+        return np.clip(action, -1, 1).astype(np.float32)
+
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self._applied.shape:
-            raise ValueError(f"action must have shape {self._applied.shape}, got {show(action)}")
-        bad = S.actuate(a, self._low, self._span, self._frozen, self._hold, self._ctrl, self._applied)
+        # Float arrays go to the compiled check as they are (no conversion copy); anything else is converted.
+        a = action if type(action) is np.ndarray and action.dtype in _FLOATS else np.asarray(action, np.float64)
+        if a.shape != self._shape:
+            raise ValueError(f"action must have shape {self._shape}, got {show(action)}")
+        bad = S.actuate(a, self._joints, self._ctrl)
         if bad:
             raise ValueError(f"action[{bad - 1}] = {show(a[bad - 1])} is outside [-1, 1]")
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         self._elapsed += 1
         if self._unstable or S.sense(
-            self._qpos,
-            self._qvel,
-            self._sensordata,
-            self._force,
-            self._warnings,
-            self._motor,
-            self._reading,
-            self._applied,
-            S.TILT_AXES,
-            self._consts,
-            self._track,
-            self._obs,
-            self._scalars,
-        ):
+            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            self._misc, self._obs,
+        ):  # fmt: skip
             self._unstable = True
             info = dict.fromkeys(self._reward_keys, 0.0)
             info["sim_unstable"] = True
             info["episode_metrics"] = dict(self._metrics)
             return self._obs.copy(), 0.0, False, True, info
-        terms, terminated = self._task_step(*self._scalars.tolist())
+        terms, terminated = self._task_step(*self._misc[S.SUMMARY].tolist())
         info = dict(zip(self._reward_keys, terms, strict=True))
         info["sim_unstable"] = False
         info["episode_metrics"] = dict(self._metrics)
@@ -297,37 +291,26 @@ class BeastEnv(MujocoEnv):
         mujoco.mj_resetData(m, d)
         d.qpos[:] = qpos
         d.qvel[:] = qvel
-        joints = d.qpos[7:]
-        self._hold[:] = joints if self.control == "position" else 0.0
+        joints, js = d.qpos[7:], self._joints
+        js[S.HOLD] = joints if self.control == "position" else 0.0
         for k, limb in enumerate(self.disabled_limbs):
             m.eq_data[3 * k : 3 * k + 3, 0] = joints[3 * (limb - 1) : 3 * limb]
-        d.ctrl[:] = self._hold
+        d.ctrl[:] = js[S.HOLD]
         # The previous action is the one that holds the start pose (what a servo was last told).
-        self._applied[:] = np.clip(2 * (self._hold - self._low) / self._span - 1, -1, 1)
+        js[S.APPLIED] = self.control_to_action(js[S.HOLD])
         mujoco.mj_forward(m, d)
-        half = self._consts[S.HALF_BAND]
-        self._motor[:] = joints + rng.uniform(-half, half, self.n_joints)
-        self._reading[:] = self._motor
+        half = self._misc[S.HALF_BAND]
+        js[S.MOTOR] = joints + rng.uniform(-half, half, self.n_joints)
+        js[S.READING] = js[S.MOTOR]
         self._unstable = False
         self._elapsed = 0
         x, y = d.qpos[0], d.qpos[1]
-        self._track[:] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
+        self._misc[S.PREV_X : S.HEAD_Y + 1] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
         S.sense(
-            self._qpos,
-            self._qvel,
-            self._sensordata,
-            self._force,
-            self._warnings,
-            self._motor,
-            self._reading,
-            self._applied,
-            S.TILT_AXES,
-            self._consts,
-            self._track,
-            self._obs,
-            self._scalars,
-        )
-        self._task_reset(int(self._scalars[S.FEET_MASK]))
+            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            self._misc, self._obs,
+        )  # fmt: skip
+        self._task_reset(int(self._misc[S.FEET_MASK]))
         info = dict.fromkeys(self._reward_keys, 0.0)
         info["sim_unstable"] = False
         info["episode_metrics"] = dict(self._metrics)

@@ -38,20 +38,25 @@ DIVERGED_SPEED = 1.0e3
 #: MuJoCo's warnings for a non-finite or huge position, velocity or acceleration (mjtWarning values).
 UNSTABLE_WARNINGS = (3, 4, 5)
 
-# Layout of the packed float parameters ``consts``.
-HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM = 0, 1, 2, 3, 4
-# Layout of ``track``: the body's (x, y) at the previous tick and at the start, and the heading's unit vector.
-PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = 0, 1, 2, 3, 4, 5
-# Layout of the per-step summary ``scalars`` the tasks read.
-VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = 0, 1, 2, 3, 4, 5, 6
-N_SCALARS = 7
+# Rows of the per-joint state ``joints`` (n_rows, n_joints): the action scaling (control = LOW + (a + 1)/2 SPAN),
+# the control held by frozen joints and whether a joint is frozen, the last applied action, the encoders' motor-side
+# angles and their previous readings. Packed so that a kernel call unboxes one array, not seven.
+LOW, SPAN, HOLD, FROZEN, APPLIED, MOTOR, READING = range(7)
+N_JOINT_ROWS = 7
+# Layout of ``misc``: parameters, then the body's (x, y) at the previous tick and at the start and the heading's
+# unit vector, then the per-step summary the tasks read.
+HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM = range(5)
+PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = range(5, 11)
+VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = range(11, 18)
+N_MISC = 18
+SUMMARY = slice(VELOCITY, N_MISC)
 
 
 @njit(cache=True)
-def actuate(action, low, span, frozen, hold, ctrl, applied):
+def actuate(action, joints, ctrl):
     """Check an action (finite, in [-1, 1]) and write the actuator controls; nothing is written if it fails.
 
-    ``ctrl = low + (a + 1) / 2 * span`` per joint, except frozen joints, which get ``hold``. Returns 0 if the action
+    ``ctrl = LOW + (a + 1) / 2 * SPAN`` per joint, except frozen joints, which get ``HOLD``. Returns 0 if the action
     was accepted, else 1 + the index of the first bad entry.
     """
     n = action.shape[0]
@@ -60,20 +65,20 @@ def actuate(action, low, span, frozen, hold, ctrl, applied):
         if not (-1.0 <= a <= 1.0):  # also false for NaN
             return j + 1
     for j in range(n):
-        a = action[j]
-        applied[j] = a
-        ctrl[j] = hold[j] if frozen[j] else low[j] + 0.5 * (a + 1.0) * span[j]
+        a = float(action[j])
+        joints[APPLIED, j] = a
+        ctrl[j] = joints[HOLD, j] if joints[FROZEN, j] > 0.5 else joints[LOW, j] + 0.5 * (a + 1.0) * joints[SPAN, j]
     return 0
 
 
 @njit(cache=True)
-def sense(qpos, qvel, sensordata, force, warnings, motor, reading, applied, tilt_axes, consts, track, obs, scalars):
-    """Write the observation into ``obs`` (float32) and the tasks' summary into ``scalars``; True if diverged.
+def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs):
+    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged.
 
-    ``motor`` (n_joints) is each encoder's motor-side angle, dragged along by the joint across the backlash band;
-    ``reading`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.
-    ``scalars``: body velocity along the heading over the tick and distance along it from the start (``track``,
-    whose previous position is updated), the feet-on-floor bitmask (bit i = limb i + 1) and count, contacts of
+    ``joints[MOTOR]`` is each encoder's motor-side angle, dragged along by the joint across the backlash band;
+    ``joints[READING]`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.
+    The summary (``misc[SUMMARY]``): body velocity along the heading over the tick and distance along it from the
+    start (the previous position is updated), the feet-on-floor bitmask (bit i = limb i + 1) and count, contacts of
     anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2).
     On divergence nothing is written, so the previous observation stays the last finite one. MuJoCo resets a state
     it finds non-finite (to the model's reference pose) and counts a warning: ``warnings`` (MjData's warning counts,
@@ -82,7 +87,7 @@ def sense(qpos, qvel, sensordata, force, warnings, motor, reading, applied, tilt
     for w in UNSTABLE_WARNINGS:
         if warnings[w] > 0:
             return True
-    nj = motor.shape[0]
+    nj = joints.shape[1]
     for i in range(qpos.shape[0]):
         if not math.isfinite(qpos[i]):
             return True
@@ -90,16 +95,16 @@ def sense(qpos, qvel, sensordata, force, warnings, motor, reading, applied, tilt
         v = qvel[i]
         if not (abs(v) < DIVERGED_SPEED):
             return True
-    half = consts[HALF_BAND]
-    inv_dt = consts[INV_DT]
+    half = misc[HALF_BAND]
+    inv_dt = misc[INV_DT]
     n_limbs = sensordata.shape[0] - 4
     k = 0
     for j in range(nj):
         q = qpos[7 + j]
-        m = min(max(motor[j], q - half), q + half)
-        motor[j] = m
-        v = (m - reading[j]) * inv_dt
-        reading[j] = m
+        m = min(max(joints[MOTOR, j], q - half), q + half)
+        joints[MOTOR, j] = m
+        v = (m - joints[READING, j]) * inv_dt
+        joints[READING, j] = m
         obs[k + j] = m
         obs[k + nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
     k += 2 * nj
@@ -108,7 +113,7 @@ def sense(qpos, qvel, sensordata, force, warnings, motor, reading, applied, tilt
     ux, uy, uz = sensordata[n_limbs + 1], sensordata[n_limbs + 2], sensordata[n_limbs + 3]
     for t in range(tilt_axes.shape[0]):
         dot = tilt_axes[t, 0] * ux + tilt_axes[t, 1] * uy + tilt_axes[t, 2] * uz
-        obs[k + t] = 1.0 if dot < -consts[TILT_SIN] else 0.0
+        obs[k + t] = 1.0 if dot < -misc[TILT_SIN] else 0.0
     k += tilt_axes.shape[0]
     mask = 0.0
     n_feet = 0.0
@@ -122,24 +127,24 @@ def sense(qpos, qvel, sensordata, force, warnings, motor, reading, applied, tilt
             n_feet += 1.0
     k += n_limbs
     for j in range(nj):
-        obs[k + j] = applied[j]
+        obs[k + j] = joints[APPLIED, j]
     k += nj
-    if consts[PRIVILEGED] > 0.5:
+    if misc[PRIVILEGED] > 0.5:
         for i in range(7):
             obs[k + i] = qpos[i]
         for i in range(6):
             obs[k + 7 + i] = min(max(qvel[i], -VELOCITY_CLIP), VELOCITY_CLIP)
-    hx, hy = track[HEAD_X], track[HEAD_Y]
-    scalars[VELOCITY] = ((qpos[0] - track[PREV_X]) * hx + (qpos[1] - track[PREV_Y]) * hy) * inv_dt
-    scalars[DISTANCE] = (qpos[0] - track[START_X]) * hx + (qpos[1] - track[START_Y]) * hy
-    track[PREV_X] = qpos[0]
-    track[PREV_Y] = qpos[1]
-    scalars[FEET_MASK] = mask
-    scalars[N_FEET] = n_feet
-    scalars[OTHER_CONTACTS] = sensordata[n_limbs] - found
+    hx, hy = misc[HEAD_X], misc[HEAD_Y]
+    misc[VELOCITY] = ((qpos[0] - misc[PREV_X]) * hx + (qpos[1] - misc[PREV_Y]) * hy) * inv_dt
+    misc[DISTANCE] = (qpos[0] - misc[START_X]) * hx + (qpos[1] - misc[START_Y]) * hy
+    misc[PREV_X] = qpos[0]
+    misc[PREV_Y] = qpos[1]
+    misc[FEET_MASK] = mask
+    misc[N_FEET] = n_feet
+    misc[OTHER_CONTACTS] = sensordata[n_limbs] - found
     sq = 0.0
     for j in range(force.shape[0]):
         sq += force[j] * force[j]
-    scalars[TORQUE_SQ] = sq * consts[TORQUE_NORM]
-    scalars[SPIN_SQ] = qvel[3] * qvel[3] + qvel[4] * qvel[4] + qvel[5] * qvel[5]
+    misc[TORQUE_SQ] = sq * misc[TORQUE_NORM]
+    misc[SPIN_SQ] = qvel[3] * qvel[3] + qvel[4] * qvel[4] + qvel[5] * qvel[5]
     return False
