@@ -1,14 +1,15 @@
 """The paper's localization claims (spec: bumper.md, "What tests must reproduce"), measured on seeded logs in the
-paper's arena, with margins under the values the project's defaults give (100 runs, 15 bumps):
+paper's arena, with margins under the values the project's defaults give (100 runs of 15 bumps, seed 0):
 
-| particles | runs with an empty set | median position error at bump 10 (cm) |
-| --- | --- | --- |
-| 100 | 0.89 | 65 |
-| 300 | 0.36 | 25 |
-| 1,000 | 0.09 | 12 |
-| 3,000 | 0.04 | 6 |
+| particles | runs with an empty set | never converged | median position error at bump 10 (cm) | within 10 cm and 30° at bump 10 |
+| --- | --- | --- | --- | --- |
+| 100 | 0.83 | 0.54 | 54 | 0.21 |
+| 300 | 0.52 | 0.50 | 55 | 0.25 |
+| 700 | 0.15 | 0.40 | 35 | 0.34 |
+| 1,000 | 0.12 | 0.31 | 13 | 0.46 |
+| 3,000 | 0.02 | 0.17 | 5 | 0.61 |
 
-Dead reckoning from the true start: 1.4 cm at bump 1, 18 cm at bump 10, 26 cm at bump 15.
+Dead reckoning from the true start: median 1.4 cm at bump 1, 18 cm at bump 10, 26 cm at bump 15.
 """
 
 from __future__ import annotations
