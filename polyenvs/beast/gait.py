@@ -65,6 +65,12 @@ N_TILT = 12
 CONTROL_DT = 0.01
 #: Joint limits of the default model (radians), rows joint 1, 2, 3; the environments' actions scale to these.
 DEFAULT_JOINT_RANGES = np.radians([[-180.0, 180.0], [-120.0, 160.0], [-150.0, 150.0]])
+#: Tumbles the look-ahead plans ahead when choosing the next one.
+LOOKAHEAD = 4
+#: Tumbles after the next one that the landing limb's branch is chosen for.
+FUTURE = 2
+#: Plannable tumbles per geometry (BeastPlanner.plannable), shared by every planner of that geometry.
+_PLANNABLE: dict = {}
 #: The free limb's pose on top: straight out along its face normal, clear of the ground and the other limbs.
 TUCKED = np.array([0.0, math.pi / 2, 0.0])
 
@@ -165,6 +171,9 @@ class GaitConfig:
     tip_rotation_deg: tuple[float, float, float] = (41.95, -0.03, 2.68)
     roll_deg: float = 16.7
     knots: int = 16
+    #: which knee-branch solution a stance limb takes: "knee" (the knee higher above the ground) or "centred"
+    #: (joint 1 nearer the middle of its range, leaving it room to turn through the tumbles)
+    stance_branch: str = "knee"
     #: extra forward motion when the body has not tipped after a plan (metres per retry) and the retries allowed
     nudge: float = 0.006
     max_nudges: int = 4
@@ -252,8 +261,48 @@ class BeastPlanner:
         p_limb = np.einsum("lji,lj->li", self.base[limbs], nominal)
         sols = K.inverse_kinematics(p_limb[:, None, :], self.links, knee=1, flip=np.array([False, True]))
         knees = np.einsum("lij,lsj->lsi", self.base[limbs], K.dh_frames(sols, self.links)[..., 1, :3, 3])
-        best = np.argmax(knees @ self.up_axis(limbs), axis=1)
+        if self.config.stance_branch == "knee":
+            best = np.argmax(knees @ self.up_axis(limbs), axis=1)
+        else:
+            best = np.argmin(np.abs(sols[..., 0]), axis=1)
         return {limb: sols[i, best[i]] for i, limb in enumerate(limbs)}
+
+    def landing_limb(self, l1: int, l2: int, l3: int) -> int:
+        """The free limb that lands in tumble (l1 l2 l3 .): the one pointing furthest from l3 (opposite it on the
+        6-beast, the only free one on the 4-beast)."""
+        free = [limb for limb in range(self.n_limbs) if limb not in (l1, l2, l3)]
+        return min(free, key=lambda limb: float(self.dirs[limb] @ self.dirs[l3]))
+
+    def roll_on_paper(self, pts: dict, tumble) -> dict:
+        """Ground positions (2-D, by limb) after ``tumble``: the landing foot at the nominal apex over the edge."""
+        l1, l2, l3, l4 = tumble
+        edge = (pts[l2] - pts[l1]) / np.linalg.norm(pts[l2] - pts[l1])
+        out = np.array([edge[1], -edge[0]])  # to the right of l1 -> l2: away from l3
+        new = dict(pts)
+        del new[l3]
+        new[l4] = (pts[l1] + pts[l2]) / 2 + out * (self.config.stance_side * math.sqrt(3) / 2)
+        return new
+
+    def plannable(self) -> frozenset:
+        """The tumbles (0-based) plannable from the nominal stance of their support, computed once per geometry."""
+        key = (self.polyhedron, self.links, self.config, self.joint_ranges.tobytes(), self.foot_radius)
+        if key not in _PLANNABLE:
+            found = set()
+            for support in itertools.combinations(range(self.n_limbs), 3):
+                if any(float(self.dirs[i] @ self.dirs[j]) < -0.99 for i, j in itertools.combinations(support, 2)):
+                    continue  # opposite limbs never stand together
+                q = np.tile(TUCKED, (self.n_limbs, 1))
+                for limb, angles in self.stance_angles(support).items():
+                    q[limb] = angles
+                feet = self.feet(q.ravel())
+                for c in support:
+                    a, b = (limb for limb in support if limb != c)
+                    l1, l2, l3 = self.order_edge(feet, a, b, c)
+                    tumble = (l1, l2, l3, self.landing_limb(l1, l2, l3))
+                    if self.tip_plan(q.ravel(), tumble) is not None:
+                        found.add(tumble)
+            _PLANNABLE[key] = frozenset(found)
+        return _PLANNABLE[key]
 
     def ik_near(self, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
         """Knee-branch (theta3 > 0) inverse kinematics closest to ``q_prev`` (both (m, 3)); theta1 unwrapped."""
@@ -333,11 +382,13 @@ class BeastPlanner:
         qd = dq_ds * s_dot[:, None, None]
         return JointTrajectory(times, q.reshape(n, -1), qd.reshape(n, -1))
 
-    def tip_plan(self, q_now: np.ndarray, tumble: tuple[int, int, int, int], extra: float = 0.0):
+    def tip_plan(self, q_now: np.ndarray, tumble: tuple[int, int, int, int], extra: float = 0.0, future=()):
         """Trajectory K0 -> K1 of tumble (l1, l2, l3, l4) (0-based limbs) from the measured angles, or None.
 
         ``extra`` pushes the tip keyframe that much further forward (a retry when the body did not tip). None when a
-        joint would leave its range or a foot its workspace.
+        joint would leave its range or a foot its workspace, here or in the stance after landing. ``future`` lists
+        the tumbles planned after this one: the landing limb's branch (of its two knee-branch solutions) is the one
+        from which they stay plannable too, since a planted limb cannot change branch until it is lifted.
         """
         cfg = self.config
         l1, l2, l3, l4 = tumble
@@ -363,20 +414,26 @@ class BeastPlanner:
         p_limb = self.base[l4].T @ p_body
         if not K.reachable(p_limb, self.links):
             return None
-        # The landing limb takes the knee-branch solution nearest its nominal stance after landing (theta1 within
-        # a few degrees of it), so the stance that follows needs no branch change.
-        q_pre = self.ik_near(p_limb[None], self.stance_angles((l1, l4, l2))[l4][None])[0]
+        # The landing limb's knee-branch solutions, the one nearest its nominal stance after landing first.
+        sols = K.inverse_kinematics(p_limb[None], self.links, knee=1, flip=np.array([False, True]))
+        near = self.ik_near(p_limb[None], self.stance_angles((l1, l4, l2))[l4][None])[0]
+        sols = sorted(sols, key=lambda q: float(np.abs(np.mod(q - near + np.pi, 2 * np.pi) - np.pi).sum()))
         free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in tumble}
-        free[l4] = q_pre
-        traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
-        if traj is None or not self.in_range(traj.q):
-            return None
-        # The stance after landing must be plannable too. The joints hold through the free roll, so the landed robot
-        # has K1's joint angles and the stance plan from there is exactly the one that will run (this is what leaves
-        # 4 of the 4-beast's 12 tumbles unplannable: joint 1 would have to pass +-180 degrees).
-        if self.stance_plan(traj.q[-1], (l1, l2, l4), (l3,)) is None:
-            return None
-        return traj
+        for q_pre in sols:
+            free[l4] = near + np.mod(q_pre - near + np.pi, 2 * np.pi) - np.pi
+            traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
+            if traj is None or not self.in_range(traj.q):
+                continue
+            # The stance after landing must be plannable too. The joints hold through the free roll, so the landed
+            # robot has K1's joint angles and the stance plan from there is exactly the one that will run (this is
+            # what leaves 4 of the 4-beast's 12 tumbles unplannable: joint 1 would have to pass +-180 degrees).
+            stance = self.stance_plan(traj.q[-1], (l1, l2, l4), (l3,))
+            if stance is None:
+                continue
+            if future and self.tip_plan(stance.q[-1], future[0], future=future[1:]) is None:
+                continue
+            return traj
+        return None
 
     def stance_plan(self, q_now: np.ndarray, support: tuple[int, int, int], lifted: tuple[int, ...]):
         """Trajectory to the nominal stance over the measured ``support`` feet; ``lifted`` limbs fold up. Or None."""
@@ -417,8 +474,10 @@ class RollingGaitController:
         max_tumbles: int | None = None,
         heading: np.ndarray | None = None,
         pivot: int | None = None,
+        disabled_limbs=(),
     ):
         self.planner = planner
+        self.disabled = frozenset(int(v) - 1 for v in disabled_limbs)
         self.pivot = None if pivot is None else int(pivot) - 1
         self.first_tumble = None if first_tumble is None else tuple(int(v) - 1 for v in first_tumble)
         self.max_tumbles = max_tumbles
@@ -427,6 +486,7 @@ class RollingGaitController:
         self.traj: JointTrajectory | None = None
         self.t = 0.0
         self.tumble: tuple[int, ...] | None = None
+        self.future: tuple = ()
         self.support: tuple[int, ...] | None = None
         self.tumbles_done = 0
         self.hold_q: np.ndarray | None = None
@@ -475,7 +535,7 @@ class RollingGaitController:
                     self._start(plan, "stance")
             elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
                 self.nudges += 1
-                plan = p.tip_plan(q, self.tumble, extra=self.nudges * p.config.nudge)
+                plan = p.tip_plan(q, self.tumble, extra=self.nudges * p.config.nudge, future=self.future)
                 if plan is not None:
                     self._start(plan, "tip")
         if self.traj is not None and self.phase in ("tip", "stance"):
@@ -495,12 +555,15 @@ class RollingGaitController:
             return
         p = self.planner
         feet = p.feet(q)
-        candidates = self._candidates(feet)
-        for tumble in candidates:
-            plan = p.tip_plan(q, tumble)
+        for tumble, future in self._candidates(feet):
+            # The look-ahead's path after this tumble, as far as the landing branch can be planned for it.
+            for depth in range(min(len(future), FUTURE), -1, -1):
+                plan = p.tip_plan(q, tumble, future=future[:depth])
+                if plan is not None:
+                    break
             if plan is not None:
                 self._carry_heading(feet, tumble)
-                self.tumble, self.nudges = tumble, 0
+                self.tumble, self.future, self.nudges = tumble, future[:depth], 0
                 self._start(plan, "tip")
                 return
         # A pivot turn ends where no tumble about the pivot is plannable; otherwise nothing is, which is stuck.
@@ -526,45 +589,84 @@ class RollingGaitController:
         rot = self._edge_frame(feet, l1, l2)
         body = self._heading_body(feet)
         if body is None:
-            # The first tumble fixes the heading: the 4-beast's straight strip runs 30 degrees to the left of its tip
-            # direction; the other beasts keep rolling the first tumble's way.
-            default = np.array([0.866, 0.5, 0.0]) if self.planner.n_limbs == 4 else np.array([1.0, 0.0, 0.0])
-            body = rot.T @ (self.heading_first if self.heading_first is not None else default)
+            body = rot.T @ self._default_heading()
         h = rot @ body
         h[2] = 0.0
         self.heading_vec, self.heading_edge = _unit(h), (l1, l2)
 
-    def _candidates(self, feet) -> list[tuple[int, int, int, int]]:
-        """Tumbles from the current support, best aligned with the heading first, never straight back."""
+    def _candidates(self, feet) -> list[tuple[tuple[int, int, int, int], tuple]]:
+        """Tumbles from the current support, best first, each with the look-ahead's best path after it.
+
+        The look-ahead rolls the support triangle on paper (each landing foot at the nominal apex over the tipping
+        edge) through ``LOOKAHEAD`` tumbles that are plannable from a nominal stance and keep disabled limbs off the
+        ground, never straight back, and scores a first tumble by the best final advance along the heading; a branch
+        that runs into a dead end scores a metre less. With ``pivot`` every tumble keeps that limb planted.
+        """
         p = self.planner
         s = self.support
         if self.tumbles_done == 0:
             if self.first_tumble is not None and set(self.first_tumble[:3]) == set(s):
-                return [self.first_tumble]
-            # Without a heading yet, the first tumble fixes it: over the edge of the two lowest-numbered support
-            # limbs, lifting the highest (the canonical (1234) of the 4-beast; along world +x in the tasks' stances).
-            a, b, c = sorted(s)
-            l1, l2, l3 = p.order_edge(feet, a, b, c)
-            return [(l1, l2, l3, self._landing_limb(l1, l2, l3))]
-        heading = self._heading_body(feet)
-        out = []
-        for c in s:
-            a, b = (limb for limb in s if limb != c)
-            if self.last_edge == frozenset((a, b)) or (self.pivot is not None and self.pivot not in (a, b)):
-                continue
-            l1, l2, l3 = p.order_edge(feet, a, b, c)
-            l4 = self._landing_limb(l1, l2, l3)
-            rot, _ = p.tumble_frame(feet, l1, l2, l3)
-            score = 0.0 if heading is None else float(rot[0] @ heading)
-            out.append((score, (l1, l2, l3, l4)))
-        out.sort(key=lambda item: -item[0])
-        return [t for _, t in out]
+                first = self.first_tumble
+            else:
+                # Without a heading yet, the first tumble fixes it: over the edge of the two lowest-numbered support
+                # limbs, lifting the highest (the canonical (1234) of the 4-beast; along +x in the tasks' stances).
+                a, b, c = sorted(s)
+                l1, l2, l3 = p.order_edge(feet, a, b, c)
+                first = (l1, l2, l3, p.landing_limb(l1, l2, l3))
+            rot, _ = p.tumble_frame(feet, *first[:3])
+            options = [first]
+            h = self._default_heading()[:2]
+        else:
+            rot = self._edge_frame(feet, s[0], s[1])
+            h = (rot @ self._heading_body(feet))[:2]
+            options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, s, self.last_edge)
+        pts = {limb: (rot @ feet[limb])[:2] for limb in s}
+        scored = []
+        for t in options:
+            score, path = self._lookahead(
+                p.roll_on_paper(pts, t), (t[0], t[1], t[3]), frozenset(t[:2]), LOOKAHEAD - 1, h
+            )
+            scored.append((score, t, path))
+        scored.sort(key=lambda item: -item[0])
+        return [(t, path) for _, t, path in scored]
 
-    def _landing_limb(self, l1: int, l2: int, l3: int) -> int:
-        """The free limb that lands: the one whose axis is furthest from l3's (opposite it on the 6-beast)."""
+    def _default_heading(self) -> np.ndarray:
+        """The heading in the first tumble's frame: the 4-beast's straight strip runs 30 degrees to the left of the
+        first tip; the other beasts keep rolling the first tumble's way."""
+        if self.heading_first is not None:
+            return np.asarray(self.heading_first, dtype=float)
+        return np.array([0.866, 0.5, 0.0]) if self.planner.n_limbs == 4 else np.array([1.0, 0.0, 0.0])
+
+    def _options(self, pts: dict, support, last_edge) -> list[tuple[int, int, int, int]]:
         p = self.planner
-        free = [limb for limb in range(p.n_limbs) if limb not in (l1, l2, l3)]
-        return min(free, key=lambda limb: float(p.dirs[limb] @ p.dirs[l3]))
+        out = []
+        for c in support:
+            a, b = (limb for limb in support if limb != c)
+            if frozenset((a, b)) == last_edge or (self.pivot is not None and self.pivot not in (a, b)):
+                continue
+            e, f = pts[b] - pts[a], pts[c] - pts[a]
+            l1, l2 = (a, b) if e[0] * f[1] - e[1] * f[0] > 0 else (b, a)
+            t = (l1, l2, c, p.landing_limb(l1, l2, c))
+            if t in p.plannable() and t[3] not in self.disabled:
+                out.append(t)
+        return out
+
+    def _lookahead(self, pts: dict, support, last_edge, depth: int, h: np.ndarray) -> tuple[float, tuple]:
+        """(best advance along h after ``depth`` more tumbles, the path of tumbles that reaches it)."""
+        here = float(np.mean([pts[limb] for limb in support], axis=0) @ h)
+        if depth == 0:
+            return here, ()
+        options = self._options(pts, support, last_edge)
+        if not options:
+            return here - 1.0, ()
+        best = (-np.inf, ())
+        for t in options:
+            score, path = self._lookahead(
+                self.planner.roll_on_paper(pts, t), (t[0], t[1], t[3]), frozenset(t[:2]), depth - 1, h
+            )
+            if score > best[0]:
+                best = (score, (t, *path))
+        return best
 
 
 class RightingController:
