@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from polyenvs.bumper.maps import free_at
-from polyenvs.bumper.odometry import odometry_step
+from polyenvs.bumper.odometry import dead_reckon, odometry_step
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
 
@@ -47,13 +47,9 @@ class DeadReckoning:
 
     def update(self, log) -> np.ndarray:
         ticks = np.asarray(log, dtype=np.float64)[_log_index(self.context)[0]]
-        tick, base = self.context.tick_cm, self.context.wheel_base_cm
-        x, y, h = self.pose
-        for k in range(2):
-            x, y, h = odometry_step(x, y, h, ticks[k, 0] * tick, ticks[k, 1] * tick, base)
-        estimate = np.array([x, y, h])
-        self.pose[:] = odometry_step(x, y, h, ticks[2, 0] * tick, ticks[2, 1] * tick, base)
-        return estimate
+        poses = dead_reckon(self.pose, ticks, self.context.wheel_base_cm, self.context.tick_cm)
+        self.pose = poses[3]
+        return poses[2]  # after the turn and the drive: at the bump
 
 
 # Packed filter parameters.

@@ -33,7 +33,7 @@ import numpy as np
 
 from polyenvs.core.jit import njit
 
-__all__ = ["TICK_CM", "chord_factor", "dead_reckon", "odometry", "odometry_step"]
+__all__ = ["TICK_CM", "chord_factor", "dead_reckon", "odometry_step"]
 
 #: Wheel travel per encoder tick: 0.0675 in (the paper, Part 1) = 0.171450 cm.
 TICK_CM = 0.0675 * 2.54
@@ -58,27 +58,6 @@ def odometry_step(x, y, heading, a, b, wheel_base):
     chord = 0.5 * (a + b) * chord_factor(theta)
     mid = heading + 0.5 * theta
     return x + chord * math.cos(mid), y + chord * math.sin(mid), heading + theta
-
-
-def odometry(ticks_left, ticks_right, wheel_base_cm: float, tick_cm: float = TICK_CM):
-    """Displacement of one stage in its start frame, for arrays of tick counts.
-
-    Args:
-        ticks_left, ticks_right: encoder ticks of the left and right wheel (any matching shapes; signed).
-        wheel_base_cm: the wheel base ``d`` assumed by the odometry.
-        tick_cm: wheel travel per tick.
-
-    Returns:
-        ``(dx, dy, dtheta)``: forward and leftward displacement (cm) and heading change (rad).
-    """
-    a = np.asarray(ticks_left, dtype=np.float64) * tick_cm
-    b = np.asarray(ticks_right, dtype=np.float64) * tick_cm
-    theta = (b - a) / wheel_base_cm
-    half = 0.5 * theta
-    safe = np.where(np.abs(half) < 1e-4, 1.0, half)
-    factor = np.where(np.abs(half) < 1e-4, 1.0 - half * half / 6.0, np.sin(safe) / safe)
-    chord = 0.5 * (a + b) * factor
-    return chord * np.cos(half), chord * np.sin(half), theta
 
 
 def dead_reckon(start_pose, ticks, wheel_base_cm: float, tick_cm: float = TICK_CM) -> np.ndarray:
