@@ -199,11 +199,13 @@ def move(pose, active, wheels, params, walls, circles, geometry, shape, start, i
 
 
 @njit(cache=True)
-def sense(pose, active, params, angles, walls, circles, geometry, shape, start, items, cell_of, beams, nb_index,
-          nb_range, clearance):  # fmt: skip
+def sense(pose, active, todo, params, angles, walls, circles, geometry, shape, start, items, cell_of, beams,
+          nb_index, nb_range, clearance):  # fmt: skip
     """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance.
 
     Args:
+        todo: ``(N,)`` uint8: the rows to sense (a vector env re-senses only the environments it has just reset);
+            the outputs of the other rows are left as they are.
         params: ``[radius_m, beam_m, comm_range_m]``.
         angles: ``(S,)`` sensor angles (rad) relative to the heading; beams start on the rim.
         beams: ``(N, S)`` out: distance along each beam to the first wall, obstacle or robot, ``inf`` if none
@@ -222,6 +224,8 @@ def sense(pose, active, params, angles, walls, circles, geometry, shape, start, 
     seen_sq = (2.0 * radius + beam_m) ** 2
     ray = np.empty((n_sensors, 4))
     for i in range(n):
+        if not todo[i]:
+            continue
         for s in range(n_sensors):
             beams[i, s] = np.inf
         for q in range(k):

@@ -95,6 +95,7 @@ class CorridorEnv(SwarmEnv):
 
     metadata = {**SwarmEnv.metadata, "name": "corridor_v0"}
     default_platform = "x80pro"
+    n_obstacles = len(OBSTACLE_Y_M)
 
     def __init__(self, *, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
         super().__init__(max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)

@@ -61,16 +61,17 @@ N_TRACK = 8
 
 
 @njit(cache=True)
-def account(pose, before, active, blocked, clearance, goals, per, params, track, rewards, terminated):
+def account(pose, before, active, blocked, clearance, goals, per, cycles, params, track, rewards, terminated):
     """Score one step for every active robot: the three reward terms, arrival and termination, and the running
     episode metrics in ``track`` (turn, still steps, contact events, time, smallest clearance).
 
     Args:
         before: ``(N, 3)`` poses before the step.
-        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment.
-        params: ``[goal_radius_m, dt_s, cycles so far, terminate_on_collision, still_m]``.
+        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment; ``cycles``: ``(E,)`` steps
+            so far in each environment's episode.
+        params: ``[goal_radius_m, dt_s, terminate_on_collision, still_m]``.
     """
-    goal_radius, dt, cycles, stop_on_contact, still_m = params[0], params[1], params[2], params[3] > 0.5, params[4]
+    goal_radius, dt, stop_on_contact, still_m = params[0], params[1], params[2] > 0.5, params[3]
     for i in range(pose.shape[0]):
         terminated[i] = 0
         rewards[i, 0] = 0.0
@@ -96,7 +97,7 @@ def account(pose, before, active, blocked, clearance, goals, per, params, track,
         track[i, DISTANCE] = distance
         if arrived:
             track[i, ARRIVED] = 1.0
-        track[i, TIME_TO_GOAL] = cycles * dt
+        track[i, TIME_TO_GOAL] = cycles[e] * dt
         track[i, MIN_CLEARANCE] = min(track[i, MIN_CLEARANCE], clearance[i])
         terminated[i] = 1 if arrived or (contact and stop_on_contact) else 0
 
@@ -211,9 +212,8 @@ class SwarmEnv(ParallelEnv):
 
         self._angles = np.radians(np.array(self.sensor_angles_deg))
         self._walls = np.ascontiguousarray(self.layout.walls, dtype=np.float64)[None]
-        self._grid = core.Grid(
-            self.layout.bounds, core.cell_size(radius, BEAM_M, self.comm_range_m, self.max_step_m), n
-        )
+        self._cell_m = core.cell_size(radius, BEAM_M, self.comm_range_m, self.max_step_m)
+        self._grid = core.Grid(self.layout.bounds, self._cell_m, n)
         self._move_params = np.array([self.control_period_s, self.platform.wheel_base_m, radius])
         self._sense_params = np.array([radius, BEAM_M, self.comm_range_m])
         self._observe_params = np.array([
@@ -223,13 +223,14 @@ class SwarmEnv(ParallelEnv):
         ])  # fmt: skip
         self._leader_at = self.observation_structure["leader"][0] if self.formation else -1
         self._track = np.zeros((n, N_TRACK))
-        self._account_params = np.array([
-            self.goal_radius_m, self.control_period_s, 0.0, float(self.terminate_on_collision), STILL_M,
-        ])  # fmt: skip
+        self._account_params = np.array(
+            [self.goal_radius_m, self.control_period_s, float(self.terminate_on_collision), STILL_M]
+        )
         self._obs_size = size
         self._sense_draws = 11 + 2 * k
         self.pose = np.zeros((n, 3))
         self.active = np.zeros(n, dtype=np.uint8)
+        self._all_rows = np.ones(n, dtype=np.uint8)
         self._proposal = np.zeros((n, 3))
         self._blocked = np.zeros(n, dtype=np.uint8)
         self._beams = np.zeros((n, 4))
@@ -325,10 +326,9 @@ class SwarmEnv(ParallelEnv):
         self.num_cycles += 1
         self._powers = command * self.active[:, None]
         obs = self._sense(normals[:, 2:], floor)
-        self._account_params[2] = self.num_cycles
         terminated = np.zeros(n, dtype=np.uint8)
         account(self.pose, before, self.active, self._blocked, self._clearance, self.goal[None], self.n_robots,
-                self._account_params, self._track, self._rewards, terminated)  # fmt: skip
+                np.array([self.num_cycles]), self._account_params, self._track, self._rewards, terminated)  # fmt: skip
         self._update_metrics()
         terminated = terminated.astype(bool)
         truncate = self.num_cycles >= self.max_cycles
@@ -427,7 +427,7 @@ class SwarmEnv(ParallelEnv):
         ``normals`` ``(N, 11 + 2k)`` and ``floor`` ``(N, 4)`` (see :func:`polyenvs.swarm.sensors.write_observations`)."""
         g = self._grid
         core.build_grid(self.pose, self.active, *g.arrays)
-        core.sense(self.pose, self.active, self._sense_params, self._angles, self._walls, self._circles, *g.arrays,
+        core.sense(self.pose, self.active, self._all_rows, self._sense_params, self._angles, self._walls, self._circles, *g.arrays,
                    self._beams, self._nb_index, self._nb_range, self._clearance)  # fmt: skip
         obs = np.empty((self.n_robots, self._obs_size), dtype=np.float32)
         ir.write_observations(self.pose, self.active, self._beams, self._nb_index, self._nb_range, self.goal[None],

@@ -112,32 +112,37 @@ class FormationEnv(SwarmEnv):
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
     def _formation_error(self):
-        per_robot, count = self._per_robot, self._pair_count
-        swarm = formation_error(self.pose, self.active, self.pairs, self.spacing_m, per_robot, count)
-        return per_robot, swarm
+        swarm = np.zeros(1)
+        formation_error(self.pose, self.active, self.pairs, self.spacing_m, self._per_robot, self._pair_count, swarm)
+        return self._per_robot, float(swarm[0])
 
 
 @njit(cache=True)
-def formation_error(pose, active, pairs, spacing, per_robot, count):
-    """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode: the mean per robot (over
-    its pairs, written into ``per_robot``) and the swarm's mean (returned; 0 without such pairs)."""
+def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):
+    """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode, for E environments of
+    N robots (``pairs`` index one environment's robots): the mean per robot over its pairs (``per_robot``,
+    ``(E * N,)``) and each environment's mean over its pairs (``swarm``, ``(E,)``; 0 without such pairs)."""
+    n_envs = swarm.shape[0]
+    per = pose.shape[0] // n_envs
     per_robot[:] = 0.0
     count[:] = 0.0
-    total, pairs_in = 0.0, 0
-    for p in range(pairs.shape[0]):
-        i, j = pairs[p, 0], pairs[p, 1]
-        if active[i] and active[j]:
-            err = abs(math.hypot(pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]) - spacing) / spacing
-            per_robot[i] += err
-            per_robot[j] += err
-            count[i] += 1.0
-            count[j] += 1.0
-            total += err
-            pairs_in += 1
+    for e in range(n_envs):
+        base = e * per
+        total, pairs_in = 0.0, 0
+        for p in range(pairs.shape[0]):
+            i, j = base + pairs[p, 0], base + pairs[p, 1]
+            if active[i] and active[j]:
+                err = abs(math.hypot(pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]) - spacing) / spacing
+                per_robot[i] += err
+                per_robot[j] += err
+                count[i] += 1.0
+                count[j] += 1.0
+                total += err
+                pairs_in += 1
+        swarm[e] = total / pairs_in if pairs_in else 0.0
     for i in range(per_robot.shape[0]):
         if count[i] > 0:
             per_robot[i] /= count[i]
-    return total / pairs_in if pairs_in else 0.0
 
 
 def parallel_env(**kwargs) -> FormationEnv:
