@@ -2,7 +2,9 @@
 
 - agent-steps/s of a 20-robot swarm against mpe2's ``simple_spread_v3`` with N = 20 (target >= 20x);
 - joint steps/s of a 256-robot swarm (target >= 200);
-- peak memory of a 256-robot swarm (target < 50 MB): ``tracemalloc`` over building, resetting and 10 steps.
+- peak memory of a 256-robot swarm (target < 50 MB): ``tracemalloc`` over building, resetting and 10 steps;
+- env-steps/s of the batched swarm (:class:`polyenvs.swarm.batched.SwarmVectorEnv`, 1024 environments x 4 robots)
+  against VMAS navigation with 1024 environments x 4 agents and one torch thread (target >= 1x).
 
 Random actions, pre-sampled, passed as the PettingZoo dictionaries both environments take; resets included when
 every agent is done. Rows are timed in interleaved rounds (ours and the peer alternating) and each figure is the
@@ -21,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["measure", "peak_memory_mb", "run"]
+__all__ = ["measure", "measure_batched", "peak_memory_mb", "run"]
 
 TASKS = ("obstacle_field_v0", "corridor_v0", "formation_v0")
 
@@ -66,6 +68,73 @@ def _stepper(env, seed: int = 0) -> Callable[[int], int]:
     return steps
 
 
+def _batched_stepper(task: str, n_envs: int, n_robots: int, seed: int = 0) -> Callable[[int], int]:
+    """``k`` steps of the batched swarm (autoresets inside); returns environment-steps."""
+    from polyenvs.swarm.batched import SwarmVectorEnv
+
+    env = SwarmVectorEnv(task, num_envs=n_envs, n_robots=n_robots)
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    block = [rng.uniform(-1, 1, (env.num_envs, 2)).astype(np.float32) for _ in range(8)]
+
+    def steps(k: int) -> int:
+        for t in range(k):
+            env.step(block[t % 8])
+        return k * n_envs
+
+    return steps
+
+
+def _vmas_stepper(n_envs: int, n_agents: int, seed: int = 0) -> Callable[[int], int]:
+    """``k`` steps of VMAS navigation (resetting when every sub-environment is done); returns environment-steps."""
+    import torch
+    import vmas
+
+    torch.set_num_threads(1)  # the spec's setting: two threads run 10-100x slower on these 2-core machines
+    env = vmas.make_env(scenario="navigation", num_envs=n_envs, device="cpu", continuous_actions=True,
+                        n_agents=n_agents, seed=seed)  # fmt: skip
+    env.reset()
+    generator = torch.Generator().manual_seed(seed)
+    block = [[2 * torch.rand((n_envs, 2), generator=generator) - 1 for _ in range(n_agents)] for _ in range(8)]
+
+    def steps(k: int) -> int:
+        for t in range(k):
+            _, _, dones, _ = env.step(block[t % 8])
+            if dones.all():
+                env.reset()
+            elif dones.any():
+                for index in dones.nonzero().flatten().tolist():
+                    env.reset_at(index)
+        return k * n_envs
+
+    return steps
+
+
+def measure_batched(rounds: int = 3, seconds: float = 2.0, task: str = "obstacle_field_v0", n_envs: int = 1024,
+                    n_robots: int = 4) -> list[dict]:  # fmt: skip
+    """Env-steps/s of the batched swarm and of VMAS navigation at the same size, interleaved; the ratio is the
+    median of per-round ratios. VMAS missing: its row says so and the ratio is absent."""
+    cases = {f"batched {task} {n_envs}x{n_robots}": _batched_stepper(task, n_envs, n_robots)}
+    try:
+        cases[f"vmas navigation {n_envs}x{n_robots}"] = _vmas_stepper(n_envs, n_robots)
+    except ImportError:
+        pass
+    results: dict[str, list[float]] = {name: [] for name in cases}
+    for r in range(rounds):
+        for name in list(cases) if r % 2 == 0 else list(reversed(cases)):
+            results[name].append(_rate(cases[name], seconds)[1])
+    ours, *peer = list(results)
+    row = {"row": ours, "env_steps_per_s": statistics.median(results[ours])}
+    rows = [row]
+    if peer:
+        rows.append({"row": peer[0], "env_steps_per_s": statistics.median(results[peer[0]])})
+        row["ratio_vs_vmas"] = statistics.median(a / b for a, b in zip(results[ours], results[peer[0]], strict=True))
+    else:
+        rows.append({"row": "vmas navigation: not installed (pip install vmas)", "env_steps_per_s": float("nan")})
+    row["peak_memory_mb"] = _peak_memory(lambda: _batched_stepper(task, n_envs, n_robots)(10))
+    return rows
+
+
 def _rate(steps: Callable[[int], int], seconds: float) -> tuple[float, float]:
     """(joint steps/s, agent-steps/s) over at least ``seconds``."""
     steps(3)
@@ -78,15 +147,18 @@ def _rate(steps: Callable[[int], int], seconds: float) -> tuple[float, float]:
             return joint / elapsed, agent / elapsed
 
 
-def peak_memory_mb(task: str = "obstacle_field_v0", n: int = 256) -> float:
-    """Peak traced memory (MB) of building a swarm, resetting it and taking 10 random steps."""
+def _peak_memory(work: Callable[[], object]) -> float:
     tracemalloc.start()
     try:
-        env = _swarm(task, n)
-        _stepper(env)(10)
+        work()
         return tracemalloc.get_traced_memory()[1] / 1e6
     finally:
         tracemalloc.stop()
+
+
+def peak_memory_mb(task: str = "obstacle_field_v0", n: int = 256) -> float:
+    """Peak traced memory (MB) of building a swarm, resetting it and taking 10 random steps."""
+    return _peak_memory(lambda: _stepper(_swarm(task, n))(10))
 
 
 def measure(rounds: int = 3, seconds: float = 2.0, tasks=TASKS) -> list[dict]:
@@ -122,7 +194,8 @@ def measure(rounds: int = 3, seconds: float = 2.0, tasks=TASKS) -> list[dict]:
 
 
 def run(quick: bool = False) -> list[dict]:
-    return measure(rounds=1 if quick else 3, seconds=0.5 if quick else 2.0)
+    rounds, seconds = (1, 0.5) if quick else (3, 2.0)
+    return measure(rounds=rounds, seconds=seconds) + measure_batched(rounds=rounds, seconds=seconds)
 
 
 def main(argv=None) -> None:
@@ -130,6 +203,12 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="one round of 0.5 s per row")
     args = parser.parse_args(argv)
     for row in run(args.quick):
+        if "env_steps_per_s" in row:
+            extra = f"  {row['ratio_vs_vmas']:.2f}x VMAS (target >= 1x)" if "ratio_vs_vmas" in row else ""
+            if "peak_memory_mb" in row:
+                extra += f", peak {row['peak_memory_mb']:.1f} MB"
+            print(f"{row['row']:<40} {row['env_steps_per_s']:>12.0f} env-steps/s{extra}")
+            continue
         extra = ""
         if "ratio_vs_mpe2" in row:
             extra = f"  {row['ratio_vs_mpe2']:.1f}x mpe2 (target >= 20x)"
