@@ -255,7 +255,13 @@ class BeastEnv(MujocoEnv):
 
     def step(self, action):
         # Float arrays go to the compiled check as they are (no conversion copy); anything else is converted.
-        a = action if type(action) is np.ndarray and action.dtype in _FLOATS else np.asarray(action, np.float64)
+        if type(action) is np.ndarray and action.dtype in _FLOATS:
+            a = action
+        else:
+            try:
+                a = np.asarray(action, np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"action must be {self._shape[0]} numbers in [-1, 1], got {show(action)}") from None
         if a.shape != self._shape:
             raise ValueError(f"action must have shape {self._shape}, got {show(action)}")
         bad = S.actuate(a, self._joints, self._ctrl)
