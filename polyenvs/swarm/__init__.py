@@ -12,6 +12,7 @@ Paper: Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoi
 | ``env`` | the PettingZoo surface the tasks share |
 | ``corridor_v0``, ``obstacle_field_v0``, ``formation_v0`` | the PettingZoo tasks |
 | ``single`` | the Gymnasium ids APLiteCorridor-v0 and APLiteObstacleField-v0 |
+| ``batched`` | ``SwarmVectorEnv``: E environments x N robots as one vector env of robots (parameter sharing) |
 | ``rendering`` | top-down frames |
 
 Modules are imported on demand (``from polyenvs.swarm import formation_v0``), as in PettingZoo's own families.
