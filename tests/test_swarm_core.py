@@ -186,8 +186,9 @@ def test_beams_and_trilateration_match_brute_force():
     grid = core.Grid((0.0, 0.0, 8.0, 8.0), core.cell_size(radius, 0.8, comm, 0.1), n)
     core.build_grid(pose, active, *grid.arrays)
     beams, idx, rng_out, clearance = np.zeros((n, 4)), np.zeros((n, k), np.int64), np.zeros((n, k)), np.zeros(n)
-    core.sense(pose, active, np.array([radius, 0.8, comm]), angles, walls[None], circles[None], *grid.arrays, beams,
-               idx, rng_out, clearance)  # fmt: skip
+    params, todo = np.array([radius, 0.8, comm]), np.ones(n, np.uint8)
+    core.sense(pose, active, todo, params, angles, walls[None], circles[None], *grid.arrays, beams, idx, rng_out,
+               clearance)  # fmt: skip
     # Brute force: sample points densely along each beam against every disc and wall.
     t = np.linspace(0.0, 0.8, 8001)
     for i in np.flatnonzero(active)[:30]:
