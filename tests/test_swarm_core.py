@@ -215,3 +215,30 @@ def test_hexagonal_lattice_of_seven_is_a_hexagon_around_the_leader():
     assert np.allclose(points[0], 0.0)
     assert np.allclose(np.hypot(*points[1:].T), 0.9)
     assert len(lattice_pairs(points, 0.9)) == 12  # six spokes and six rim edges
+
+
+def test_environments_of_a_batch_never_meet():
+    """Two environments of two robots on the same coordinates: each robot sees and touches only its own
+    environment's robots and obstacles."""
+    radius = 0.14
+    walls = np.array([[[0, 0, 4, 0], [4, 0, 4, 4], [4, 4, 0, 4], [0, 4, 0, 0]]], dtype=np.float64)
+    circles = np.array([[[2.0, 3.0, 0.3]], [[1e6, 1e6, 0.0]]])  # an obstacle in environment 0 only
+    pose = np.array([[1.0, 1.0, 0.0], [1.45, 1.0, np.pi], [1.0, 1.05, 0.0], [1.0, 3.0, 0.0]])
+    active = np.ones(4, np.uint8)
+    grid = core.Grid((0.0, 0.0, 4.0, 4.0), core.cell_size(radius, 0.8, 1.0, 0.1), 2, 2)
+    core.build_grid(pose, active, *grid.arrays)
+    beams, idx, dist, clearance = np.zeros((4, 4)), np.zeros((4, 1), np.int64), np.zeros((4, 1)), np.zeros(4)
+    core.sense(pose, active, np.ones(4, np.uint8), np.array([radius, 0.8, 1.0]), np.radians([-60.0, -15.0, 15.0, 60.0]),
+               walls, circles, *grid.arrays, beams, idx, dist, clearance)  # fmt: skip
+    assert idx[:, 0].tolist() == [1, 0, -1, -1]  # robot 2 overlaps robot 0's spot but lives in environment 1
+    assert np.isfinite(beams[0, 1:3]).all() and not np.isfinite(beams[2, 1:3]).any()
+    assert clearance[2] == pytest.approx(1.0 - radius)  # the wall, not environment 0's robots
+    pose[3] = (1.3, 3.0, 0.0)  # facing where environment 0's obstacle is
+    core.sense(pose, active, np.ones(4, np.uint8), np.array([radius, 0.8, 1.0]), np.radians([-60.0, -15.0, 15.0, 60.0]),
+               walls, circles, *grid.arrays, beams, idx, dist, clearance)  # fmt: skip
+    assert not np.isfinite(beams[3, 1:3]).any()
+    wheels = np.full((4, 2), 0.5)
+    proposal, blocked = np.zeros((4, 3)), np.zeros(4, np.uint8)
+    core.build_grid(pose, active, *grid.arrays)
+    core.move(pose, active, wheels, np.array([0.1, 0.22, radius]), walls, circles, *grid.arrays, proposal, blocked)
+    assert blocked.tolist() == [0, 0, 0, 0]
