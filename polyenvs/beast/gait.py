@@ -170,6 +170,9 @@ class GaitConfig:
     tip_centre: tuple[float, float, float] = (-0.0004, 0.0023, 0.1463)
     tip_rotation_deg: tuple[float, float, float] = (41.95, -0.03, 2.68)
     roll_deg: float = 16.7
+    #: further (tip_centre, tip_rotation_deg, roll_deg) keyframes tried in order when the first is not plannable,
+    #: e.g. from a start stance wider than the nominal one
+    tip_alternatives: tuple = ()
     knots: int = 16
     #: which knee-branch solution a stance limb takes: "knee" (the knee higher above the ground) or "centred"
     #: (joint 1 nearer the middle of its range, leaving it room to turn through the tumbles)
@@ -179,10 +182,28 @@ class GaitConfig:
     max_nudges: int = 4
 
 
-#: Per-polyhedron defaults. The 6-beast stands higher: its cube body's lowest vertex hangs 147 mm below the centre.
+#: Per-polyhedron defaults. The 6-beast's come from a search over stance and tip keyframe (kinematic checks: every
+#: limb in reach and range, body and free feet clear of the floor, centre of mass 4 mm past the edge at the tip and
+#: over 20 mm inside the new support after the roll, planted feet at least 35 mm off their joint-1 axes), then
+#: MuJoCo runs: a narrow stance (side 240 mm) with the body 200 mm up, since its cube body's lowest corner hangs 147 mm
+#: below the centre, and stance limbs on the "centred" branch, from which all 24 of its tumbles are plannable. Its
+#: alternative keyframes tip from wider patterns such as the tasks' start stance (side 346 mm); landing at the
+#: nominal apex brings the feet back to the nominal pattern.
 DEFAULT_CONFIGS = {
     "tetrahedron": GaitConfig(),
-    "octahedron": GaitConfig(),
+    "octahedron": GaitConfig(
+        stance_side=0.24,
+        stance_height=0.20,
+        tip_centre=(0.0025, 0.0, 0.19),
+        tip_rotation_deg=(15.0, 0.0, 0.0),
+        roll_deg=12.0,
+        stance_branch="centred",
+        tip_alternatives=(
+            ((0.0013, 0.0, 0.18), (20.0, 0.0, 0.0), 15.0),
+            ((0.002, 0.0, 0.18), (15.0, 0.0, 0.0), 15.0),
+            ((0.0007, 0.0, 0.17), (25.0, 0.0, 0.0), 10.0),
+        ),
+    ),
     "cube": GaitConfig(),
 }
 
@@ -383,6 +404,15 @@ class BeastPlanner:
         return JointTrajectory(times, q.reshape(n, -1), qd.reshape(n, -1))
 
     def tip_plan(self, q_now: np.ndarray, tumble: tuple[int, int, int, int], extra: float = 0.0, future=()):
+        """The tip plan of the configured keyframe, or of the first alternative keyframe that is plannable."""
+        cfg = self.config
+        for keyframe in ((cfg.tip_centre, cfg.tip_rotation_deg, cfg.roll_deg), *cfg.tip_alternatives):
+            traj = self._tip_plan(q_now, tumble, extra, future, *keyframe)
+            if traj is not None:
+                return traj
+        return None
+
+    def _tip_plan(self, q_now, tumble, extra, future, tip_centre, tip_rotation_deg, roll_deg):
         """Trajectory K0 -> K1 of tumble (l1, l2, l3, l4) (0-based limbs) from the measured angles, or None.
 
         ``extra`` pushes the tip keyframe that much further forward (a retry when the body did not tip). None when a
@@ -396,15 +426,15 @@ class BeastPlanner:
         rot0, origin = self.tumble_frame(feet, l1, l2, l3)
         c0 = -rot0 @ origin
         feet_t = (feet - origin) @ rot0.T
-        a, b, c = np.radians(cfg.tip_rotation_deg)
+        a, b, c = np.radians(tip_rotation_deg)
         r_k0 = self.stance_orientation(l1, l2, l3)
         r1 = K.rot_y(a) @ K.rot_x(b) @ K.rot_z(c) @ r_k0
-        c1 = np.array(cfg.tip_centre) + np.array([extra, 0.0, 0.0])
+        c1 = np.array(tip_centre) + np.array([extra, 0.0, 0.0])
         # Landing foothold: the apex of the nominal triangle on the edge, on the ground (foot l3 mirrored across the
         # edge when the feet are on the nominal pattern; a pattern that has spread or shrunk returns to it within
         # two tumbles), rolled back by the free roll's angle.
         land = np.array([cfg.stance_side * math.sqrt(3) / 2, (feet_t[l1, 1] + feet_t[l2, 1]) / 2, self.foot_radius])
-        alpha = math.radians(cfg.roll_deg)
+        alpha = math.radians(roll_deg)
         pre = land.copy()
         pre[0], pre[2] = (
             land[0] * math.cos(alpha) - (land[2] - self.foot_radius) * math.sin(alpha),
