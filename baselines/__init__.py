@@ -9,6 +9,7 @@ training directory or a ``.zip``), a trained Stable-Baselines3 model behind the 
 
 from __future__ import annotations
 
+import inspect
 import os
 
 from baselines.base import Policy, RandomPolicy
@@ -70,6 +71,9 @@ def make_policy(name: str, env_id: str, observation_space, action_space, seed: i
         )
     try:
         factory = import_attribute(baselines[name].factory)
-        return factory(observation_space, action_space, **{**baselines[name].kwargs, **kwargs})
+        kwargs = {**baselines[name].kwargs, **kwargs}
+        if "seed" in inspect.signature(factory).parameters:  # stochastic baselines draw from their own seed
+            kwargs.setdefault("seed", seed)
+        return factory(observation_space, action_space, **kwargs)
     except TypeError as exc:
         raise ValueError(f"bad parameters for policy {name!r}: {exc}") from None

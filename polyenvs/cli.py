@@ -387,6 +387,9 @@ def build_parser() -> argparse.ArgumentParser:
     from polyenvs.sweep import add_parser as add_sweep_parser  # imports nothing heavy until it runs
 
     add_sweep_parser(sub)
+    from polyenvs.localization.command import add_parser as add_localize_parser  # imports nothing heavy either
+
+    add_localize_parser(sub)
     episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
 
     p = sub.add_parser(

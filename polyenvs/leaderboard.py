@@ -21,9 +21,7 @@ import json
 import math
 import platform
 import re
-import struct
 import subprocess
-import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -509,12 +507,14 @@ def leaderboard_markdown(documents: list[dict], quick: bool | None = None, plots
 
 def write_leaderboard(documents: list[dict], path: Path, quick: bool | None = None) -> str:
     """Write the Markdown table to ``path`` and one PNG per environment beside it (:func:`plot_path`)."""
+    from polyenvs.core.raster import png_bytes
+
     path = Path(path)
     plots = {}
     for env_id, rows in leaderboard_rows(documents).items():
         png = plot_path(path, env_id)
         with atomic_path(png) as tmp:
-            tmp.write_bytes(_png_bytes(leaderboard_plot(env_id, rows)))
+            tmp.write_bytes(png_bytes(leaderboard_plot(env_id, rows)))
         plots[env_id] = png.name
     text = leaderboard_markdown(documents, quick=quick, plots=plots)
     write_text_atomic(path, text)
@@ -619,16 +619,3 @@ def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndar
         stamp_text(image, x + 14, height - 18, name, (60, 60, 60), scale)
         x += 14 + text_width(name, scale) + 18
     return image
-
-
-def _png_bytes(image: np.ndarray) -> bytes:
-    """A minimal 8-bit RGB PNG encoder (zlib only)."""
-    image = np.ascontiguousarray(image, dtype=np.uint8)
-    height, width, _ = image.shape
-    raw = np.concatenate([np.zeros((height, 1), dtype=np.uint8), image.reshape(height, -1)], axis=1).tobytes()
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")

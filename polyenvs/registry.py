@@ -13,6 +13,10 @@ keyword arguments) and which of them is the paper's main algorithm (``paper=``),
 finds them here instead of in per-family helpers. A baseline acts on one agent's observation; for a parallel
 environment the evaluation applies it to each robot's own observation (parameter sharing).
 
+A Gymnasium row may also list ``estimators``, the third kind of thing polyenvs scores: estimators (localizers)
+run on the logs its rollouts produce, scored against the true pose (``polyenvs localize``,
+:mod:`polyenvs.localization`), not policies scored on returns.
+
 Variants are constructor keywords (``gym.make(id, floor_plan="office")``), not new rows. Entry points are strings,
 so nothing heavy is imported until an environment or a policy is made.
 """
@@ -65,6 +69,8 @@ class EnvEntry:
     baselines: tuple[Baseline, ...] = ()
     #: The name of the baseline that is the paper's main algorithm, reachable as policy "paper".
     paper: str | None = None
+    #: Estimators scored on this environment's logs (``factory(**kwargs)`` builds one), the paper's first.
+    estimators: tuple[Baseline, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -119,6 +125,21 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
         baselines=(_buckybot("goal_seeker", "GoalSeeker"),),
         paper="goal_seeker",
+    ),
+    EnvEntry(
+        id="polyenvs/BumperCartExplore-v0",
+        entry_point="polyenvs.bumper.env:BumperCartExploreEnv",
+        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreVectorEnv",
+        max_episode_steps=200,
+        family="bumper",
+        description="A bump-only cart (two wheel encoders, one bump switch) touches as much of an unknown map's "
+        "walls as it can; one step is one cycle: turn, drive to the bump, back up",
+        baselines=(Baseline("random_bounce", "baselines.bumper:RandomBounce"),),
+        paper="random_bounce",
+        estimators=(
+            Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
+            Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),
+        ),
     ),
 )
 

@@ -11,6 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 
+import polyenvs  # noqa: F401  (registers the ids)
 from baselines.bumper import RandomBounce
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.env import OBSERVATION_STRUCTURE, BumperCartExploreEnv
@@ -18,8 +19,6 @@ from polyenvs.bumper.maps import MAPS
 from polyenvs.bumper.vector import BumperCartExploreVectorEnv
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
-if ENV_ID not in gym.registry:  # until the registry row is in polyenvs.registry
-    gym.register(ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200)
 
 
 def _rollout(env, seed, steps, policy_seed=0):

@@ -16,33 +16,16 @@ from __future__ import annotations
 
 import math
 
-import gymnasium as gym
 import numpy as np
 import pytest
 
-import polyenvs.registry as registry
+import polyenvs  # noqa: F401  (registers the ids)
 from polyenvs.bumper.localizers import BumpSpaceMCL, DeadReckoning
 from polyenvs.bumper.odometry import odometry_step
 from polyenvs.localization.runner import rollout_logs, score_estimator, summarize
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 RUNS, BUMPS = 100, 15
-
-
-@pytest.fixture(scope="module", autouse=True)
-def registered():
-    """The registry row the lead adds (``polyenvs.registry``), in place for this module only until then."""
-    with pytest.MonkeyPatch.context() as mp:
-        if not any(row.id == ENV_ID for row in registry.REGISTRY):
-            row = registry.EnvEntry(
-                id=ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200,
-                family="bumper", description="bump-only cart",
-                baselines=(registry.Baseline("random_bounce", "baselines.bumper:RandomBounce"),), paper="random_bounce",
-            )  # fmt: skip
-            mp.setattr(registry, "REGISTRY", (*registry.REGISTRY, row))
-        if ENV_ID not in gym.registry:
-            gym.register(ENV_ID, entry_point="polyenvs.bumper.env:BumperCartExploreEnv", max_episode_steps=200)
-        yield
 
 
 @pytest.fixture(scope="module")

@@ -16,13 +16,15 @@ overflow) are skipped, and empty inputs draw nothing.
 from __future__ import annotations
 
 import math
+import struct
+import zlib
 from functools import lru_cache
 
 import numpy as np
 
 from polyenvs.core.validation import check_finite, check_positive
 
-__all__ = ["Canvas", "stamp_text", "text_width"]
+__all__ = ["Canvas", "png_bytes", "stamp_text", "text_width"]
 
 # Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
 # bounds-checked pixel by pixel. Grown on demand for very wide strokes.
@@ -396,3 +398,16 @@ class Canvas:
         # [r, c]: crossings with covered > c, modulo 256 (only the parity matters).
         right_of = np.cumsum(histogram[:, :0:-1], axis=1, dtype=np.uint8)[:, ::-1]
         self._cells[r0:r1, c0:c1][(right_of & 1).view(bool)] = fill.view("V3")[0]
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """A minimal 8-bit RGB PNG encoder (zlib only)."""
+    image = np.ascontiguousarray(image, dtype=np.uint8)
+    height, width, _ = image.shape
+    raw = np.concatenate([np.zeros((height, 1), dtype=np.uint8), image.reshape(height, -1)], axis=1).tobytes()
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")

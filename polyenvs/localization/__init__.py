@@ -14,7 +14,8 @@ An estimator is any object with two methods (:class:`Estimator`):
 Optionally ``empty_sets``: how many updates so far left no hypothesis standing (the runner reports the share of
 runs where that happened).
 
-Estimators are named in :data:`ESTIMATORS` (name -> ``"module:Class"``); a user's own plugs in by import path:
+Estimators are listed on the row of the environment whose logs they read, in :mod:`polyenvs.registry`
+(``EnvEntry.estimators``: name -> ``"module:Class"``, the paper's first); a user's own plugs in by import path:
 ``polyenvs localize --estimator mypackage.mymodule:MyLocalizer``.
 """
 
@@ -25,13 +26,21 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["ESTIMATORS", "Estimator", "estimator_class", "estimator_kwargs", "make_estimator"]
+__all__ = ["DEFAULT_ENV_ID", "Estimator", "estimator_class", "estimator_kwargs", "estimators", "make_estimator"]
 
-#: Built-in estimators: name -> import path. Keyword arguments are the class's own.
-ESTIMATORS: dict[str, str] = {
-    "dead_reckoning": "polyenvs.bumper.localizers:DeadReckoning",
-    "mcl": "polyenvs.bumper.localizers:BumpSpaceMCL",
-}
+#: The environment whose logs the benchmark scores by default.
+DEFAULT_ENV_ID = "polyenvs/BumperCartExplore-v0"
+
+
+def estimators(env_id: str = DEFAULT_ENV_ID) -> dict[str, str]:
+    """The estimators the registry lists for ``env_id``'s logs: name -> ``"module:Class"``, the paper's first."""
+    from polyenvs.registry import entry
+
+    try:
+        row = entry(env_id)
+    except KeyError:
+        return {}
+    return {e.name: e.factory for e in getattr(row, "estimators", ())}
 
 
 @runtime_checkable
@@ -43,11 +52,13 @@ class Estimator(Protocol):
     def update(self, log: np.ndarray) -> np.ndarray: ...
 
 
-def estimator_class(name: str) -> type:
-    """The class behind a built-in name or a ``"module:Class"`` path; ``ValueError`` naming the choices if none."""
-    path = ESTIMATORS.get(name, name)
+def estimator_class(name: str, env_id: str = DEFAULT_ENV_ID) -> type:
+    """The class behind one of ``env_id``'s estimators or a ``"module:Class"`` path; ``ValueError`` naming the
+    choices if none."""
+    known = estimators(env_id)
+    path = known.get(name, name)
     if ":" not in path:
-        raise ValueError(f"unknown estimator {name!r}; choose from {sorted(ESTIMATORS)} or give 'module:Class'")
+        raise ValueError(f"unknown estimator {name!r}; choose from {sorted(known)} or give 'module:Class'")
     from polyenvs.registry import import_attribute
 
     try:
@@ -59,21 +70,21 @@ def estimator_class(name: str) -> type:
     return cls
 
 
-def estimator_kwargs(name: str, kwargs: dict) -> dict:
+def estimator_kwargs(name: str, kwargs: dict, env_id: str = DEFAULT_ENV_ID) -> dict:
     """``kwargs`` without ``particles`` if the estimator does not take it (only sampling estimators do, and the
     command line's ``--particles`` applies to those); every other keyword is passed on and checked by the class."""
-    accepted = inspect.signature(estimator_class(name)).parameters
+    accepted = inspect.signature(estimator_class(name, env_id)).parameters
     takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values())
     if "particles" in kwargs and "particles" not in accepted and not takes_any:
         return {k: v for k, v in kwargs.items() if k != "particles"}
     return dict(kwargs)
 
 
-def make_estimator(name: str, **kwargs) -> Estimator:
-    """Build an estimator (``particles`` dropped where not taken: :func:`estimator_kwargs`); ``ValueError`` for an
-    unknown name or bad parameters."""
-    cls = estimator_class(name)
-    kwargs = estimator_kwargs(name, kwargs)
+def make_estimator(name: str, env_id: str = DEFAULT_ENV_ID, **kwargs) -> Estimator:
+    """Build one of ``env_id``'s estimators or a ``"module:Class"`` (``particles`` dropped where not taken:
+    :func:`estimator_kwargs`); ``ValueError`` for an unknown name or bad parameters."""
+    cls = estimator_class(name, env_id)
+    kwargs = estimator_kwargs(name, kwargs, env_id)
     try:
         return cls(**kwargs)
     except TypeError as exc:

@@ -24,10 +24,10 @@ import time
 from pathlib import Path
 
 from polyenvs.evaluation import InputError, check_writable_directory, is_terminal, parse_json_object
+from polyenvs.localization import DEFAULT_ENV_ID
 
 __all__ = ["DEFAULT_ENV_ID", "add_parser", "run"]
 
-DEFAULT_ENV_ID = "polyenvs/BumperCartExplore-v0"
 #: Where ``polyenvs localize`` writes by default (gitignored, like every run's output).
 DEFAULT_LOCALIZE_DIR = Path("runs/localize")
 DEFAULT_ESTIMATORS = ("mcl", "dead_reckoning")
@@ -75,7 +75,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs localize`` for parsed ``args``; 0 when done."""
-    from polyenvs.localization import estimator_kwargs, make_estimator
+    from polyenvs.localization import estimator_kwargs, estimators, make_estimator
     from polyenvs.localization.report import convergence_plot, convergence_table, write_png
     from polyenvs.localization.runner import CONVERGED_CM, CONVERGED_DEG, rollout_logs, score_estimator, summarize
     from polyenvs.training.command import int_flag
@@ -88,12 +88,12 @@ def run(args: argparse.Namespace) -> int:
     if args.map is not None:
         env_kwargs["map"] = args.map
     shared_kwargs = parse_json_object(args.estimator_kwargs, "--estimator-kwargs")
-    names = list(dict.fromkeys(args.estimator or DEFAULT_ESTIMATORS))
+    names = list(dict.fromkeys(args.estimator or estimators(args.env) or DEFAULT_ESTIMATORS))
     kwargs = {}
     for name in names:
         try:
-            kwargs[name] = estimator_kwargs(name, {**shared_kwargs, "particles": particles})
-            make_estimator(name, **kwargs[name])  # parameters checked now, not after the rollouts
+            kwargs[name] = estimator_kwargs(name, {**shared_kwargs, "particles": particles}, args.env)
+            make_estimator(name, args.env, **kwargs[name])  # parameters checked now, not after the rollouts
         except ValueError as exc:
             raise InputError(f"--estimator {name}: {exc}") from None
     map_name = env_kwargs.get("map", "paper") if isinstance(env_kwargs.get("map", "paper"), str) else "custom"
@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     }
     for name in names:
         bar.label = name
-        result = score_estimator(name, kwargs[name], context, logs, bumps, seed=seed, progress=bar)
+        result = score_estimator(name, kwargs[name], context, logs, bumps, seed=seed, progress=bar, env_id=args.env)
         summary = summarize(result)
         summary["kwargs"] = kwargs[name]
         document["estimators"][name] = summary

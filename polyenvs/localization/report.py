@@ -109,8 +109,8 @@ def convergence_plot(document: dict, width: int = 760, height: int = 420) -> np.
 
 def write_png(path, image: np.ndarray) -> None:
     """Write ``image`` as a PNG, atomically."""
+    from polyenvs.core.raster import png_bytes
     from polyenvs.evaluation import atomic_path
-    from polyenvs.leaderboard import _png_bytes
 
     with atomic_path(path) as tmp:
-        tmp.write_bytes(_png_bytes(image))
+        tmp.write_bytes(png_bytes(image))

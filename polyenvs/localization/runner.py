@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from polyenvs.localization import make_estimator
+from polyenvs.localization import DEFAULT_ENV_ID, make_estimator
 
 __all__ = ["CONVERGED_CM", "CONVERGED_DEG", "RunLog", "rollout_logs", "score_estimator", "summarize"]
 
@@ -90,16 +90,17 @@ def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: 
 
 
 def score_estimator(name: str, kwargs: dict, context, run_logs: list[RunLog], bumps: int, seed: int = 0,
-                    progress=None) -> dict:  # fmt: skip
-    """Run a fresh estimator per run over the logs; arrays of errors after each bump, failures, and the update
-    rate (over every run but the first, which pays for compiling the estimator's kernels)."""
+                    progress=None, env_id: str = DEFAULT_ENV_ID) -> dict:  # fmt: skip
+    """Run a fresh estimator per run over the logs (``name``: one of ``env_id``'s estimators or a
+    ``"module:Class"``); arrays of errors after each bump, failures, and the update rate (over every run but the
+    first, which pays for compiling the estimator's kernels)."""
     n = len(run_logs)
     position = np.full((n, bumps), np.nan)
     heading = np.full((n, bumps), np.nan)
     empty = np.zeros(n, dtype=bool)
     updates, seconds = 0, 0.0
     for r, run in enumerate(run_logs):
-        estimator = make_estimator(name, **kwargs)
+        estimator = make_estimator(name, env_id, **kwargs)
         estimator.reset(context, run.start_pose.copy(), np.random.default_rng([seed, r]))
         k = 0
         start = time.perf_counter()
