@@ -176,6 +176,8 @@ class SwarmEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
+        # One frame per control step.
+        self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.control_period_s))}
         radius = self.platform.radius_m
         self.max_step_m = self.full_speed_mps * MAX_SPEED_FACTOR * self.control_period_s
         if self.max_step_m >= radius:

@@ -26,6 +26,7 @@ class _SingleRobot(gym.Env):
             )
         self.swarm = self.swarm_class(n_robots=1, max_cycles=_NO_LIMIT, **kwargs)
         self.render_mode = self.swarm.render_mode
+        self.metadata = {**self.metadata, "render_fps": self.swarm.metadata["render_fps"]}
         self.observation_space = self.swarm.observation_space("robot_0")
         self.action_space = self.swarm.action_space("robot_0")
         self.observation_structure = self.swarm.observation_structure
