@@ -40,6 +40,19 @@ def test_gymnasium_checker_passes(name):
     check_env(env, skip_render_check=True)
 
 
+@pytest.mark.parametrize("name", CLASSES)
+def test_info_holds_the_declared_reward_terms_and_metrics(name):
+    env = CLASSES[name]()
+    _, info = env.reset(seed=0)
+    env.action_space.seed(0)
+    for _ in range(5):
+        _, reward, _, _, info = env.step(env.action_space.sample())
+        assert [k for k in info if k.startswith("reward_")] == [f"reward_{n}" for n in env.reward_names]
+        assert np.isclose(sum(info[f"reward_{n}"] for n in env.reward_names), reward)
+        assert list(info["episode_metrics"]) == list(env.metric_names)
+        assert info["sim_unstable"] is False
+
+
 @pytest.mark.parametrize("polyhedron, n_limbs", [("tetrahedron", 4), ("octahedron", 6), ("cube", 8)])
 @pytest.mark.parametrize("privileged", [False, True])
 def test_observation_layout_is_the_agreed_one(polyhedron, n_limbs, privileged):

@@ -68,7 +68,6 @@ class TumbleCounter:
     def __init__(self, support: int, qpos: np.ndarray):
         self.support = support  # bitmask of the current stance's feet (bit i = limb i + 1)
         self.quat = qpos[3:7].copy()
-        self.xy = qpos[:2].copy()  # body position at the last stance
         self.candidate = -1
         self.held = 0
         self.count = 0
@@ -81,13 +80,11 @@ class TumbleCounter:
         self.held += 1
         if self.held != STANCE_TICKS or n_feet < 3 or mask == self.support:
             return False
-        quat, xy = qpos[3:7], qpos[:2]
-        tumbled = _rotation_angle(self.quat, quat) > math.radians(45)
+        tumbled = _rotation_angle(self.quat, qpos[3:7]) > math.radians(45)
         self.support = mask
-        self.quat = quat.copy()
+        self.quat = qpos[3:7].copy()
         if tumbled:
             self.count += 1
-        self.xy = xy.copy()
         return tumbled
 
 
@@ -183,6 +180,7 @@ class BeastEnv(MujocoEnv):
             float(self.privileged),
             1.0 / (params.torque_limit**2 * self.n_joints),
         ]
+        self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._unstable = False
         self._elapsed = 0
         self._bind()
@@ -347,10 +345,6 @@ class BeastEnv(MujocoEnv):
         return checked
 
     # --- shared task helpers -----------------------------------------------------------------------------------
-    @property
-    def _reward_keys(self) -> tuple[str, ...]:
-        return tuple(f"reward_{name}" for name in self.reward_names)
-
     def _stance_state(self, rng: np.random.Generator, position_noise=0.005, yaw_noise_deg=2.0, free_noise_deg=2.0):
         """The start stance, turned by a small random yaw and shifted a few mm; free limbs jittered a little."""
         radius, height = M.START_STANCE[self.polyhedron]
