@@ -65,6 +65,8 @@ N_TILT = 12
 CONTROL_DT = 0.01
 #: Joint limits of the default model (radians), rows joint 1, 2, 3; the environments' actions scale to these.
 DEFAULT_JOINT_RANGES = np.radians([[-180.0, 180.0], [-120.0, 160.0], [-150.0, 150.0]])
+#: Seconds to wait for a landing after the tip before standing on whatever feet are down and going on.
+ROLL_TIMEOUT = 4.0
 #: Tumbles the look-ahead plans ahead when choosing the next one.
 LOOKAHEAD = 4
 #: Tumbles after the next one that the landing limb's branch is chosen for.
@@ -538,7 +540,7 @@ class RollingGaitController:
             self.hold_q = q.copy()
             down = tuple(int(i) for i in np.flatnonzero(contact))
             if len(down) >= 3:
-                self.support = down[:3] if len(down) == 3 else self._lowest(q, down)
+                self.support = self._face(down)
                 self._begin_next(q)
         elif self.phase in ("tip", "stance"):
             self.t += dt
@@ -560,7 +562,7 @@ class RollingGaitController:
                 self.last_edge = frozenset((l1, l2))
                 plan = p.stance_plan(q, self.support, (l3,))
                 if plan is None:
-                    self.phase = "stuck"
+                    self.phase, self.waited = "stuck", 0.0
                 else:
                     self._start(plan, "stance")
             elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
@@ -568,12 +570,42 @@ class RollingGaitController:
                 plan = p.tip_plan(q, self.tumble, extra=self.nudges * p.config.nudge, future=self.future)
                 if plan is not None:
                     self._start(plan, "tip")
+            elif self.waited >= ROLL_TIMEOUT:
+                self._resume(q, contact)
+        elif self.phase == "stuck":
+            # Try again from whatever stands now, a few times a second (the feet may have settled differently).
+            self.waited += dt
+            if self.waited >= 1.0:
+                self._resume(q, contact)
         if self.traj is not None and self.phase in ("tip", "stance"):
             return p.to_action(self.traj(self.t))
         return p.to_action(self.hold_q)
 
-    def _lowest(self, q, down):
-        return tuple(down[:3])
+    def _face(self, down) -> tuple[int, ...] | None:
+        """Three of the feet that are down forming a support face (no two opposite limbs), working limbs first."""
+        dirs = self.planner.dirs
+        faces = [
+            f
+            for f in itertools.combinations(down, 3)
+            if all(float(dirs[i] @ dirs[j]) > -0.99 for i, j in itertools.combinations(f, 2))
+        ]
+        faces.sort(key=lambda f: len(self.disabled & set(f)))
+        return faces[0] if faces else None
+
+    def _resume(self, q: np.ndarray, contact: np.ndarray):
+        """After a tumble that did not land as planned, or when stuck: stand on the feet that are down and go on."""
+        self.waited = 0.0
+        support = self._face(tuple(int(i) for i in np.flatnonzero(contact)))
+        if support is None:
+            self.phase = "stuck"
+            return
+        self.support, self.last_edge = support, None
+        lifted = tuple(limb for limb in range(self.planner.n_limbs) if limb not in support)
+        plan = self.planner.stance_plan(q, support, lifted)
+        if plan is None:
+            self.phase = "stuck"
+        else:
+            self._start(plan, "stance")
 
     def _start(self, traj: JointTrajectory, phase: str):
         self.traj, self.t, self.phase = traj, 0.0, phase
@@ -640,9 +672,17 @@ class RollingGaitController:
             else:
                 # Without a heading yet, the first tumble fixes it: over the edge of the two lowest-numbered support
                 # limbs, lifting the highest (the canonical (1234) of the 4-beast; along +x in the tasks' stances).
-                a, b, c = sorted(s)
-                l1, l2, l3 = p.order_edge(feet, a, b, c)
-                first = (l1, l2, l3, p.landing_limb(l1, l2, l3))
+                # A disabled limb standing in the support is lifted first, and none ever lands (paper section 5:
+                # reorient so that the defective limb is on top).
+                firsts = []
+                for c in sorted(s, key=lambda limb: (limb not in self.disabled, -limb)):
+                    a, b = sorted(limb for limb in s if limb != c)
+                    l1, l2, l3 = p.order_edge(feet, a, b, c)
+                    if p.landing_limb(l1, l2, l3) not in self.disabled:
+                        firsts.append((l1, l2, l3, p.landing_limb(l1, l2, l3)))
+                if not firsts:
+                    return []
+                first = firsts[0]
             rot, _ = p.tumble_frame(feet, *first[:3])
             options = [first]
             h = self._default_heading()[:2]
