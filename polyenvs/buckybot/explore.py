@@ -25,10 +25,10 @@ _MAX_BATCH_CELLS = 500_000_000
 
 
 @njit(cache=True)
-def _observe(b, state, task, cells, free, grid, tp):
+def _observe(b, state, task, cells, known_rows, known_cols, free, grid, tp):
     """Mark row ``b``'s beams on its grid; returns the fraction of the free area newly observed."""
     fresh = mark_beams_rotated(
-        cells[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS],
+        cells[b], known_rows[b], known_cols[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS],
         state[b, S.HEADING_SIN], state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
         state[b, S.NO_RETURN : S.NO_RETURN + 6], free,
     )  # fmt: skip
@@ -54,23 +54,26 @@ def _write_out(b, state, task, grid, tp, out):
 
 
 @njit(cache=True)
-def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, cells, free, grids, tp):
+def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, cells, known_rows, known_cols, free,
+                  grids, tp):  # fmt: skip
     shared = walls.shape[0] == 1
     for n in range(rows.shape[0]):
         b = rows[n]
         w = 0 if shared else b
         first_sense_row(b, state, walls[w], params, normals, cursor, obs)
         cells[b, :, :] = 0  # unknown
+        known_rows[b, :, :] = 0
+        known_cols[b, :, :] = 0
         task[b, :] = 0.0
-        _observe(b, state, task, cells, free[w], grids[w], tp)  # what the robot sees before its first tip counts
+        # What the robot sees before its first tip counts.
+        _observe(b, state, task, cells, known_rows, known_cols, free[w], grids[w], tp)
         out[b, :] = 0.0
         _write_out(b, state, task, grids[w], tp, out)
 
 
 @njit(cache=True)
-def _step_kernel(
-    actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, cells, free, grids, tp
-):
+def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, cells, known_rows,
+                 known_cols, free, grids, tp):  # fmt: skip
     advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
@@ -78,7 +81,8 @@ def _step_kernel(
             continue
         w = 0 if shared else b
         blocked = state[b, S.BLOCKED] > 0.5
-        out[b, 0] = 100.0 * _observe(b, state, task, cells, free[w], grids[w], tp)  # percent newly observed
+        observed = _observe(b, state, task, cells, known_rows, known_cols, free[w], grids[w], tp)
+        out[b, 0] = 100.0 * observed  # percent newly observed
         out[b, 1] = -1.0 if blocked else 0.0
         _write_out(b, state, task, grids[w], tp, out)
 
@@ -147,12 +151,17 @@ class BuckybotExploreEnv(BuckybotEnv):
             )
         self._task_state = np.zeros((n, 3))
         self._cells = np.zeros((n, *shape), dtype=np.int8)
+        # The same maps as bit planes (:func:`polyenvs.buckybot.mapping.known_bits`): most beams cross only known
+        # cells, which these settle a line of cells at a time.
+        self._known_rows = np.zeros((n, shape[0], 2 * ((shape[1] + 63) // 64)), dtype=np.uint64)
+        self._known_cols = np.zeros((n, shape[1], (shape[0] + 63) // 64), dtype=np.uint64)
         self._free = np.zeros((slots, *shape), dtype=np.bool_)  # the free area coverage is measured against
         self._grids = np.zeros((slots, 3))
         self._task_params = np.array([self.cell_cm, self.coverage_goal])
 
     def _task_arrays(self):
-        return (self._task_state, self._cells, self._free, self._grids, self._task_params)
+        return (self._task_state, self._cells, self._known_rows, self._known_cols, self._free, self._grids,
+                self._task_params)  # fmt: skip
 
     def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         g = plan.grid(self.cell_cm)

@@ -26,7 +26,7 @@ from polyenvs.buckybot.geometry import (
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range
 from polyenvs.core.jit import njit
 
-__all__ = ["OccupancyGrid", "mark_beams", "obstacle_points", "placement_error", "placement_gaps"]
+__all__ = ["OccupancyGrid", "known_bits", "mark_beams", "obstacle_points", "placement_error", "placement_gaps"]
 
 _COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
 _MAX_BEAM_CM = RANGE_MAX_CM * _COS_ELEVATION  # horizontal reach of a beam from its sensor
@@ -150,25 +150,101 @@ def _axis_step(cell, p, d, inv):
     return 0, math.inf, math.inf
 
 
-@njit(cache=True)
-def _free_cells(cells, count_in, gx, gy, dx, dy, length):
-    """Free the unknown cells crossed by the segment from grid point ``(gx, gy)`` (cell units) along the unit
-    direction ``(dx, dy)`` for ``length`` cells, each crossed cell visited once (Amanatides & Woo's traversal).
+#: How far (cell units) the cells a walk may visit can lie from its exact segment, with room to spare: rounding in
+#: the walk's summed crossing distances moves it by about 1e-12 at a grid corner or at the segment's end.
+_WALK_SLACK = 1e-6
+_ONE, _SIXTY_THREE, _ALL = np.uint64(1), np.uint64(63), np.uint64(0xFFFFFFFFFFFFFFFF)
 
-    The segment is first clipped to the grid, so a beam from a pose far outside costs nothing and every index
-    stays in range. Returns the cells newly freed where ``count_in`` is true.
-    """
+
+@njit(cache=True)
+def known_bits(cells):
+    """Bit planes of a grid for :func:`mark_beams_rotated`: ``(known_rows, known_cols)``, one line of ``uint64``
+    words per row and per column. A row's line holds its known cells (``cells != 0``), then its occupied ones; a
+    column's line its known cells."""
     rows, cols = cells.shape
-    inf = math.inf
-    # Reciprocals once: the clipping and the traversal below then need no further division.
-    ix = inf if dx == 0.0 else 1.0 / dx
-    iy = inf if dy == 0.0 else 1.0 / dy
-    t0, t1 = _clip_axis(gx, dx, ix, cols, 0.0, length)
-    t0, t1 = _clip_axis(gy, dy, iy, rows, t0, t1)
-    if not t0 <= t1:  # also false for nan
-        return 0
-    # Restart from the entry point: every quantity below is then bounded by the grid's size.
-    px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
+    known_rows = np.zeros((rows, 2 * ((cols + 63) // 64)), dtype=np.uint64)
+    known_cols = np.zeros((cols, (rows + 63) // 64), dtype=np.uint64)
+    for r in range(rows):
+        for c in range(cols):
+            if cells[r, c] != 0:
+                _set_known(known_rows, known_cols, r, c)
+            if cells[r, c] == 2:
+                _set_occupied(known_rows, r, c)
+    return known_rows, known_cols
+
+
+@njit(cache=True)
+def _set_known(known_rows, known_cols, r, c):
+    known_rows[r, c >> 6] |= _ONE << np.uint64(c & 63)
+    known_cols[c, r >> 6] |= _ONE << np.uint64(r & 63)
+
+
+@njit(cache=True)
+def _set_occupied(known_rows, r, c):
+    known_rows[r, known_rows.shape[1] // 2 + (c >> 6)] |= _ONE << np.uint64(c & 63)
+
+
+@njit(cache=True)
+def _is_occupied(known_rows, r, c):
+    return known_rows[r, known_rows.shape[1] // 2 + (c >> 6)] >> np.uint64(c & 63) & _ONE != 0
+
+
+@njit(cache=True)
+def _span_known(bits, line, lo, hi):
+    """Whether cells ``lo..hi`` (inclusive) of bit line ``line`` are all known, up to 64 at a time."""
+    while True:
+        w, shift = lo >> 6, np.uint64(lo & 63)
+        width = min(hi - lo, 63) + 1
+        word = bits[line, w] >> shift
+        if (lo & 63) + width > 64:  # the span runs on into the next word
+            word |= (bits[line, w + 1] << _ONE) << (_SIXTY_THREE - shift)
+        mask = _ALL >> np.uint64(64 - width)
+        if word & mask != mask:
+            return False
+        if hi - lo < 64:
+            return True
+        lo += 64
+
+
+@njit(cache=True)
+def _near_cells_known(bits, length, a0, a1, b0, b1):
+    """Whether every cell within ``_WALK_SLACK`` of the segment ``(a0, b0)``-``(a1, b1)`` is known, the cells taken
+    as lines along the ``b`` axis (``bits``: one bit line per ``a`` index, ``length`` cells along ``b``).
+
+    Truncation stands for the floor throughout: it differs only below zero, where it adds a cell, never drops one.
+    """
+    if a1 < a0:  # walk the lines upwards
+        a0, a1, b0, b1 = a1, a0, b1, b0
+    first = max(int(a0 - _WALK_SLACK), 0)
+    last = min(int(a1 + _WALK_SLACK), bits.shape[0] - 1)
+    if a1 - a0 <= _WALK_SLACK:  # along a line: its whole extent, in one or two lines
+        c0 = max(int(min(b0, b1) - _WALK_SLACK), 0)
+        c1 = min(int(max(b0, b1) + _WALK_SLACK), length - 1)
+        for line in range(first, last + 1):
+            if c0 <= c1 and not _span_known(bits, line, c0, c1):
+                return False
+        return True
+    slope = (b1 - b0) / (a1 - a0)
+    # The slack across the lines moves the segment by |slope| times as much along them.
+    slack = _WALK_SLACK * (1.0 + abs(slope))
+    enter = b0 + (max(float(first), a0) - a0) * slope
+    for line in range(first, last + 1):
+        leave = b0 + (min(line + 1.0, a1) - a0) * slope
+        c0 = max(int(min(enter, leave) - slack), 0)
+        c1 = min(int(max(enter, leave) + slack), length - 1)
+        if c0 <= c1 and not _span_known(bits, line, c0, c1):
+            return False
+        enter = leave
+    return True
+
+
+@njit(cache=True)
+def _free_cells(cells, known_rows, known_cols, count_in, px, py, span, dx, dy, ix, iy):
+    """Free the unknown cells crossed by the segment from grid point ``(px, py)`` (cell units, inside the grid up
+    to rounding) along the unit direction ``(dx, dy)`` for ``span`` cells, each crossed cell visited once
+    (Amanatides & Woo's traversal); ``ix``, ``iy`` are the reciprocals of ``dx``, ``dy`` (``inf`` for zero).
+    Returns the cells newly freed where ``count_in`` is true."""
+    rows, cols = cells.shape
     col, row = int(math.floor(px)), int(math.floor(py))
     step_c, next_c, delta_c = _axis_step(col, px, dx, ix)
     step_r, next_r, delta_r = _axis_step(row, py, dy, iy)
@@ -180,6 +256,7 @@ def _free_cells(cells, count_in, gx, gy, dx, dy, length):
     for _ in range(abs(end_c - col) + abs(end_r - row) + 1):
         if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
             cells[row, col] = 1
+            _set_known(known_rows, known_cols, row, col)
             if count_in[row, col]:
                 fresh += 1
         across = next_c < next_r
@@ -195,14 +272,24 @@ def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return
     """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
     if not math.isfinite(heading):
         return 0
+    known_rows, known_cols = known_bits(cells)
     return mark_beams_rotated(
-        cells, ox, oy, cell, x, y, math.cos(heading), math.sin(heading), reading, too_close, no_return, count_in
+        cells, known_rows, known_cols, ox, oy, cell, x, y, math.cos(heading), math.sin(heading), reading,
+        too_close, no_return, count_in,
     )  # fmt: skip
 
 
 @njit(cache=True)
-def mark_beams_rotated(cells, ox, oy, cell, x, y, ch, sh, reading, too_close, no_return, count_in):
-    """:func:`mark_beams` with the heading given by its cosine and sine (a simulator that keeps them)."""
+def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh, reading, too_close, no_return,
+                       count_in):  # fmt: skip
+    """:func:`mark_beams` with the heading given by its cosine and sine (a simulator that keeps them), and the
+    grid's bit planes (:func:`known_bits`), which it keeps up to date with ``cells``.
+
+    Each beam frees the cells its segment crosses (:func:`_free_cells`). Most beams cross only known cells: the
+    bit planes settle that a line of cells at a time, along whichever axis the beam crosses fewer lines of, and
+    the walk runs only where some cell near the segment is unknown, so the cells marked are exactly those the
+    walk alone would mark.
+    """
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(ch) and math.isfinite(sh)):
         return 0
     ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
@@ -221,10 +308,30 @@ def mark_beams_rotated(cells, ox, oy, cell, x, y, ch, sh, reading, too_close, no
         # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
         free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
         gx, gy = (sx - ox) * inv_cell, (sy - oy) * inv_cell
-        fresh += _free_cells(cells, count_in, gx, gy, dx, dy, free_length * inv_cell)
+        # Clip the free part to the grid, so a beam from a pose far outside costs nothing and every index stays in
+        # range; the reciprocals, once, serve the clipping and the walk.
+        ix = math.inf if dx == 0.0 else 1.0 / dx
+        iy = math.inf if dy == 0.0 else 1.0 / dy
+        t0, t1 = _clip_axis(gx, dx, ix, cols, 0.0, free_length * inv_cell)
+        t0, t1 = _clip_axis(gy, dy, iy, rows, t0, t1)
+        if t0 <= t1:  # false for nan too
+            # Restart from the entry point: every quantity below is then bounded by the grid's size.
+            px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
+            qx, qy = px + span * dx, py + span * dy
+            if abs(dx) >= abs(dy):
+                settled = _near_cells_known(known_rows, cols, py, qy, px, qx)
+            else:
+                settled = _near_cells_known(known_cols, rows, px, qx, py, qy)
+            if not settled:
+                fresh += _free_cells(cells, known_rows, known_cols, count_in, px, py, span, dx, dy, ix, iy)
         if not no_return[i]:
             # Compare as floats before converting: a far-off hit must not overflow the integer cast.
             hc, hr = gx + length * inv_cell * dx, gy + length * inv_cell * dy
             if 0.0 <= hc < cols and 0.0 <= hr < rows:
-                cells[int(hr), int(hc)] = 2
+                r, c = int(hr), int(hc)
+                if not _is_occupied(known_rows, r, c):  # else the cell holds 2 already
+                    if cells[r, c] == 0:
+                        _set_known(known_rows, known_cols, r, c)
+                    _set_occupied(known_rows, r, c)
+                    cells[r, c] = 2
     return fresh
