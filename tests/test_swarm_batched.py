@@ -53,7 +53,7 @@ def test_each_batched_environment_is_the_single_environment_bit_for_bit(task):
                     assert np.array_equal(infos["final_obs"][e * 3 + env.agent_name_mapping[a]], o)
                 metrics = env.episode_metrics()
                 for k, v in metrics.items():
-                    assert infos["episode_metrics"][k][e * 3] == pytest.approx(v, rel=1e-12, abs=1e-12)
+                    assert infos["final_info"]["episode_metrics"][k][e * 3] == pytest.approx(v, rel=1e-12, abs=1e-12)
                 assert (terminated[rows] | truncated[rows]).all()
                 single_obs[e] = env.reset()[0]
             else:
@@ -80,3 +80,18 @@ def test_batched_rows_of_departed_robots_read_zero_and_bad_actions_raise():
         SwarmVectorEnv("pistonball", num_envs=2)
     with pytest.raises(ValueError, match="num_envs"):
         SwarmVectorEnv("corridor_v0", num_envs=0)
+
+
+def test_batched_swarm_trains_with_ppo_through_the_native_adapter():
+    """Parameter sharing at scale: the batched swarm as an SB3 VecEnv of robots (same-step autoreset), seeded."""
+    sb3 = pytest.importorskip("stable_baselines3")
+    import torch
+
+    from polyenvs.training.vec_adapter import NativeVecEnvAdapter
+
+    torch.set_num_threads(1)
+    venv = NativeVecEnvAdapter(SwarmVectorEnv("corridor_v0", num_envs=4, n_robots=2, max_cycles=30))
+    model = sb3.PPO("MlpPolicy", venv, n_steps=32, batch_size=128, n_epochs=1, seed=0, verbose=0)
+    model.learn(512)
+    assert model.num_timesteps >= 512
+    venv.close()

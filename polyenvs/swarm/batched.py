@@ -12,8 +12,9 @@ Robots that arrive leave their environment's episode as in PettingZoo; their row
 and zero rewards until the environment's episode ends (SuperSuit's "black death"). An environment's episode ends
 when all its robots have left (every row terminated) or after ``max_cycles`` steps (rows still in the episode
 truncated, rows that left terminated); it is then reset in the same step (``autoreset_mode`` SAME_STEP): the rows
-show the new episode's first observation and ``info["final_obs"]`` the last one. ``info["episode_metrics"]``
-holds, on the rows of the environments that ended, their swarm metrics (``SwarmEnv.episode_metrics``).
+show the new episode's first observation and ``info["final_obs"]`` the last one, and
+``info["final_info"]["episode_metrics"]`` holds, on the rows of the environments that ended, their swarm metrics
+(``SwarmEnv.episode_metrics``): Gymnasium's same-step convention, which SB3-style adapters translate.
 """
 
 from __future__ import annotations
@@ -106,13 +107,16 @@ class SwarmVectorEnv(VectorEnv):
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------------------
     def reset(self, *, seed=None, options=None):
-        """Reset every environment; environment ``e`` gets seed ``seed + e`` (a list gives one seed each)."""
+        """Reset every environment; environment ``e`` gets seed ``seed + e`` (a list gives one seed per
+        environment, or one per row, of which environment e takes row ``e * n_robots``'s)."""
         e = self.n_envs
         if seed is None:
             seeds = [None] * e
         elif isinstance(seed, (list, tuple)):
+            if len(seed) == self.num_envs:  # one per row (an SB3 adapter's): environment e takes its first row's
+                seed = seed[:: self.n_robots]
             if len(seed) != e:
-                raise ValueError(f"seed: {len(seed)} seeds for {e} environments")
+                raise ValueError(f"seed: {len(seed)} seeds for {e} environments ({self.num_envs} rows)")
             seeds = list(seed)
         else:
             seeds = [check_int("seed", seed, 0) + i for i in range(e)]
@@ -158,9 +162,10 @@ class SwarmVectorEnv(VectorEnv):
             rows = np.repeat(done_env, n)
             infos["final_obs"] = np.where(rows[:, None], obs, 0.0).astype(np.float32)
             infos["_final_obs"] = rows
-            metrics = self._env_metrics(done)
-            infos["episode_metrics"] = {k: np.where(rows, np.repeat(v, n), 0.0) for k, v in metrics.items()}
-            infos["_episode_metrics"] = rows
+            metrics = self._env_metrics()
+            episode = {k: np.where(rows, np.repeat(v, n), 0.0) for k, v in metrics.items()}
+            infos["final_info"] = {"episode_metrics": episode, "_episode_metrics": rows}
+            infos["_final_info"] = rows
             self._reset_envs(done)
             obs = self._obs
         return obs.copy(), rewards, row_terminated, row_truncated, infos
@@ -230,8 +235,8 @@ class SwarmVectorEnv(VectorEnv):
             self._formation_sum[rows] = np.where(live[rows], self._per_robot[rows], 0.0)
             self._swarm_sum[envs] = self._swarm_error[envs]
 
-    def _env_metrics(self, envs: np.ndarray) -> dict[str, np.ndarray]:
-        """``SwarmEnv.episode_metrics`` of each environment in ``envs`` (arrays over all environments)."""
+    def _env_metrics(self) -> dict[str, np.ndarray]:
+        """``SwarmEnv.episode_metrics`` of every environment, as arrays over environments."""
         t, n = self.task, self.n_robots
         track = self._track.reshape(self.n_envs, n, N_TRACK)
         window = max(1, round(STOPPED_WINDOW_S / t.control_period_s))
