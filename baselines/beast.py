@@ -9,6 +9,7 @@ row that ``predict`` carries is that controller's handle, so batches and episode
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -104,23 +105,42 @@ class RollingGait(_ControllerPolicy):
 
 
 class SharpTurn(_ControllerPolicy):
-    """The sharp turn of the paper's Figures 10 and 11: one limb stays planted while the robot rolls about it.
+    """A sharp turn (paper section 5, Figures 10 and 11): the rolling gait heading off ``turn_deg`` from its strip.
 
-    Every tumble tips over an edge that contains the pivot limb, so the support triangles fan around its foot (a
-    cone swept by the body). Args: ``pivot`` (1-based limb, default 1), ``rate_deg_s`` as for :class:`RollingGait`,
-    ``max_tumbles`` (default 3, in [1, 100]).
+    The paper's turn keeps limb 1 planted while the robot rolls about it. With joint 1 limited to +-180 degrees at
+    most two tumbles in a row can keep one limb planted (the third tumble about it needs joint 1 near +-240), so the
+    turn is the rolling gait's look-ahead steering for the turned heading, which fans the support triangles about
+    shared feet; ``pivot`` (1-based limb) restricts every tumble to edges containing that limb, the literal cone,
+    and stops when none is plannable.
+
+    Args:
+        turn_deg: change of heading, counter-clockwise, in [-180, 180] degrees.
+        pivot: None, or the limb kept planted (1..n_limbs).
+        rate_deg_s, max_tumbles: as for :class:`RollingGait` (max_tumbles default 4).
     """
 
-    def __init__(self, observation_space, action_space, pivot: int = 1, rate_deg_s: float = 20.0, max_tumbles=3):
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        turn_deg: float = 60.0,
+        pivot: int | None = None,
+        rate_deg_s: float = 20.0,
+        max_tumbles: int = 4,
+    ):
         super().__init__(observation_space, action_space, rate_deg_s)
-        self.pivot = check_int("pivot", pivot, 1, self.planner.n_limbs)
-        self.max_tumbles = check_int("max_tumbles", max_tumbles, 1, 100)
+        self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
+        self.pivot = None if pivot is None else check_int("pivot", pivot, 1, self.planner.n_limbs)
+        self.max_tumbles = check_int("max_tumbles", max_tumbles, 1, 1000)
 
     def describe(self):
-        return {"name": "sharp_turn", "pivot": self.pivot, "rate_deg_s": self.rate_deg_s}
+        return {"name": "sharp_turn", "turn_deg": self.turn_deg, "pivot": self.pivot, "rate_deg_s": self.rate_deg_s}
 
     def make_controller(self):
-        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, pivot=self.pivot)
+        strip = math.radians(30.0 if self.planner.n_limbs == 4 else 0.0)
+        angle = strip + math.radians(self.turn_deg)
+        heading = np.array([math.cos(angle), math.sin(angle), 0.0])
+        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=self.pivot)
 
 
 class Righting(_ControllerPolicy):

@@ -780,7 +780,10 @@ class RightingController:
         q = sensors["joint_pos"]
         contact = sensors["contact"] > 0.5
         if self.phase == "start":
-            self._plan(q, sensors["tilt"])
+            # Let a thrown robot land and settle first: the tilt switches only say where "down" is at rest.
+            self.waited += CONTROL_DT
+            if self.waited >= self.settle:
+                self._plan(q, sensors["tilt"])
         elif self.phase == "move":
             self.t += CONTROL_DT
             if self.t >= self.traj.duration:
