@@ -9,7 +9,7 @@ import pickle
 import gymnasium as gym
 import numpy as np
 import pytest
-from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test
+from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test, seed_test
 
 from baselines.base import RandomPolicy
 from baselines.swarm import APLite, APLiteGoalSeeking, FormationController
@@ -48,6 +48,7 @@ def test_pettingzoo_parallel_api_and_seed(module):
 @pytest.mark.parametrize("module", MODULES, ids=IDS)
 def test_pettingzoo_aec_api_max_cycles_and_render(module, monkeypatch):
     api_test(module.env(n_robots=3, max_cycles=30), num_cycles=30)
+    seed_test(lambda: module.env(n_robots=3, max_cycles=30), num_cycles=30)
     max_cycles_test(module)
     if importlib.util.find_spec("pygame") is not None:
         monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
