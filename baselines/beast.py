@@ -91,17 +91,34 @@ class RollingGait(_ControllerPolicy):
     Args:
         rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s (paper's power budget: ~15).
         max_tumbles: stop (hold the stance) after this many tumbles, in [1, 1000]; None rolls on.
+        disabled_limbs: 1-based limbs known to be broken (paper section 5): lifted first if standing, never landed.
     """
 
-    def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0, max_tumbles: int | None = None):
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        rate_deg_s: float = 20.0,
+        max_tumbles: int | None = None,
+        disabled_limbs=(),
+    ):
         super().__init__(observation_space, action_space, rate_deg_s)
         self.max_tumbles = None if max_tumbles is None else check_int("max_tumbles", max_tumbles, 1, 1000)
+        if isinstance(disabled_limbs, (str, bytes)) or not hasattr(disabled_limbs, "__iter__"):
+            raise ValueError(f"disabled_limbs must be a sequence of limb numbers, got {disabled_limbs!r}")
+        n = self.planner.n_limbs
+        self.disabled_limbs = tuple(sorted({check_int("disabled_limbs", v, 1, n) for v in disabled_limbs}))
 
     def describe(self):
-        return {"name": "rolling_gait", "rate_deg_s": self.rate_deg_s, "max_tumbles": self.max_tumbles}
+        return {
+            "name": "rolling_gait",
+            "rate_deg_s": self.rate_deg_s,
+            "max_tumbles": self.max_tumbles,
+            "disabled_limbs": list(self.disabled_limbs),
+        }
 
     def make_controller(self):
-        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles)
+        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, disabled_limbs=self.disabled_limbs)
 
 
 class SharpTurn(_ControllerPolicy):

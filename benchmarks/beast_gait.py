@@ -1,0 +1,201 @@
+"""What the beasts' hand baselines achieve in MuJoCo: the measurements behind the gait's numbers.
+
+Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beast`) on the task classes of
+:mod:`polyenvs.beast.tasks`, seeded, and reports the tasks' own end-of-episode metrics plus what the controller did:
+
+- ``tumble``: BeastTumble (4-beast), the canonical tumble (1234) with ``RollingGait(max_tumbles=1)``: success rate
+  and time to success.
+- ``roll``: BeastRoll (4-beast), four tumbles with ``RollingGait(max_tumbles=4)``: the tumble sequence, distance
+  along the heading, time, per-tumble advance and time (feasibility study: 155 mm and 17.3 s per tumble at 20 deg/s),
+  and the random policy over the same time.
+- ``roll6``: the same for the 6-beast (``polyhedron="octahedron"``).
+- ``turn``: BeastTurn (4-beast), ``SharpTurn`` with a pivot and with look-ahead steering: heading change.
+- ``recover``: BeastRecover (4-beast), ``Righting``: success rate and time to stance.
+- ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
+  along the heading and straight-line displacement.
+
+From the repo root::
+
+    python -m benchmarks.beast_gait [--seeds 10] [--only tumble,roll,...] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+__all__ = ["main", "run_episode"]
+
+
+def run_episode(env, policy, seed: int, max_steps: int, until_done: bool = True, reset_options=None) -> dict:
+    """One seeded episode; stops at termination/truncation, ``max_steps``, or when the controller is done/stuck."""
+    obs, info = env.reset(seed=seed, options=reset_options)
+    state, start = None, True
+    start_xy = env.unwrapped.data.qpos[:2].copy()
+    steps, controller = 0, None
+    while steps < max_steps:
+        steps += 1
+        action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
+        start = False
+        obs, _, terminated, truncated, info = env.step(action)
+        controllers = getattr(policy, "_controllers", None)
+        controller = controllers.get(int(state[0, 0])) if controllers is not None else None
+        if terminated or truncated:
+            break
+        if until_done and controller is not None and getattr(controller, "phase", "") in ("done", "stuck"):
+            break
+    out = dict(info["episode_metrics"])
+    out["steps"] = steps
+    out["sim_s"] = steps * 0.01
+    out["displacement_m"] = float(np.linalg.norm(env.unwrapped.data.qpos[:2] - start_xy))
+    if controller is not None and hasattr(controller, "history"):
+        out["history"] = ["".join(map(str, t)) for t in controller.history]
+        out["phase"] = controller.phase
+    return out
+
+
+def _summary(values) -> str:
+    values = np.asarray(values, dtype=float)
+    return f"{values.mean():.3f} +- {values.std():.3f} (min {values.min():.3f}, max {values.max():.3f})"
+
+
+def bench_tumble(seeds):
+    from baselines.beast import RollingGait
+    from polyenvs.beast.tasks import BeastTumbleEnv
+
+    env = BeastTumbleEnv()
+    policy = RollingGait(env.observation_space, env.action_space, max_tumbles=1)
+    runs = [run_episode(env, policy, s, 3000) for s in seeds]
+    ok = [r for r in runs if r["success"] == 1.0]
+    print(f"tumble: {len(ok)}/{len(runs)} canonical tumbles (limbs 1, 4, 2 down, 3 free); ", end="")
+    if ok:
+        print(
+            f"time to success {_summary([r['time_s'] for r in ok])} s, advance {_summary([r['distance_m'] for r in ok])} m"
+        )
+    return runs
+
+
+def _roll(seeds, polyhedron, max_steps, tumbles=4, reset_options=None):
+    from baselines.base import RandomPolicy
+    from baselines.beast import RollingGait
+    from polyenvs.beast.tasks import BeastRollEnv
+
+    env = BeastRollEnv(polyhedron=polyhedron)
+    policy = RollingGait(env.observation_space, env.action_space, max_tumbles=tumbles)
+    runs = []
+    for s in seeds:
+        r = run_episode(env, policy, s, max_steps, reset_options=reset_options)
+        rnd = run_episode(env, RandomPolicy(env.observation_space, env.action_space, seed=s), s, r["steps"], False)
+        r["random_distance_m"] = rnd["distance_m"]
+        runs.append(r)
+    full = [r for r in runs if len(r.get("history", [])) == tumbles]
+    print(
+        f"roll ({polyhedron}): {len(full)}/{len(runs)} runs completed {tumbles} tumbles; sequences "
+        f"{sorted({' '.join(r['history']) for r in runs})}"
+    )
+    print(
+        f"  distance along heading {_summary([r['distance_m'] for r in runs])} m in {_summary([r['sim_s'] for r in runs])} s"
+    )
+    if full:
+        print(
+            f"  per tumble (completed runs): {_summary([r['distance_m'] / tumbles for r in full])} m, "
+            f"{_summary([r['sim_s'] / tumbles for r in full])} s; speed {_summary([r['distance_m'] / r['sim_s'] for r in full])} m/s"
+        )
+    print(f"  random policy over the same time: {_summary([r['random_distance_m'] for r in runs])} m")
+    return runs
+
+
+def bench_roll(seeds):
+    return _roll(seeds, "tetrahedron", 8000)
+
+
+def bench_roll6(seeds):
+    return _roll(seeds, "octahedron", 9000)
+
+
+def bench_turn(seeds):
+    from baselines.beast import SharpTurn
+    from polyenvs.beast.tasks import BeastTurnEnv
+
+    out = {}
+    for pivot in (1, 2, None):
+        env = BeastTurnEnv(turn_deg=60.0)
+        policy = SharpTurn(env.observation_space, env.action_space, turn_deg=60.0, pivot=pivot, max_tumbles=6)
+        runs = [run_episode(env, policy, s, 8000) for s in seeds]
+        out[str(pivot)] = runs
+        print(
+            f"turn (turn_deg 60, pivot {pivot}): heading change {_summary([r['heading_change_deg'] for r in runs])} deg, "
+            f"tumbles {_summary([len(r['history']) for r in runs])}, sequences {sorted({' '.join(r['history']) for r in runs})}"
+        )
+    return out
+
+
+def bench_recover(seeds):
+    from baselines.beast import Righting
+    from polyenvs.beast.tasks import BeastRecoverEnv
+
+    env = BeastRecoverEnv()
+    policy = Righting(env.observation_space, env.action_space)
+    runs = [run_episode(env, policy, s, 2000, until_done=False) for s in seeds]
+    ok = [r for r in runs if r["success"] == 1.0]
+    print(f"recover: {len(ok)}/{len(runs)} reached a stance", end="")
+    print(f"; time to stance {_summary([r['time_to_stance_s'] for r in ok])} s" if ok else "")
+    return runs
+
+
+def bench_faults(seeds):
+    from baselines.beast import RollingGait
+    from polyenvs.beast.tasks import BeastRollEnv
+
+    out = {}
+    for limb in range(1, 7):
+        env = BeastRollEnv(polyhedron="octahedron", disabled_limbs=(limb,))
+        policy = RollingGait(env.observation_space, env.action_space, disabled_limbs=(limb,))
+        runs = [run_episode(env, policy, s, 6000, until_done=False) for s in seeds]
+        out[limb] = runs
+        print(
+            f"6-beast, limb {limb} disabled, 60 s: along heading {_summary([r['distance_m'] for r in runs])} m, "
+            f"displacement {_summary([r['displacement_m'] for r in runs])} m, tumbles "
+            f"{_summary([len(r['history']) for r in runs])}"
+        )
+    return out
+
+
+BENCHES = {
+    "tumble": bench_tumble,
+    "roll": bench_roll,
+    "roll6": bench_roll6,
+    "turn": bench_turn,
+    "recover": bench_recover,
+    "faults": bench_faults,
+}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=10, help="seeds 0 .. N-1 per measurement (default 10)")
+    parser.add_argument("--only", default=",".join(BENCHES), help="comma-separated subset of " + ", ".join(BENCHES))
+    parser.add_argument("--json", default=None, help="write every run's metrics to this file")
+    args = parser.parse_args(argv)
+    names = [n for n in args.only.split(",") if n]
+    unknown = sorted(set(names) - set(BENCHES))
+    if unknown or args.seeds < 1:
+        parser.error(f"unknown measurement(s) {unknown}" if unknown else "--seeds must be >= 1")
+    seeds = list(range(args.seeds))
+    results = {}
+    for name in names:
+        t0 = time.perf_counter()
+        results[name] = BENCHES[name](seeds)
+        print(f"  ({name}: {time.perf_counter() - t0:.1f} s wall)", flush=True)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1, default=float)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
