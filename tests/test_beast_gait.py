@@ -168,6 +168,12 @@ def test_policies_validate_their_arguments():
         SharpTurn(obs_space, act_space, pivot=5)
     with pytest.raises(ValueError, match="roll_after"):
         Righting(obs_space, act_space, roll_after=1)
+    with pytest.raises(ValueError, match="disabled_limbs"):
+        RollingGait(obs_space, act_space, disabled_limbs=(5,))
+    with pytest.raises(ValueError, match="disabled_limbs"):
+        RollingGait(obs_space, act_space, disabled_limbs="1")
+    with pytest.raises(ValueError, match="turn_deg"):
+        SharpTurn(obs_space, act_space, turn_deg=200.0)
     with pytest.raises(ValueError, match="action_space"):
         RollingGait(obs_space, spaces.Box(-1, 1, shape=(18,)))
 
@@ -214,3 +220,56 @@ def test_canonical_tumble_succeeds_closed_loop(seed):
     assert contact.tolist() == [1.0, 1.0, 0.0, 1.0]  # limbs 1, 4, 2 down, 3 free
     advance = env.data.qpos[:2] - start
     assert 0.13 < advance[0] < 0.19 and abs(advance[1]) < 0.03  # along +x, the feasibility study's ~155 mm
+
+
+def test_six_beast_tumbles_are_all_plannable_and_disabled_limbs_never_land():
+    planner = BeastPlanner("octahedron")
+    plannable = planner.plannable()
+    assert len(plannable) == 24  # 8 support faces x 3 edges, on the "centred" stance branch
+    for _, _, l3, l4 in plannable:
+        assert planner.dirs[l3] @ planner.dirs[l4] == pytest.approx(-1.0)  # the limb opposite the lifted one lands
+    q = np.tile(TUCKED, (6, 1))
+    for limb, angles in planner.stance_angles((1, 3, 5)).items():
+        q[limb] = angles
+    feet = planner.feet(q.ravel())
+    for disabled in (6, 2):
+        controller = RollingGaitController(planner, disabled_limbs=(disabled,))
+        controller.support = (1, 3, 5)
+        (first, future), *_ = controller._candidates(feet)
+        assert first[2] == disabled - 1  # a broken limb in the support is lifted first...
+        assert all(t[3] != disabled - 1 for t in (first, *future))  # ...and never lands again
+
+
+def test_six_beast_rolls_closed_loop():
+    from baselines.beast import RollingGait
+    from polyenvs.beast.tasks import BeastRollEnv
+
+    env = BeastRollEnv(polyhedron="octahedron")
+    policy = RollingGait(env.observation_space, env.action_space, max_tumbles=2)
+    obs, _ = env.reset(seed=0)
+    state, start = None, True
+    for _ in range(5000):
+        action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
+        start = False
+        obs, _, _, _, info = env.step(action)
+        if policy._controllers[int(state[0, 0])].phase == "done":
+            break
+    assert len(policy._controllers[int(state[0, 0])].history) == 2
+    assert info["episode_metrics"]["distance_m"] > 0.2
+
+
+def test_righting_stands_a_thrown_beast_up():
+    from baselines.beast import Righting
+    from polyenvs.beast.tasks import BeastRecoverEnv
+
+    env = BeastRecoverEnv()
+    policy = Righting(env.observation_space, env.action_space)
+    obs, _ = env.reset(seed=2)
+    state, start = None, True
+    for _ in range(2000):
+        action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
+        start = False
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert info["episode_metrics"]["success"] == 1.0
