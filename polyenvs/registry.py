@@ -92,6 +92,20 @@ def _buckybot(name: str, cls: str, **kwargs) -> Baseline:
     return Baseline(name, f"baselines.buckybot:{cls}", kwargs)
 
 
+def _swarm(name: str, cls: str, **kwargs) -> Baseline:
+    return Baseline(name, f"baselines.swarm:{cls}", kwargs)
+
+
+# A policy cannot tell the IR scale from the observation space: the corridor's X80Pro reads the inverted 0..80
+# scale, and the paper used only its two outer sensors there.
+_X80PRO = {"ir_scale": "x80pro", "sensors": (0, 3)}
+_CORRIDOR_BASELINES = (
+    _swarm("aplite", "APLite", **_X80PRO),
+    _swarm("aplite_goal_seeking", "APLiteGoalSeeking", **_X80PRO),
+)
+_FIELD_BASELINES = (_swarm("aplite", "APLite"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking"))
+
+
 REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotWallFollow-v0",
@@ -140,6 +154,49 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
             Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
             Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),
         ),
+    ),
+    EnvEntry(
+        id="polyenvs/APLiteCorridor-v0",
+        entry_point="polyenvs.swarm.single:APLiteCorridorEnv",
+        max_episode_steps=600,
+        family="swarm",
+        description="One X80Pro drives up a corridor past four obstacles to a light (AP-lite's indoor experiment)",
+        baselines=_CORRIDOR_BASELINES,
+        paper="aplite",
+    ),
+    EnvEntry(
+        id="polyenvs/APLiteObstacleField-v0",
+        entry_point="polyenvs.swarm.single:APLiteObstacleFieldEnv",
+        max_episode_steps=1000,
+        family="swarm",
+        description="One Maxelbot crosses an outdoor obstacle field (wheel-speed noise and drift) to a goal light",
+        baselines=_FIELD_BASELINES,
+        paper="aplite",
+    ),
+    ParallelEnvEntry(
+        id="polyenvs.swarm.corridor_v0",
+        max_cycles=600,
+        family="swarm",
+        description="N X80Pro robots pass a corridor with four obstacles to the light",
+        baselines=_CORRIDOR_BASELINES,
+        paper="aplite",
+    ),
+    ParallelEnvEntry(
+        id="polyenvs.swarm.obstacle_field_v0",
+        max_cycles=1000,
+        family="swarm",
+        description="N Maxelbots cross a seeded obstacle field on rough terrain to a goal light",
+        baselines=_FIELD_BASELINES,
+        paper="aplite",
+    ),
+    ParallelEnvEntry(
+        id="polyenvs.swarm.formation_v0",
+        max_cycles=1500,
+        family="swarm",
+        description="A leader and followers keep a hexagonal lattice (physicomimetics springs) across an obstacle "
+        "field to the light",
+        baselines=(_swarm("formation", "FormationController"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking")),
+        paper="formation",
     ),
 )
 

@@ -8,14 +8,16 @@ function); :func:`make_env` builds either, and the functions below take whicheve
   (parameter sharing, as SuperSuit and VMAS train them), built from the first agent's spaces.
 - :func:`run_episode`: one seeded episode, ``{"seed", "return", "length", "metrics"}``. For a parallel environment
   the policy's ``predict`` gets the live robots' observations as one batch (first axis = robots), ``return`` is
-  the mean over robots of each robot's summed reward, ``length`` counts cycles, and ``metrics`` is the mean over
-  robots of the ``info["episode_metrics"]`` each robot reports when it leaves the episode (a swarm-wide metric is
-  reported by every robot with the same value, so its mean is itself).
+  the mean over robots of each robot's summed reward, ``length`` counts cycles, and ``metrics`` are the
+  environment's own whole-episode metrics (``env.unwrapped.episode_metrics()``, where it has one: totals, minima
+  and fractions over the swarm), else the mean over robots of the ``info["episode_metrics"]`` each robot reports
+  when it leaves the episode.
 - :func:`episode_frames`: the ``rgb_array`` frames of one seeded episode (``polyenvs record``).
 
 Conventions a parallel environment keeps to plug in (the shared suite ``tests/test_parallel_shared.py`` checks
 them): ``parallel_env(max_cycles=..., render_mode=..., **kwargs)`` raises ``ValueError`` naming a bad keyword;
-all robots share one observation and one action space; a robot's last ``info`` holds ``episode_metrics``.
+all robots share one observation and one action space; a robot's last ``info`` holds its ``episode_metrics``;
+a robot that left gets no observation and ``step({})`` with no robot left returns empty dicts.
 """
 
 from __future__ import annotations
@@ -189,8 +191,12 @@ def _run_parallel_episode(env: ParallelEnv, agent, seed: int) -> dict[str, Any]:
         for name in actions:
             if terminations.get(name, False) or truncations.get(name, False):
                 robot_metrics.append(infos.get(name, {}).get("episode_metrics", {}))
-    names = sorted(set().union(*robot_metrics)) if robot_metrics else []
-    metrics = {k: float(np.mean([m[k] for m in robot_metrics if k in m])) for k in names}
+    swarm_metrics = getattr(env.unwrapped, "episode_metrics", None)
+    if callable(swarm_metrics):
+        metrics = {k: float(v) for k, v in swarm_metrics().items()}
+    else:
+        names = sorted(set().union(*robot_metrics)) if robot_metrics else []
+        metrics = {k: float(np.mean([m[k] for m in robot_metrics if k in m])) for k in names}
     return {"seed": seed, "return": float(np.mean(list(returns.values()))), "length": length, "metrics": metrics}
 
 

@@ -206,7 +206,7 @@ def test_pickles_mid_episode(entry):
 
 
 def test_documented_like_gymnasium(entry):
-    doc = inspect.getdoc(_module(entry).raw_env) or ""
+    doc = inspect.getdoc(type(_make(entry))) or ""
     for section in ("## Description", "## Action Space", "## Observation Space", "## Rewards", "## Arguments"):
-        assert section in doc, f"{entry.id} raw_env docstring lacks {section}"
+        assert section in doc, f"{entry.id}: the parallel env's class docstring lacks {section}"
     assert entry.description

@@ -33,6 +33,7 @@ START_HEADING_SD_DEG = 5.0
 class CorridorEnv(SwarmEnv):
     """N X80Pro-like robots drive up a corridor past four obstacles to a light at its far end.
 
+    ## Description
     Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoidance" (``seeds/004``), Section 4:
     "two parallel walls and four obstacles in between with sufficient space for the robot to navigate. The goal, a
     light source, is kept at the far end [...] The robot is initially positioned at the bottom right corner [...]

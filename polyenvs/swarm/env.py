@@ -295,7 +295,7 @@ class SwarmEnv(ParallelEnv):
         self._powers = np.zeros((n, 2))
         self._blocked[:] = 0
         self._formation_sum = np.zeros(n)
-        self._formation_swarm = []
+        self._formation_total, self._formation_steps = 0.0, 0  # a running mean: memory stays bounded
         self._rewards = np.zeros((n, len(self.reward_names)))
         obs = self._sense(rng.standard_normal((n, self._sense_draws)), rng.random((n, 4)))
         self._track[:] = 0.0
@@ -406,7 +406,8 @@ class SwarmEnv(ParallelEnv):
             "stopped": float(self._stopped().sum()),
         }
         if self.formation:
-            metrics["formation_error"] = float(np.mean(self._formation_swarm)) if self._formation_swarm else 0.0
+            steps = self._formation_steps
+            metrics["formation_error"] = self._formation_total / steps if steps else 0.0
         return metrics
 
     def _stopped(self) -> np.ndarray:
@@ -419,7 +420,8 @@ class SwarmEnv(ParallelEnv):
             per_robot, swarm = self._formation_error()
             self._formation_now = per_robot.copy()
             self._formation_sum += np.where(live, per_robot, 0.0)
-            self._formation_swarm.append(swarm)
+            self._formation_total += float(swarm)
+            self._formation_steps += 1
             if self.num_cycles:
                 self._rewards[:, 3] = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
 

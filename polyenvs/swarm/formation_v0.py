@@ -29,6 +29,7 @@ class FormationEnv(SwarmEnv):
     """N Maxelbot-like robots in a hexagonal lattice of spacing R (``robot_0``, the leader, at its centre) cross an
     obstacle field to a goal light while keeping formation.
 
+    ## Description
     The physicomimetics framework of the paper's Section 2 (Spears et al. 2004): robots hold a lattice by virtual
     Hooke's-law springs between neighbours. AP-lite is a leader-follower scheme: only the leader broadcasts, and
     followers sense range and bearing to the leader and to their neighbours by trilateration. Formation error is

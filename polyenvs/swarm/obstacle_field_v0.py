@@ -29,6 +29,7 @@ GAP_M = 0.6
 class ObstacleFieldEnv(SwarmEnv):
     """N Maxelbot-like robots cross an open field with obstacles at seeded random places to a goal light.
 
+    ## Description
     Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoidance" (``seeds/004``), Section 4:
     outdoors on grass "of average height 8 cm [...] the ground slope can change rapidly [...] by up to 20°", with
     "large obstacles at random locations in the path of the Maxelbot". The terrain is wheel-speed noise: every
