@@ -153,6 +153,8 @@ def _axis_step(cell, p, d, inv):
 #: How far (cell units) the cells a walk may visit can lie from its exact segment, with room to spare: rounding in
 #: the walk's summed crossing distances moves it by about 1e-12 at a grid corner or at the segment's end.
 _WALK_SLACK = 1e-6
+#: Beyond this (cell units) a segment's ends are left to the walk, which clips first, so no conversion overflows.
+_FAR = 1e5
 _ONE, _SIXTY_THREE, _ALL = np.uint64(1), np.uint64(63), np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
@@ -207,19 +209,32 @@ def _span_known(bits, line, lo, hi):
 
 
 @njit(cache=True)
+def _beam_settled(known_rows, known_cols, gx, gy, qx, qy, dx, dy):
+    """Whether the walk along the segment ``(gx, gy)``-``(qx, qy)`` (cell units, direction ``(dx, dy)``) would find
+    every cell it crosses known: whether every cell within ``_WALK_SLACK`` of it is, by bit lines along whichever
+    axis the segment crosses fewer lines of. A segment far off the grid is left to the walk, which clips first."""
+    if not (abs(gx) < _FAR and abs(gy) < _FAR and abs(qx) < _FAR and abs(qy) < _FAR):
+        return False
+    if abs(dx) >= abs(dy):
+        return _near_cells_known(known_rows, known_cols.shape[0], gy, qy, gx, qx)
+    return _near_cells_known(known_cols, known_rows.shape[0], gx, qx, gy, qy)
+
+
+@njit(cache=True)
 def _near_cells_known(bits, length, a0, a1, b0, b1):
     """Whether every cell within ``_WALK_SLACK`` of the segment ``(a0, b0)``-``(a1, b1)`` is known, the cells taken
-    as lines along the ``b`` axis (``bits``: one bit line per ``a`` index, ``length`` cells along ``b``).
+    as lines along the ``b`` axis (``bits``: one bit line per ``a`` index, ``length`` cells along ``b``); parts off
+    the grid need nothing.
 
     Truncation stands for the floor throughout: it differs only below zero, where it adds a cell, never drops one.
     """
     if a1 < a0:  # walk the lines upwards
         a0, a1, b0, b1 = a1, a0, b1, b0
-    first = max(int(a0 - _WALK_SLACK), 0)
-    last = min(int(a1 + _WALK_SLACK), bits.shape[0] - 1)
+    first = int(max(a0 - _WALK_SLACK, 0.0))
+    last = int(min(a1 + _WALK_SLACK, bits.shape[0] - 1.0))
     if a1 - a0 <= _WALK_SLACK:  # along a line: its whole extent, in one or two lines
-        c0 = max(int(min(b0, b1) - _WALK_SLACK), 0)
-        c1 = min(int(max(b0, b1) + _WALK_SLACK), length - 1)
+        c0 = int(max(min(b0, b1) - _WALK_SLACK, 0.0))
+        c1 = int(min(max(b0, b1) + _WALK_SLACK, length - 1.0))
         for line in range(first, last + 1):
             if c0 <= c1 and not _span_known(bits, line, c0, c1):
                 return False
@@ -230,8 +245,8 @@ def _near_cells_known(bits, length, a0, a1, b0, b1):
     enter = b0 + (max(float(first), a0) - a0) * slope
     for line in range(first, last + 1):
         leave = b0 + (min(line + 1.0, a1) - a0) * slope
-        c0 = max(int(min(enter, leave) - slack), 0)
-        c1 = min(int(max(enter, leave) + slack), length - 1)
+        c0 = int(max(min(enter, leave) - slack, 0.0))
+        c1 = int(min(max(enter, leave) + slack, length - 1.0))
         if c0 <= c1 and not _span_known(bits, line, c0, c1):
             return False
         enter = leave
@@ -239,12 +254,25 @@ def _near_cells_known(bits, length, a0, a1, b0, b1):
 
 
 @njit(cache=True)
-def _free_cells(cells, known_rows, known_cols, count_in, px, py, span, dx, dy, ix, iy):
-    """Free the unknown cells crossed by the segment from grid point ``(px, py)`` (cell units, inside the grid up
-    to rounding) along the unit direction ``(dx, dy)`` for ``span`` cells, each crossed cell visited once
-    (Amanatides & Woo's traversal); ``ix``, ``iy`` are the reciprocals of ``dx``, ``dy`` (``inf`` for zero).
-    Returns the cells newly freed where ``count_in`` is true."""
+def _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, length):
+    """Free the unknown cells crossed by the segment from grid point ``(gx, gy)`` (cell units) along the unit
+    direction ``(dx, dy)`` for ``length`` cells, each crossed cell visited once (Amanatides & Woo's traversal),
+    keeping the bit planes up to date.
+
+    The segment is first clipped to the grid, so a beam from a pose far outside costs nothing and every index
+    stays in range. Returns the cells newly freed where ``count_in`` is true.
+    """
     rows, cols = cells.shape
+    inf = math.inf
+    # Reciprocals once: the clipping and the traversal below then need no further division.
+    ix = inf if dx == 0.0 else 1.0 / dx
+    iy = inf if dy == 0.0 else 1.0 / dy
+    t0, t1 = _clip_axis(gx, dx, ix, cols, 0.0, length)
+    t0, t1 = _clip_axis(gy, dy, iy, rows, t0, t1)
+    if not t0 <= t1:  # also false for nan
+        return 0
+    # Restart from the entry point: every quantity below is then bounded by the grid's size.
+    px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
     col, row = int(math.floor(px)), int(math.floor(py))
     step_c, next_c, delta_c = _axis_step(col, px, dx, ix)
     step_r, next_r, delta_r = _axis_step(row, py, dy, iy)
@@ -286,9 +314,8 @@ def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh
     grid's bit planes (:func:`known_bits`), which it keeps up to date with ``cells``.
 
     Each beam frees the cells its segment crosses (:func:`_free_cells`). Most beams cross only known cells: the
-    bit planes settle that a line of cells at a time, along whichever axis the beam crosses fewer lines of, and
-    the walk runs only where some cell near the segment is unknown, so the cells marked are exactly those the
-    walk alone would mark.
+    bit planes settle that a line of cells at a time (:func:`_beam_settled`), and the walk runs only where some
+    cell near the segment is unknown, so the cells marked are exactly those the walk alone would mark.
     """
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(ch) and math.isfinite(sh)):
         return 0
@@ -308,22 +335,9 @@ def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh
         # Stop the free part half a cell short of the hit so the wall's own cell is not called free.
         free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
         gx, gy = (sx - ox) * inv_cell, (sy - oy) * inv_cell
-        # Clip the free part to the grid, so a beam from a pose far outside costs nothing and every index stays in
-        # range; the reciprocals, once, serve the clipping and the walk.
-        ix = math.inf if dx == 0.0 else 1.0 / dx
-        iy = math.inf if dy == 0.0 else 1.0 / dy
-        t0, t1 = _clip_axis(gx, dx, ix, cols, 0.0, free_length * inv_cell)
-        t0, t1 = _clip_axis(gy, dy, iy, rows, t0, t1)
-        if t0 <= t1:  # false for nan too
-            # Restart from the entry point: every quantity below is then bounded by the grid's size.
-            px, py, span = gx + t0 * dx, gy + t0 * dy, t1 - t0
-            qx, qy = px + span * dx, py + span * dy
-            if abs(dx) >= abs(dy):
-                settled = _near_cells_known(known_rows, cols, py, qy, px, qx)
-            else:
-                settled = _near_cells_known(known_cols, rows, px, qx, py, qy)
-            if not settled:
-                fresh += _free_cells(cells, known_rows, known_cols, count_in, px, py, span, dx, dy, ix, iy)
+        reach = free_length * inv_cell
+        if not _beam_settled(known_rows, known_cols, gx, gy, gx + reach * dx, gy + reach * dy, dx, dy):
+            fresh += _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, reach)
         if not no_return[i]:
             # Compare as floats before converting: a far-off hit must not overflow the integer cast.
             hc, hr = gx + length * inv_cell * dx, gy + length * inv_cell * dy
