@@ -125,10 +125,11 @@ class SharpTurn(_ControllerPolicy):
     """A sharp turn (paper section 5, Figures 10 and 11): the rolling gait heading off ``turn_deg`` from its strip.
 
     The paper's turn keeps limb 1 planted while the robot rolls about it. With joint 1 limited to +-180 degrees at
-    most two tumbles in a row can keep one limb planted (the third tumble about it needs joint 1 near +-240), so the
-    turn is the rolling gait's look-ahead steering for the turned heading, which fans the support triangles about
-    shared feet; ``pivot`` (1-based limb) restricts every tumble to edges containing that limb, the literal cone,
-    and stops when none is plannable.
+    most two tumbles in a row can keep one limb planted (the third tumble about it needs joint 1 near +-240), and
+    the 4-beast's straight strip admits only one forward tumble from each stance, so the turn is the rolling gait's
+    look-ahead steering for the turned heading, allowed to tip back over the last edge to change strips (a
+    three-point turn); ``pivot`` (1-based limb) restricts every tumble to edges containing that limb, the literal
+    cone, and stops when none is plannable.
 
     Args:
         turn_deg: change of heading, counter-clockwise, in [-180, 180] degrees.
@@ -157,7 +158,9 @@ class SharpTurn(_ControllerPolicy):
         strip = math.radians(30.0 if self.planner.n_limbs == 4 else 0.0)
         angle = strip + math.radians(self.turn_deg)
         heading = np.array([math.cos(angle), math.sin(angle), 0.0])
-        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=self.pivot)
+        return RollingGaitController(
+            self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=self.pivot, allow_back=True
+        )
 
 
 class Righting(_ControllerPolicy):

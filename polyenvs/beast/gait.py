@@ -496,7 +496,8 @@ class RollingGaitController:
     edge of the two lowest-numbered support limbs, which is (1 2 3 4) for the 4-beast);
     ``heading`` (tumble frame of the first tumble) defaults to the 4-beast's straight strip, 30 degrees left of the
     first tip; ``pivot`` (1-based) keeps that limb planted: every tumble tips over an edge containing it, the sharp
-    turn of the paper's Figures 10 and 11.
+    turn of the paper's Figures 10 and 11; ``allow_back`` lets the look-ahead tip back over the last edge (the
+    4-beast changes strips that way, since within +-180 degrees of joint 1 each strip's next tumble is forced).
     """
 
     def __init__(
@@ -507,8 +508,10 @@ class RollingGaitController:
         heading: np.ndarray | None = None,
         pivot: int | None = None,
         disabled_limbs=(),
+        allow_back: bool = False,
     ):
         self.planner = planner
+        self.allow_back = allow_back
         self.disabled = frozenset(int(v) - 1 for v in disabled_limbs)
         self.pivot = None if pivot is None else int(pivot) - 1
         self.first_tumble = None if first_tumble is None else tuple(int(v) - 1 for v in first_tumble)
@@ -712,7 +715,8 @@ class RollingGaitController:
         out = []
         for c in support:
             a, b = (limb for limb in support if limb != c)
-            if frozenset((a, b)) == last_edge or (self.pivot is not None and self.pivot not in (a, b)):
+            back = frozenset((a, b)) == last_edge and not self.allow_back
+            if back or (self.pivot is not None and self.pivot not in (a, b)):
                 continue
             e, f = pts[b] - pts[a], pts[c] - pts[a]
             l1, l2 = (a, b) if e[0] * f[1] - e[1] * f[0] > 0 else (b, a)
