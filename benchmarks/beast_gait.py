@@ -9,7 +9,8 @@ Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beas
   along the heading, time, per-tumble advance and time (feasibility study: 155 mm and 17.3 s per tumble at 20 deg/s),
   and the random policy over the same time.
 - ``roll6``: the same for the 6-beast (``polyhedron="octahedron"``).
-- ``turn``: BeastTurn (4-beast), ``SharpTurn`` with a pivot and with look-ahead steering: heading change.
+- ``turn``: BeastTurn, ``SharpTurn`` (4-beast with pivot limb 2 and with look-ahead steering; 6-beast): heading
+  change.
 - ``recover``: BeastRecover (4-beast), ``Righting``: success rate and time to stance.
 - ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
   along the heading and straight-line displacement.
@@ -122,14 +123,19 @@ def bench_turn(seeds):
     from polyenvs.beast.tasks import BeastTurnEnv
 
     out = {}
-    for pivot in (1, 2, None):
-        env = BeastTurnEnv(turn_deg=60.0)
-        policy = SharpTurn(env.observation_space, env.action_space, turn_deg=60.0, pivot=pivot, max_tumbles=6)
+    cases = [("tetrahedron", 60.0, 2), ("tetrahedron", 60.0, None), ("tetrahedron", 180.0, None)]
+    cases += [("octahedron", 60.0, None), ("octahedron", -60.0, None)]
+    for polyhedron, turn, pivot in cases:
+        env = BeastTurnEnv(turn_deg=turn, polyhedron=polyhedron)
+        policy = SharpTurn(env.observation_space, env.action_space, turn_deg=turn, pivot=pivot, max_tumbles=6)
         runs = [run_episode(env, policy, s, 8000) for s in seeds]
-        out[str(pivot)] = runs
+        out[f"{polyhedron} {turn} {pivot}"] = runs
         print(
-            f"turn (turn_deg 60, pivot {pivot}): heading change {_summary([r['heading_change_deg'] for r in runs])} deg, "
-            f"tumbles {_summary([len(r['history']) for r in runs])}, sequences {sorted({' '.join(r['history']) for r in runs})}"
+            f"turn ({polyhedron}, turn_deg {turn}, pivot {pivot}): heading change "
+            f"{_summary([r['heading_change_deg'] for r in runs])} deg, error "
+            f"{_summary([r['heading_error_deg'] for r in runs])} deg, tumbles "
+            f"{_summary([len(r['history']) for r in runs])}, sequences {sorted({' '.join(r['history']) for r in runs})}",
+            flush=True,
         )
     return out
 
@@ -191,6 +197,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         results[name] = BENCHES[name](seeds)
         print(f"  ({name}: {time.perf_counter() - t0:.1f} s wall)", flush=True)
+        sys.stdout.flush()
     if args.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1, default=float)
