@@ -18,10 +18,13 @@ drifts off the ground within a few tumbles):
    until the centre of mass is a few millimetres past the edge. The planted feet stay put: at each knot every planted
    limb's joint angles come from the closed-form inverse kinematics on the theta3 > 0 knee branch, continuous from the
    previous knot, and its joint velocities from the limb Jacobian (J theta_dot = d p / dt, section 4.2), giving a
-   piecewise cubic (Hermite) joint trajectory. Meanwhile the free limb swings over the top in joint space to a
-   foothold placed so that it lands on the mirror image of foot l3 across the edge after a free roll of ``roll``.
+   piecewise cubic (Hermite) joint trajectory, each knot interval timed so that its fastest joint runs at the
+   configured rate. Meanwhile the free limb swings over the top in joint space to a foothold placed so that it lands
+   at the apex of the nominal triangle on the edge (foot l3 mirrored, on the nominal pattern) after a free roll.
 3. **Roll.** The targets hold while gravity tips the body about the edge (the paper's brief dynamic tip: two feet down
-   for well under a second) until the contact switches report the landed foot down and the lifted one free.
+   for well under a second) until the contact switches report the landed foot down and the lifted one free. If the
+   body has not tipped after a second the tip keyframe is pushed a few millimetres further; if nothing lands within
+   ``ROLL_TIMEOUT`` the robot stands on whatever feet are down and goes on from there.
 4. **Stance (landed -> K3).** The feet are measured again and the body moves (same planted-limb machinery) to the
    nominal stance over the new support triangle, found by fitting the nominal feet pattern to the measured feet
    (Kabsch), while the lifted limb folds straight up over the top. The next tumble starts from there.
@@ -29,13 +32,17 @@ drifts off the ground within a few tumbles):
 The same plan serves every tumble by relabelling limbs, and every polyhedron: a support triangle of the 6-beast is a
 face of the octahedron of its feet, the tumble lands the limb opposite the lifted one, and the stance's "up" is minus
 the sum of the support limbs' axes. Which edge to tip over comes from a heading carried across tumbles in a frame
-attached to planted feet (the robot cannot see the world's axes): the feasible edge whose outward direction is
-closest to the heading, never straight back. For the 4-beast this reproduces the straight strip
-(1234)(4213)(4321)(1342) of the feasibility study; tumbles whose joint-1 path would leave its range are skipped.
+attached to planted feet (the robot cannot see the world's axes) and a short look-ahead that rolls the support
+triangle on paper over the tumbles plannable from a nominal stance (joint 1 must stay within its range through the
+tip and the stance after it: 8 of the 4-beast's 12 tumbles, all 24 of the 6-beast's on its "centred" stance
+branch), never straight back unless allowed. For the 4-beast this reproduces the straight strip
+(1234)(4213)(4321)(1342) of the feasibility study. A planted limb cannot change its inverse-kinematics branch, so a
+landing limb takes the branch from which the next two tumbles of the look-ahead's path stay plannable.
 
-Public names: :class:`GaitConfig` (rates, stance, tip keyframe), :class:`BeastPlanner` (stateless geometry and
-trajectory planning), :class:`JointTrajectory` (piecewise cubic), :class:`RollingGaitController` (the closed-loop
-state machine for one environment), :func:`split_observation`.
+Public names: :class:`GaitConfig` (rates, stance, tip keyframes, stance branch), ``DEFAULT_CONFIGS`` (per beast),
+:class:`BeastPlanner` (geometry and trajectory planning, no state but a cache of plannable tumbles),
+:class:`JointTrajectory` (piecewise cubic), :class:`RollingGaitController` (the closed-loop state machine for one
+environment), :class:`RightingController` (stand up from any orientation), :func:`split_observation`.
 """
 
 from __future__ import annotations
