@@ -62,8 +62,8 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, c
         w = 0 if shared else b
         first_sense_row(b, state, walls[w], params, normals, cursor, obs)
         cells[b, :, :] = 0  # unknown
-        known_rows[b, :, :] = 0
-        known_cols[b, :, :] = 0
+        known_rows[b, :] = 0
+        known_cols[b, :] = 0
         task[b, :] = 0.0
         # What the robot sees before its first tip counts.
         _observe(b, state, task, cells, known_rows, known_cols, free[w], grids[w], tp)
@@ -153,8 +153,9 @@ class BuckybotExploreEnv(BuckybotEnv):
         self._cells = np.zeros((n, *shape), dtype=np.int8)
         # The same maps as bit planes (:func:`polyenvs.buckybot.mapping.known_bits`): most beams cross only known
         # cells, which these settle a line of cells at a time.
-        self._known_rows = np.zeros((n, shape[0], 2 * ((shape[1] + 63) // 64)), dtype=np.uint64)
-        self._known_cols = np.zeros((n, shape[1], (shape[0] + 63) // 64), dtype=np.uint64)
+        words = (shape[0] * shape[1] + 63) // 64
+        self._known_rows = np.zeros((n, 2 * words), dtype=np.uint64)
+        self._known_cols = np.zeros((n, words), dtype=np.uint64)
         self._free = np.zeros((slots, *shape), dtype=np.bool_)  # the free area coverage is measured against
         self._grids = np.zeros((slots, 3))
         self._task_params = np.array([self.cell_cm, self.coverage_goal])

@@ -160,46 +160,50 @@ _ONE, _SIXTY_THREE, _ALL = np.uint64(1), np.uint64(63), np.uint64(0xFFFFFFFFFFFF
 
 @njit(cache=True)
 def known_bits(cells):
-    """Bit planes of a grid for :func:`mark_beams_rotated`: ``(known_rows, known_cols)``, one line of ``uint64``
-    words per row and per column. A row's line holds its known cells (``cells != 0``), then its occupied ones; a
-    column's line its known cells."""
+    """Bit planes of a grid for :func:`mark_beams_rotated`, ``uint64`` words of packed bits (a beam's few lines of
+    cells then share a cache line or two): ``known_rows``, the known cells (``cells != 0``) row by row and then the
+    occupied ones, and ``known_cols``, the known cells column by column."""
     rows, cols = cells.shape
-    known_rows = np.zeros((rows, 2 * ((cols + 63) // 64)), dtype=np.uint64)
-    known_cols = np.zeros((cols, (rows + 63) // 64), dtype=np.uint64)
+    words = (rows * cols + 63) // 64
+    known_rows = np.zeros(2 * words, dtype=np.uint64)
+    known_cols = np.zeros(words, dtype=np.uint64)
     for r in range(rows):
         for c in range(cols):
             if cells[r, c] != 0:
-                _set_known(known_rows, known_cols, r, c)
+                _set_known(known_rows, known_cols, rows, cols, r, c)
             if cells[r, c] == 2:
-                _set_occupied(known_rows, r, c)
+                _set_occupied(known_rows, cols, r, c)
     return known_rows, known_cols
 
 
 @njit(cache=True)
-def _set_known(known_rows, known_cols, r, c):
-    known_rows[r, c >> 6] |= _ONE << np.uint64(c & 63)
-    known_cols[c, r >> 6] |= _ONE << np.uint64(r & 63)
+def _set_known(known_rows, known_cols, rows, cols, r, c):
+    i, j = r * cols + c, c * rows + r
+    known_rows[i >> 6] |= _ONE << np.uint64(i & 63)
+    known_cols[j >> 6] |= _ONE << np.uint64(j & 63)
 
 
 @njit(cache=True)
-def _set_occupied(known_rows, r, c):
-    known_rows[r, known_rows.shape[1] // 2 + (c >> 6)] |= _ONE << np.uint64(c & 63)
+def _set_occupied(known_rows, cols, r, c):
+    i = r * cols + c
+    known_rows[known_rows.shape[0] // 2 + (i >> 6)] |= _ONE << np.uint64(i & 63)
 
 
 @njit(cache=True)
-def _is_occupied(known_rows, r, c):
-    return known_rows[r, known_rows.shape[1] // 2 + (c >> 6)] >> np.uint64(c & 63) & _ONE != 0
+def _is_occupied(known_rows, cols, r, c):
+    i = r * cols + c
+    return known_rows[known_rows.shape[0] // 2 + (i >> 6)] >> np.uint64(i & 63) & _ONE != 0
 
 
 @njit(cache=True)
-def _span_known(bits, line, lo, hi):
-    """Whether cells ``lo..hi`` (inclusive) of bit line ``line`` are all known, up to 64 at a time."""
+def _span_known(bits, lo, hi):
+    """Whether bits ``lo..hi`` (inclusive) are all set, up to 64 at a time."""
     while True:
         w, shift = lo >> 6, np.uint64(lo & 63)
         width = min(hi - lo, 63) + 1
-        word = bits[line, w] >> shift
+        word = bits[w] >> shift
         if (lo & 63) + width > 64:  # the span runs on into the next word
-            word |= (bits[line, w + 1] << _ONE) << (_SIXTY_THREE - shift)
+            word |= (bits[w + 1] << _ONE) << (_SIXTY_THREE - shift)
         mask = _ALL >> np.uint64(64 - width)
         if word & mask != mask:
             return False
@@ -209,34 +213,35 @@ def _span_known(bits, line, lo, hi):
 
 
 @njit(cache=True)
-def _beam_settled(known_rows, known_cols, gx, gy, qx, qy, dx, dy):
+def _beam_settled(known_rows, known_cols, rows, cols, gx, gy, qx, qy, dx, dy):
     """Whether the walk along the segment ``(gx, gy)``-``(qx, qy)`` (cell units, direction ``(dx, dy)``) would find
-    every cell it crosses known: whether every cell within ``_WALK_SLACK`` of it is, by bit lines along whichever
-    axis the segment crosses fewer lines of. A segment far off the grid is left to the walk, which clips first."""
+    every cell it crosses known: whether every cell within ``_WALK_SLACK`` of it is, by lines of cells along
+    whichever axis the segment crosses fewer lines of. A segment far off the grid is left to the walk, which clips
+    first."""
     if not (abs(gx) < _FAR and abs(gy) < _FAR and abs(qx) < _FAR and abs(qy) < _FAR):
         return False
     if abs(dx) >= abs(dy):
-        return _near_cells_known(known_rows, known_cols.shape[0], gy, qy, gx, qx)
-    return _near_cells_known(known_cols, known_rows.shape[0], gx, qx, gy, qy)
+        return _near_cells_known(known_rows, rows, cols, gy, qy, gx, qx)
+    return _near_cells_known(known_cols, cols, rows, gx, qx, gy, qy)
 
 
 @njit(cache=True)
-def _near_cells_known(bits, length, a0, a1, b0, b1):
+def _near_cells_known(bits, lines, length, a0, a1, b0, b1):
     """Whether every cell within ``_WALK_SLACK`` of the segment ``(a0, b0)``-``(a1, b1)`` is known, the cells taken
-    as lines along the ``b`` axis (``bits``: one bit line per ``a`` index, ``length`` cells along ``b``); parts off
-    the grid need nothing.
+    as ``lines`` lines of ``length`` cells along the ``b`` axis (line ``k``: bits ``k length`` on); parts off the
+    grid need nothing.
 
     Truncation stands for the floor throughout: it differs only below zero, where it adds a cell, never drops one.
     """
     if a1 < a0:  # walk the lines upwards
         a0, a1, b0, b1 = a1, a0, b1, b0
     first = int(max(a0 - _WALK_SLACK, 0.0))
-    last = int(min(a1 + _WALK_SLACK, bits.shape[0] - 1.0))
+    last = int(min(a1 + _WALK_SLACK, lines - 1.0))
     if a1 - a0 <= _WALK_SLACK:  # along a line: its whole extent, in one or two lines
         c0 = int(max(min(b0, b1) - _WALK_SLACK, 0.0))
         c1 = int(min(max(b0, b1) + _WALK_SLACK, length - 1.0))
         for line in range(first, last + 1):
-            if c0 <= c1 and not _span_known(bits, line, c0, c1):
+            if c0 <= c1 and not _span_known(bits, line * length + c0, line * length + c1):
                 return False
         return True
     slope = (b1 - b0) / (a1 - a0)
@@ -247,7 +252,7 @@ def _near_cells_known(bits, length, a0, a1, b0, b1):
         leave = b0 + (min(line + 1.0, a1) - a0) * slope
         c0 = int(max(min(enter, leave) - slack, 0.0))
         c1 = int(min(max(enter, leave) + slack, length - 1.0))
-        if c0 <= c1 and not _span_known(bits, line, c0, c1):
+        if c0 <= c1 and not _span_known(bits, line * length + c0, line * length + c1):
             return False
         enter = leave
     return True
@@ -284,7 +289,7 @@ def _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, length)
     for _ in range(abs(end_c - col) + abs(end_r - row) + 1):
         if 0 <= row < rows and 0 <= col < cols and cells[row, col] == 0:
             cells[row, col] = 1
-            _set_known(known_rows, known_cols, row, col)
+            _set_known(known_rows, known_cols, rows, cols, row, col)
             if count_in[row, col]:
                 fresh += 1
         across = next_c < next_r
@@ -336,16 +341,17 @@ def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh
         free_length = length if no_return[i] else max(length - 0.5 * cell, 0.0)
         gx, gy = (sx - ox) * inv_cell, (sy - oy) * inv_cell
         reach = free_length * inv_cell
-        if not _beam_settled(known_rows, known_cols, gx, gy, gx + reach * dx, gy + reach * dy, dx, dy):
+        qx, qy = gx + reach * dx, gy + reach * dy
+        if not _beam_settled(known_rows, known_cols, rows, cols, gx, gy, qx, qy, dx, dy):
             fresh += _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, reach)
         if not no_return[i]:
             # Compare as floats before converting: a far-off hit must not overflow the integer cast.
             hc, hr = gx + length * inv_cell * dx, gy + length * inv_cell * dy
             if 0.0 <= hc < cols and 0.0 <= hr < rows:
                 r, c = int(hr), int(hc)
-                if not _is_occupied(known_rows, r, c):  # else the cell holds 2 already
+                if not _is_occupied(known_rows, cols, r, c):  # else the cell holds 2 already
                     if cells[r, c] == 0:
-                        _set_known(known_rows, known_cols, r, c)
-                    _set_occupied(known_rows, r, c)
+                        _set_known(known_rows, known_cols, rows, cols, r, c)
+                    _set_occupied(known_rows, cols, r, c)
                     cells[r, c] = 2
     return fresh
