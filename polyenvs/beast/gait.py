@@ -54,6 +54,7 @@ import math
 import numpy as np
 
 from polyenvs.beast import kinematics as K
+from polyenvs.beast.sensors import N_TILT, TILT_AXES
 
 __all__ = [
     "BeastPlanner",
@@ -62,13 +63,10 @@ __all__ = [
     "RightingController",
     "RollingGaitController",
     "split_observation",
-    "N_TILT",
     "CONTROL_DT",
 ]
 
-#: Tilt switches in the observation (spec: twelve 1-bit tilt sensors).
-N_TILT = 12
-#: The environments' control tick (frame skip 5 at 2 ms).
+#: The environments' control tick (``polyenvs.beast.env.CONTROL_DT``, not imported: that module needs MuJoCo).
 CONTROL_DT = 0.01
 #: Joint limits of the default model (radians), rows joint 1, 2, 3; the environments' actions scale to these.
 DEFAULT_JOINT_RANGES = np.radians([[-180.0, 180.0], [-120.0, 160.0], [-150.0, 150.0]])
@@ -761,8 +759,6 @@ class RightingController:
     """
 
     def __init__(self, planner: BeastPlanner, roll_after: bool = False, settle: float = 0.5):
-        from polyenvs.beast.sensors import TILT_AXES
-
         self.planner = planner
         self.tilt_axes = TILT_AXES
         self.roll_after = roll_after
