@@ -75,7 +75,8 @@ class EnvEntry:
 
 @dataclass(frozen=True)
 class ParallelEnvEntry:
-    """A PettingZoo parallel environment: ``import_module(id).parallel_env(max_cycles=..., **kwargs)``."""
+    """A PettingZoo parallel environment: ``import_module(id).parallel_env(max_cycles=..., **kwargs)`` (the
+    commands build it so; a user's keywords override ``kwargs``, as ``gym.make``'s override a registration's)."""
 
     kind: ClassVar[str] = "pettingzoo"
 
@@ -176,6 +177,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     ParallelEnvEntry(
         id="polyenvs.swarm.corridor_v0",
         max_cycles=600,
+        kwargs={"n_robots": 3},
         family="swarm",
         description="N X80Pro robots pass a corridor with four obstacles to the light",
         baselines=_CORRIDOR_BASELINES,
@@ -184,6 +186,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     ParallelEnvEntry(
         id="polyenvs.swarm.obstacle_field_v0",
         max_cycles=1000,
+        kwargs={"n_robots": 3},
         family="swarm",
         description="N Maxelbots cross a seeded obstacle field on rough terrain to a goal light",
         baselines=_FIELD_BASELINES,

@@ -68,8 +68,8 @@ def _parallel_module(name: str):
 def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     """Build ``env_id`` with the user's ``env_kwargs`` and the caller's ``extra`` (``render_mode``).
 
-    A Gymnasium id goes through ``gym.make``; a module path through its ``parallel_env``, with the registry's
-    ``max_cycles`` unless the keywords give one. Raises :class:`UnknownEnvironment` for a name that is neither;
+    A Gymnasium id goes through ``gym.make``; a module path through its ``parallel_env``, with the registry row's
+    ``max_cycles`` and ``kwargs`` under the caller's keywords. Raises :class:`UnknownEnvironment` for a name that is neither;
     the environment's own errors (``TypeError``, ``ValueError``, ``gym.error.Error``) propagate.
     """
     import polyenvs  # noqa: F401  (registers the ids)
@@ -82,10 +82,10 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     if module is None:
         raise UnknownEnvironment(env_id)
     try:
-        kwargs.setdefault("max_cycles", entry(env_id).max_cycles)
-    except KeyError:  # a user's own module: its own default
-        pass
-    return module.parallel_env(**kwargs)
+        row = entry(env_id)
+    except KeyError:  # a user's own module: its own defaults
+        return module.parallel_env(**kwargs)
+    return module.parallel_env(**{"max_cycles": row.max_cycles, **row.kwargs, **kwargs})
 
 
 def agent_spaces(env) -> tuple[gym.Space, gym.Space]:

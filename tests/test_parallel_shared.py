@@ -27,7 +27,7 @@ def _module(entry):
 
 
 def _make(entry, **kwargs):
-    return _module(entry).parallel_env(**{"max_cycles": entry.max_cycles, **kwargs})
+    return _module(entry).parallel_env(**{"max_cycles": entry.max_cycles, **entry.kwargs, **kwargs})
 
 
 def _actions(env, rng_seed: int, step: int) -> dict:

@@ -41,7 +41,7 @@ def test_every_config_file_is_known():
 def test_every_key_is_a_registered_id_and_every_entry_loads(name):
     document = yaml.safe_load((CONFIGS / name).read_text())
     for env_id in document:
-        assert env_id in polyenvs.ENV_IDS, f"configs/{name}: {env_id} is not a registered polyenvs id"
+        assert env_id in polyenvs.registry.ALL_IDS, f"configs/{name}: {env_id} is not a registered polyenvs id"
         config = load_config(CONFIGS / name, env_id, ALGO_OF_FILE[name])
         assert config.policy == "MlpPolicy"
         assert config.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}  # small MLPs
@@ -53,7 +53,7 @@ def test_every_key_is_a_registered_id_and_every_entry_loads(name):
 def test_every_id_has_ppo_with_normalize_and_every_discrete_id_has_maskable_ppo():
     ppo = yaml.safe_load((CONFIGS / "ppo.yml").read_text())
     masked = yaml.safe_load((CONFIGS / "maskable_ppo.yml").read_text())
-    for env_id in polyenvs.ENV_IDS:
+    for env_id in polyenvs.registry.ALL_IDS:
         assert env_id in ppo, f"configs/ppo.yml has no entry for {env_id}"
         assert "normalize" in ppo[env_id], f"configs/ppo.yml: {env_id} does not say whether to normalize"
     for env_id in _discrete_ids():
@@ -268,3 +268,16 @@ def test_parse_python_value_allows_only_data_and_torch_classes():
 
 def test_jsonable():
     assert jsonable({"a": (nn.Tanh, 1), "b": [None, True, "s"]}) == {"a": ["torch.nn.Tanh", 1], "b": [None, True, "s"]}
+
+
+def test_env_kwargs_as_rl_zoo_writes_them(tmp_path):
+    entry = {"n_timesteps": 100, "policy": "MlpPolicy", "env_kwargs": "dict(floor_plan='corner')"}
+    assert load_config(_write(tmp_path, entry), WALL, "ppo").env_kwargs == {"floor_plan": "corner"}
+    entry["env_kwargs"] = {"floor_plan": "office", "noise_scale": 0.5}
+    config = load_config(_write(tmp_path, entry), WALL, "ppo")
+    assert config.env_kwargs == {"floor_plan": "office", "noise_scale": 0.5}
+    assert config.resolved()["env_kwargs"] == {"floor_plan": "office", "noise_scale": 0.5}
+    for bad in ("[1, 2]", 3, "dict(1=2)"):
+        entry["env_kwargs"] = bad
+        with pytest.raises(InputError, match="env_kwargs"):
+            load_config(_write(tmp_path, entry), WALL, "ppo")

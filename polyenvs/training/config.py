@@ -47,7 +47,7 @@ __all__ = [
 ]
 
 #: RL Zoo's keys that are not constructor arguments of the algorithm.
-META_KEYS = ("n_timesteps", "policy", "n_envs", "normalize", "env_wrapper", "frame_stack")
+META_KEYS = ("n_timesteps", "policy", "n_envs", "normalize", "env_wrapper", "frame_stack", "env_kwargs")
 #: RL Zoo keys that polyenvs does not support, with the reason.
 UNSUPPORTED_KEYS = {
     "callback": "training callbacks from the config are not supported by polyenvs train",
@@ -82,6 +82,8 @@ class TrainConfig:
     #: Per-env wrappers: (import path, keyword arguments), applied in order.
     env_wrappers: list[tuple[str, dict[str, Any]]] = field(default_factory=list)
     frame_stack: int | None = None
+    #: The environment's keyword arguments (RL Zoo's ``env_kwargs``), under the command line's own.
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
     #: Constructor arguments of the algorithm (schedules and classes resolved), without policy/env/seed.
     hyperparams: dict[str, Any] = field(default_factory=dict)
     #: The entry as written in the file.
@@ -104,6 +106,8 @@ class TrainConfig:
             doc["env_wrapper"] = [{path: kw} if kw else path for path, kw in self.env_wrappers]
         if self.frame_stack is not None:
             doc["frame_stack"] = self.frame_stack
+        if self.env_kwargs:
+            doc["env_kwargs"] = jsonable(self.env_kwargs)
         for key, value in self.hyperparams.items():
             raw = self.raw.get(key)
             doc[key] = raw if key in SCHEDULE_KEYS and isinstance(raw, str) else jsonable(value)
@@ -206,6 +210,8 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         config.frame_stack = _count(entry["frame_stack"], 1, where("frame_stack"))
     if "env_wrapper" in entry:
         config.env_wrappers = _env_wrappers(entry["env_wrapper"], where("env_wrapper"))
+    if "env_kwargs" in entry:
+        config.env_kwargs = _env_kwargs(entry["env_kwargs"], where("env_kwargs"))
     hyperparams: dict[str, Any] = {}
     for key, value in entry.items():
         if key in META_KEYS:
@@ -236,6 +242,15 @@ def _yaml_hint(value: Any) -> str:
             return ""
         return " (YAML reads it as text: write it with a dot, 3.0e-4, or as !!float 3e-4)"
     return ""
+
+
+def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
+    """A mapping written in YAML, or a string of one (``"dict(n_robots=5)"``, as RL Zoo writes it)."""
+    if isinstance(value, str):
+        value = parse_python_value(value, where)
+    if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+        raise InputError(f"{where}: expected a mapping of keyword arguments, got {_show(value)}")
+    return dict(value)
 
 
 def _count(value: Any, minimum: int, where: str) -> int:

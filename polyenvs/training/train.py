@@ -208,6 +208,9 @@ def train(
         probe.close()
     config_path = Path(config) if config is not None else default_config_path(algo)
     cfg = load_config(config_path, env_id, algo)
+    if cfg.env_kwargs:  # the config's keywords under the command line's: check them together
+        env_kwargs = {**cfg.env_kwargs, **env_kwargs}
+        make_env(env_id, env_kwargs).close()
     _check_extras(progress_bar, tensorboard)
     wrappers = cfg.wrapper_callables()
     n_envs = n_envs if n_envs is not None else cfg.n_envs
