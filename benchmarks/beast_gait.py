@@ -161,14 +161,53 @@ def bench_faults(seeds):
     for limb in range(1, 7):
         env = BeastRollEnv(polyhedron="octahedron", disabled_limbs=(limb,))
         policy = RollingGait(env.observation_space, env.action_space, disabled_limbs=(limb,))
-        runs = [run_episode(env, policy, s, 6000, until_done=False) for s in seeds]
-        out[limb] = runs
-        print(
-            f"6-beast, limb {limb} disabled, 60 s: along heading {_summary([r['distance_m'] for r in runs])} m, "
-            f"displacement {_summary([r['displacement_m'] for r in runs])} m, tumbles "
-            f"{_summary([len(r['history']) for r in runs])}"
-        )
+        for start in ("task", "on top"):
+            if start == "on top" and limb - 1 not in _task_support(env):
+                continue  # the task's start already has the limb on top
+            options = None if start == "task" else {"qpos": _stance_without(env, limb)}
+            runs = [run_episode(env, policy, s, 6000, until_done=False, reset_options=options) for s in seeds]
+            out[f"{limb} {start}"] = runs
+            print(
+                f"6-beast, limb {limb} disabled, start {start}, 60 s: along heading "
+                f"{_summary([r['distance_m'] for r in runs])} m, displacement "
+                f"{_summary([r['displacement_m'] for r in runs])} m, tumbles {_summary([len(r['history']) for r in runs])}",
+                flush=True,
+            )
     return out
+
+
+def _task_support(env) -> set:
+    from polyenvs.beast import model as M
+
+    return set(M.stance_orientation(env.unwrapped.polyhedron)[1].tolist())
+
+
+def _stance_without(env, limb: int) -> np.ndarray:
+    """The gait's nominal stance on a support face without ``limb`` (1-based) and without its opposite, so the
+    broken limb points up (the paper's reorientation), first tumble along world +x."""
+    import itertools
+
+    from polyenvs.beast.gait import TUCKED, BeastPlanner
+
+    planner = BeastPlanner("octahedron")
+    dirs = planner.dirs
+    up_limb = limb - 1
+    for face in itertools.combinations(range(6), 3):
+        if up_limb in face or any(dirs[i] @ dirs[j] < -0.99 for i, j in itertools.combinations(face, 2)):
+            continue
+        if float(dirs[list(face)].sum(axis=0) @ dirs[up_limb]) < 0:  # the broken limb on the upper side
+            break
+    q = np.tile(TUCKED, (6, 1))
+    for i, angles in planner.stance_angles(face).items():
+        q[i] = angles
+    a, b, c = sorted(face)
+    l1, l2, l3 = planner.order_edge(planner.feet(q.ravel()), a, b, c)
+    rot = planner.stance_orientation(l1, l2, l3)  # body -> frame with x along the first tumble, z up
+    quat = np.zeros(4)
+    import mujoco
+
+    mujoco.mju_mat2Quat(quat, rot.ravel())
+    return np.concatenate([[0.0, 0.0, planner.config.stance_height], quat, q.ravel()])
 
 
 BENCHES = {
