@@ -28,7 +28,8 @@ def polyenvs_cases(*, only: str | None, min_seconds: float, seed: int = 0) -> tu
     except Exception as exc:  # noqa: BLE001 - a broken package must not hide the peers
         return [], [f"importing polyenvs failed ({one_line(exc)}): only the peers were measured."]
 
-    entries = [entry for entry in REGISTRY if only is None or only in entry.id]
+    # The PettingZoo swarms are measured per robot against mpe2 (benchmarks.swarm), not as Gymnasium steps.
+    entries = [entry for entry in REGISTRY if entry.kind == "gymnasium" and (only is None or only in entry.id)]
     if not entries:
         return [], [f"no polyenvs environment id contains {only!r}: only the peers were measured."]
     kw: dict[str, Any] = {"min_seconds": min_seconds, "seed": seed}
