@@ -11,7 +11,14 @@ import pytest
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.analysis import Figure8Run, figure8_maps, main, render_figure8, wall_cells, write_png
-from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams, obstacle_points, placement_error
+from polyenvs.buckybot.mapping import (
+    OccupancyGrid,
+    known_bits,
+    mark_beams,
+    mark_beams_rotated,
+    obstacle_points,
+    placement_error,
+)
 
 # Beam geometry written out independently of the package: a sensor at the centre of an upper hexagon, 11.95 cm from
 # the body centre along the face normal, which points asin(1/3) = 19.47° above the horizon.
@@ -226,6 +233,47 @@ def test_grid_traversal_never_writes_outside_the_grid():
         assert mark_beams(cells, 0.0, 0.0, cell, x, y, heading, np.full(6, 90.0), flags, flags, everywhere) == 0
     np.testing.assert_array_equal(cells, reference)
     assert (buffer[:pad] == 7).all() and (buffer[-pad:] == 7).all()
+
+
+def test_bit_planes_that_skip_known_beams_change_nothing_even_on_degenerate_beams():
+    """A map marked step after step with its kept bit planes (which skip the walk along beams over known cells)
+    against the walk alone (planes cleared before every call, so it always walks): beams along the axes and the
+    diagonals, from grid points and cell corners, grazing the grid's edges, on odd cell sizes. The same cells, the
+    same counts, and the kept planes always those of the cells."""
+    rng = np.random.default_rng(9)
+    for cell, origin, shape in (
+        (10.0, (0.0, 0.0), (24, 31)),
+        (7.3, (-20.0, 3.1), (17, 70)),
+        (2.0, (0.0, 0.0), (70, 9)),
+    ):
+        cells = np.zeros(shape, dtype=np.int8)
+        walked = np.zeros(shape, dtype=np.int8)
+        known_rows, known_cols = known_bits(cells)
+        count_in = rng.random(shape) < 0.7
+        span = np.array([shape[1], shape[0]]) * cell
+        skipped = 0
+        for _ in range(500):
+            x, y = np.array(origin) + rng.uniform(-0.2, 1.2, 2) * span
+            if rng.random() < 0.4:  # a grid point
+                x, y = np.array(origin) + np.round((np.array([x, y]) - origin) / cell) * cell
+            heading = -geo.SENSOR_AZIMUTHS_RAD[rng.integers(6)] + rng.integers(8) * np.pi / 4  # one beam on an axis
+            if rng.random() < 0.3:
+                heading = rng.uniform(-np.pi, np.pi)
+            reading = rng.uniform(0.0, 200.0, 6)
+            too_close = rng.random(6) < 0.1
+            no_return = (rng.random(6) < 0.3) & ~too_close
+            reading[too_close | no_return] = np.nan
+            args = (origin[0], origin[1], cell, x, y, math.cos(heading), math.sin(heading), reading, too_close,
+                    no_return, count_in)  # fmt: skip
+            before = cells.copy()
+            fresh = mark_beams_rotated(cells, known_rows, known_cols, *args)
+            cleared = [np.zeros_like(plane) for plane in (known_rows, known_cols)]
+            assert fresh == mark_beams_rotated(walked, *cleared, *args)
+            np.testing.assert_array_equal(cells, walked)
+            skipped += fresh == 0 and np.array_equal(before, cells)
+            for kept, rebuilt in zip((known_rows, known_cols), known_bits(cells), strict=True):
+                np.testing.assert_array_equal(kept, rebuilt)
+        assert (cells != 0).mean() > 0.3 and skipped > 100  # the map filled up and known beams were skipped
 
 
 # --- Figure 8: both maps from an exploration run ----------------------------------------------------------------
