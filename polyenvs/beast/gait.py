@@ -639,10 +639,8 @@ class RollingGaitController:
         # A pivot turn ends where no tumble about the pivot is plannable; otherwise nothing is, which is stuck.
         self.phase = "done" if self.pivot is not None else "stuck"
 
-    def _heading_body(self, feet: np.ndarray) -> np.ndarray | None:
+    def _heading_body(self, feet: np.ndarray) -> np.ndarray:
         """The carried heading in the body frame, from the feet that anchor it."""
-        if self.heading_vec is None:
-            return None
         return self._edge_frame(feet, *self.heading_edge).T @ self.heading_vec
 
     def _edge_frame(self, feet: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -657,10 +655,7 @@ class RollingGaitController:
     def _carry_heading(self, feet, tumble):
         l1, l2, l3, _ = tumble
         rot = self._edge_frame(feet, l1, l2)
-        body = self._heading_body(feet)
-        if body is None:
-            body = rot.T @ self._default_heading()
-        h = rot @ body
+        h = rot @ self._heading_body(feet)
         h[2] = 0.0
         self.heading_vec, self.heading_edge = _unit(h), (l1, l2)
 
@@ -674,29 +669,29 @@ class RollingGaitController:
         """
         p = self.planner
         s = self.support
+        if self.tumbles_done == 0 and self.heading_vec is None:
+            # The heading starts in the frame of the default first tumble: over the edge of the two lowest-numbered
+            # support limbs, lifting the highest (the canonical (1234) of the 4-beast; along +x in the tasks).
+            a, b, c = sorted(s)
+            l1, l2, _ = p.order_edge(feet, a, b, c)
+            self.heading_edge, self.heading_vec = (l1, l2), self._default_heading()
+        rot = self._edge_frame(feet, s[0], s[1])
+        h = (rot @ self._heading_body(feet))[:2]
         if self.tumbles_done == 0:
+            a, b, c = sorted(s)
+            l1, l2, l3 = p.order_edge(feet, a, b, c)
             if self.first_tumble is not None and set(self.first_tumble[:3]) == set(s):
-                first = self.first_tumble
+                options = [self.first_tumble]
+            elif not self.disabled:
+                options = [(l1, l2, l3, p.landing_limb(l1, l2, l3))]
             else:
-                # Without a heading yet, the first tumble fixes it: over the edge of the two lowest-numbered support
-                # limbs, lifting the highest (the canonical (1234) of the 4-beast; along +x in the tasks' stances).
                 # A disabled limb standing in the support is lifted first, and none ever lands (paper section 5:
-                # reorient so that the defective limb is on top).
-                firsts = []
-                for c in sorted(s, key=lambda limb: (limb not in self.disabled, -limb)):
-                    a, b = sorted(limb for limb in s if limb != c)
-                    l1, l2, l3 = p.order_edge(feet, a, b, c)
-                    if p.landing_limb(l1, l2, l3) not in self.disabled:
-                        firsts.append((l1, l2, l3, p.landing_limb(l1, l2, l3)))
-                if not firsts:
-                    return []
-                first = firsts[0]
-            rot, _ = p.tumble_frame(feet, *first[:3])
-            options = [first]
-            h = self._default_heading()[:2]
+                # reorient so that the defective limb is on top); otherwise the look-ahead picks the first tumble.
+                pts = {limb: (rot @ feet[limb])[:2] for limb in s}
+                options = self._options(pts, s, None)
+                lift = [t for t in options if t[2] in self.disabled]
+                options = lift or options
         else:
-            rot = self._edge_frame(feet, s[0], s[1])
-            h = (rot @ self._heading_body(feet))[:2]
             options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, s, self.last_edge)
         pts = {limb: (rot @ feet[limb])[:2] for limb in s}
         scored = []
