@@ -8,6 +8,7 @@ row that ``predict`` carries is that controller's handle, so batches and episode
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -15,8 +16,8 @@ import numpy as np
 
 from baselines.base import Policy
 from polyenvs.beast.gait import (
+    DEFAULT_CONFIGS,
     BeastPlanner,
-    GaitConfig,
     RightingController,
     RollingGaitController,
     n_limbs_of,
@@ -39,13 +40,10 @@ class _ControllerPolicy(Policy):
         if action_space.shape != (3 * n_limbs,):
             raise ValueError(f"action_space must have shape ({3 * n_limbs},), got {action_space.shape}")
         self.polyhedron = polyhedron_of(n_limbs)
-        base = GaitConfig()
-        self.planner = BeastPlanner(self.polyhedron, config=_with_rate(self.planner_config(), self.rate_deg_s, base))
+        config = dataclasses.replace(DEFAULT_CONFIGS[self.polyhedron], rate_deg_s=self.rate_deg_s)
+        self.planner = BeastPlanner(self.polyhedron, config=config)
         self._controllers: dict[int, object] = {}
         self._handles = itertools.count(1)
-
-    def planner_config(self) -> GaitConfig | None:
-        return None
 
     def make_controller(self):
         raise NotImplementedError
@@ -69,14 +67,6 @@ class _ControllerPolicy(Policy):
 
     def act(self, observation, memory):
         return self.controller(memory)(observation)
-
-
-def _with_rate(config: GaitConfig | None, rate: float, default: GaitConfig) -> GaitConfig | None:
-    import dataclasses
-
-    if config is None and rate == default.rate_deg_s:
-        return None
-    return dataclasses.replace(config or default, rate_deg_s=rate)
 
 
 class RollingGait(_ControllerPolicy):

@@ -57,6 +57,7 @@ from polyenvs.beast import kinematics as K
 from polyenvs.beast.sensors import N_TILT, TILT_AXES
 
 __all__ = [
+    "DEFAULT_CONFIGS",
     "BeastPlanner",
     "GaitConfig",
     "JointTrajectory",
