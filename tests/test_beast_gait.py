@@ -273,3 +273,19 @@ def test_righting_stands_a_thrown_beast_up():
         if terminated or truncated:
             break
     assert info["episode_metrics"]["success"] == 1.0
+
+
+def test_lookahead_follows_the_strip_and_tips_back_only_when_allowed(planner):
+    q = np.tile(TUCKED, (4, 1))
+    for limb, angles in planner.stance_angles((0, 1, 3)).items():
+        q[limb] = angles
+    feet = planner.feet(q.ravel())
+    # After (1234): the strip goes on with (4213); heading back, only a controller allowed to tip back over the last
+    # edge does so, with (2143).
+    cases = ((False, [0.866, 0.5, 0.0], (3, 1, 0, 2)), (False, [-0.866, -0.5, 0.0], (3, 1, 0, 2)))
+    cases += ((True, [-0.866, -0.5, 0.0], (1, 0, 3, 2)),)
+    for allow_back, heading, expected in cases:
+        controller = RollingGaitController(planner, allow_back=allow_back)
+        controller.support, controller.tumbles_done, controller.last_edge = (0, 1, 3), 1, frozenset((0, 1))
+        controller.heading_edge, controller.heading_vec = (0, 1), np.array(heading)
+        assert controller._candidates(feet)[0][0] == expected
