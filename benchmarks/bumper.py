@@ -9,7 +9,8 @@ Two rows against their targets (``../shared/spec/performance.md``):
   densest-cluster estimate, on seeded logs of the paper's arena (target >= 1,000 updates/s; a plain numpy sketch
   managed 47, its feasibility model 214).
 
-``python -m benchmarks.bumper [--quick]`` prints a Markdown table; :func:`measure` is the importable form.
+``python -m benchmarks.bumper [--quick]`` prints :func:`section`, the Markdown that ``benchmarks.throughput`` puts in
+``THROUGHPUT.md``; :func:`measure` is the importable form.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 
 from benchmarks.harness import Case, Measurement, env_case, measure_rounds, paired_ratio, progress
 
-__all__ = ["ENV_ID", "LocalizerRunner", "measure", "main"]
+__all__ = ["ENV_ID", "LocalizerRunner", "main", "measure", "section"]
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 CARTPOLE = "CartPole-v1"
@@ -102,19 +103,32 @@ def measure(*, min_seconds: float = 2.0, repeats: int = 3, seed: int = 0) -> tup
     }
 
 
+def section(quick: bool = False) -> str:
+    """The bump-only cart's part of ``THROUGHPUT.md``: its rows and the two targets (Markdown)."""
+    rows, ratios = measure(min_seconds=0.5 if quick else 2.0, repeats=1 if quick else 3)
+    lines = [
+        "## The bump-only cart (`python -m benchmarks.bumper`)",
+        "",
+        "| row | setting | steps/s | µs/step | peak MB |",
+        "| --- | --- | ---: | ---: | ---: |",
+    ]
+    for row in rows:
+        memory = f"{row.peak_memory_mb:.2f}" if row.peak_memory_mb is not None else "-"
+        lines.append(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} | {row.us_per_step:.1f} | {memory} |")
+    ratio = ratios["cycles_vs_cartpole"]
+    lines += [
+        "",
+        f"- cart cycles vs CartPole-v1: {ratio:.2f}x (target >= 0.1x)" if ratio is not None else "- no ratio",
+        f"- localizer updates/s at {PARTICLES} particles: {ratios['localizer_updates_per_s']:,.0f} (target >= 1,000)",
+    ]
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="1 repeat of 0.5 s per row instead of 3 of 2 s")
     args = parser.parse_args(argv)
-    rows, ratios = measure(min_seconds=0.5 if args.quick else 2.0, repeats=1 if args.quick else 3)
-    print("| row | setting | steps/s | µs/step | peak MB |")
-    print("| --- | --- | ---: | ---: | ---: |")
-    for row in rows:
-        memory = f"{row.peak_memory_mb:.2f}" if row.peak_memory_mb is not None else "-"
-        print(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} | {row.us_per_step:.1f} | {memory} |")
-    ratio = ratios["cycles_vs_cartpole"]
-    print(f"\ncart cycles vs CartPole-v1: {ratio:.2f}x (target >= 0.1x)" if ratio is not None else "\nno ratio")
-    print(f"localizer updates/s at {PARTICLES} particles: {ratios['localizer_updates_per_s']:,.0f} (target >= 1,000)")
+    print(section(args.quick))
     return 0
 
 

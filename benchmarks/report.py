@@ -92,10 +92,12 @@ def format_report(
     command: str,
     date: datetime | None = None,
     training: Sequence[Measurement] = (),
+    sections: Sequence[str] = (),
 ) -> str:
     """The whole THROUGHPUT.md: how the numbers were made, the machine, the tables and the notes.
 
-    ``order`` is the labels of the timed rows in the order of the first round.
+    ``order`` is the labels of the timed rows in the order of the first round; ``sections`` are the families' own
+    Markdown sections (each with its peers, timed in rounds of its own), appended at the end.
     """
     date = date or datetime.now(UTC)
     plural = "" if repeats == 1 else "s"
@@ -140,6 +142,8 @@ Machine: {platform.platform()}, {_cpu_model()}, {os.cpu_count()} CPUs; Python {p
         text += format_training_table(training) + "\n"
     if notes:
         text += "\nNotes:\n\n" + format_notes(notes) + "\n"
+    for section in sections:
+        text += "\n" + section.rstrip("\n") + "\n"
     return text
 
 

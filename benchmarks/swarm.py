@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["measure", "measure_batched", "peak_memory_mb", "run"]
+__all__ = ["measure", "measure_batched", "peak_memory_mb", "run", "section"]
 
 TASKS = ("obstacle_field_v0", "corridor_v0", "formation_v0")
 
@@ -198,25 +198,35 @@ def run(quick: bool = False) -> list[dict]:
     return measure(rounds=rounds, seconds=seconds) + measure_batched(rounds=rounds, seconds=seconds)
 
 
+def section(quick: bool = False) -> str:
+    """The swarm's part of ``THROUGHPUT.md``: every row of :func:`run` against its target (Markdown)."""
+    lines = [
+        "## AP-lite swarms (`python -m benchmarks.swarm`)",
+        "",
+        "| row | joint steps/s | agent- or env-steps/s | ratio | peak MB |",
+        "| --- | ---: | ---: | --- | ---: |",
+    ]
+    for row in run(quick):
+        memory = f"{row['peak_memory_mb']:.1f} (target < 50)" if "peak_memory_mb" in row else "-"
+        if "env_steps_per_s" in row:
+            ratio = f"{row['ratio_vs_vmas']:.2f}x VMAS (target >= 1x)" if "ratio_vs_vmas" in row else "-"
+            lines.append(f"| {row['row']} | - | {row['env_steps_per_s']:,.0f} env-steps/s | {ratio} | {memory} |")
+            continue
+        ratio = f"{row['ratio_vs_mpe2']:.1f}x mpe2 (target >= 20x)" if "ratio_vs_mpe2" in row else "-"
+        if row["row"].endswith("N=256"):
+            ratio = f"{row['joint_steps_per_s']:,.0f} joint steps/s (target >= 200)"
+        lines.append(
+            f"| {row['row']} | {row['joint_steps_per_s']:,.1f} | {row['agent_steps_per_s']:,.0f} agent-steps/s | "
+            f"{ratio} | {memory} |"
+        )
+    return "\n".join(lines)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="one round of 0.5 s per row")
     args = parser.parse_args(argv)
-    for row in run(args.quick):
-        if "env_steps_per_s" in row:
-            extra = f"  {row['ratio_vs_vmas']:.2f}x VMAS (target >= 1x)" if "ratio_vs_vmas" in row else ""
-            if "peak_memory_mb" in row:
-                extra += f", peak {row['peak_memory_mb']:.1f} MB"
-            print(f"{row['row']:<40} {row['env_steps_per_s']:>12.0f} env-steps/s{extra}")
-            continue
-        extra = ""
-        if "ratio_vs_mpe2" in row:
-            extra = f"  {row['ratio_vs_mpe2']:.1f}x mpe2 (target >= 20x)"
-        if "peak_memory_mb" in row:
-            extra = f"  peak {row['peak_memory_mb']:.1f} MB (target < 50)"
-        print(
-            f"{row['row']:<28} {row['joint_steps_per_s']:>10.1f} joint steps/s {row['agent_steps_per_s']:>12.0f} agent-steps/s{extra}"
-        )
+    print(section(args.quick))
 
 
 if __name__ == "__main__":

@@ -7,11 +7,15 @@ MiniGrid, PPO on CartPole), because these shared machines drift by up to 25%. Se
 - ``benchmarks.harness``: timing a step loop in interleaved rounds, peak memory, ``Measurement``;
 - ``benchmarks.peers``: the peer environments and their adapters; ``benchmarks.ours``: our registry's ids;
 - ``benchmarks.targets``: the spec's targets as data; ``benchmarks.training``: PPO timesteps/s;
-- ``benchmarks.report``: the Markdown tables and the report; this module: :func:`run` and the command line.
+- ``benchmarks.report``: the Markdown tables and the report; this module: :func:`run` and the command line;
+- a family whose targets pair it with peers of its own (the cart's localizer, the swarms against mpe2 and VMAS,
+  the beasts against Ant-v5 and raw ``mj_step``) has a module listed in :data:`FAMILY_BENCHMARKS` whose
+  ``section(quick)`` times them in interleaved rounds of its own and returns its Markdown section of the report.
 
 From the repo root::
 
-    python -m benchmarks.throughput [--quick] [--only SUBSTRING] [--no-write] [--no-training] [--output PATH]
+    python -m benchmarks.throughput [--quick] [--only SUBSTRING] [--no-write] [--no-training] [--no-families]
+                                    [--output PATH]
 """
 
 from __future__ import annotations
@@ -28,9 +32,11 @@ from benchmarks.peers import peer_cases
 from benchmarks.report import format_notes, format_report, format_table, format_training_table
 from benchmarks.training import measure_training
 
-__all__ = ["BenchmarkRun", "alternate", "main", "run"]
+__all__ = ["FAMILY_BENCHMARKS", "BenchmarkRun", "alternate", "family_sections", "main", "run"]
 
 DEFAULT_OUTPUT = Path(__file__).resolve().parent / "THROUGHPUT.md"
+#: Family benchmarks with peers of their own: modules with ``section(quick: bool) -> str``.
+FAMILY_BENCHMARKS = ("benchmarks.bumper", "benchmarks.swarm", "benchmarks.beast")
 
 # (seconds per repeat, rounds, PPO timesteps per round)
 _FULL = (2.0, 3, 2048)
@@ -74,6 +80,19 @@ def run(*, min_seconds: float = 2.0, repeats: int = 3, only: str | None = None, 
     return BenchmarkRun(rows, notes, [_short_label(case) for case in timed])
 
 
+def family_sections(quick: bool, notes: list[str]) -> list[str]:
+    """Each family benchmark's Markdown section; one that fails becomes a note, and the others still run."""
+    import importlib
+
+    sections = []
+    for name in FAMILY_BENCHMARKS:
+        try:
+            sections.append(importlib.import_module(name).section(quick))
+        except Exception as exc:  # noqa: BLE001 - a broken family must not hide the rest
+            notes.append(f"{name} failed: {type(exc).__name__}: {exc}")
+    return sections
+
+
 def _short_label(case: Case) -> str:
     name = case.name.removeprefix("polyenvs/")
     return f"{name} (vector)" if case.vector else name
@@ -90,6 +109,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--only", metavar="SUBSTRING", help="only our envs whose id contains SUBSTRING (peers always)")
     parser.add_argument("--no-write", action="store_true", help="print the tables without writing the report")
     parser.add_argument("--no-training", action="store_true", help="skip the PPO training-speed rows")
+    parser.add_argument(
+        "--no-families",
+        action="store_true",
+        help="skip the families' own sections (" + ", ".join(FAMILY_BENCHMARKS) + ")",
+    )
     parser.add_argument("--output", type=Path, default=DEFAULT_OUTPUT, help=f"report path (default: {DEFAULT_OUTPUT})")
     return parser
 
@@ -106,6 +130,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             env_ids = [row.name for row in result.rows if row.name.startswith("polyenvs/") and not row.vector]
             training, training_notes = measure_training(env_ids, timesteps=ppo_timesteps, repeats=repeats)
             notes += training_notes
+        sections = [] if args.no_families else family_sections(args.quick, notes)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
@@ -117,6 +142,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if notes:
         print()
         print(format_notes(notes))
+    for section in sections:
+        print()
+        print(section)
 
     if not args.no_write:
         from polyenvs.evaluation import write_text_atomic
@@ -131,6 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             quick=args.quick,
             command=command,
             training=training,
+            sections=sections,
         )
         try:
             write_text_atomic(args.output, report)
