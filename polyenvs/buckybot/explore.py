@@ -173,10 +173,12 @@ class BuckybotExploreEnv(BuckybotEnv):
 
     @property
     def map(self) -> OccupancyGrid:
-        """Row 0's occupancy grid, built from the true pose."""
+        """Row 0's occupancy grid, built from the true pose (a read-only view: the kernels keep bit planes of it)."""
         g = self.plan.grid(self.cell_cm)
         h, w = g.shape
-        return OccupancyGrid(g.origin, g.shape, self.cell_cm, cells=self._cells[0, :h, :w])
+        cells = self._cells[0, :h, :w].view()
+        cells.flags.writeable = False
+        return OccupancyGrid(g.origin, g.shape, self.cell_cm, cells=cells)
 
     @property
     def coverage(self) -> np.ndarray:
