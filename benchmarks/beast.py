@@ -11,8 +11,8 @@ clocks thus run the same physics, alternating every 100 steps, and differ only b
 Ant-v5, Gymnasium's ``MujocoEnv`` step). Rows are timed in rounds (order reversed every other round); each figure is
 the median over rounds, each ratio the median of per-round ratios.
 
-``python -m benchmarks.beast [--quick] [--ids Tumble,Roll]``; :func:`run` returns the rows for
-``benchmarks/throughput.py``.
+``python -m benchmarks.beast [--quick] [--ids Tumble,Roll]``; :func:`section` returns the Markdown section
+``benchmarks/throughput.py`` puts in ``THROUGHPUT.md``, :func:`run` the rows.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["BEAST_IDS", "Row", "run"]
+__all__ = ["BEAST_IDS", "Row", "run", "section"]
 
 BEAST_IDS = ("polyenvs/BeastTumble-v0", "polyenvs/BeastRoll-v0", "polyenvs/BeastTurn-v0", "polyenvs/BeastRecover-v0")
 _CLASSES = {
@@ -142,19 +142,38 @@ def run(*, min_seconds: float = 2.0, rounds: int = 3, ids=BEAST_IDS, seed: int =
     return [row for pair in rows.values() for row in pair], notes
 
 
+def section(quick: bool = False) -> str:
+    """The beasts' part of ``THROUGHPUT.md`` (Markdown): every row of :func:`run`, then the ratios to the targets."""
+    seconds, rounds = (0.3, 2) if quick else (2.0, 3)
+    rows, notes = run(min_seconds=seconds, rounds=rounds)
+    lines = [
+        "## Platonic beasts (`python -m benchmarks.beast`)",
+        "",
+        "Random actions through `gym.make`, each environment alternating every 100 steps with raw",
+        "`mj_step(nstep=frame_skip)` on a copy of its own MuJoCo state (same physics on both clocks).",
+        "",
+        "| row | setting | steps/s (median of rounds) |",
+        "| --- | --- | ---: |",
+        *(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} |" for row in rows),
+        "",
+        *(f"- {note}" for note in notes),
+    ]
+    return "\n".join(lines)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="0.3 s per repeat, 2 rounds")
     parser.add_argument("--ids", default="", help="comma-separated substrings of the beast ids to time")
     args = parser.parse_args(argv)
     ids = [i for i in BEAST_IDS if not args.ids or any(s in i for s in args.ids.split(","))]
+    if len(ids) == len(BEAST_IDS):
+        print(section(args.quick))
+        return
     seconds, rounds = (0.3, 2) if args.quick else (2.0, 3)
     rows, notes = run(min_seconds=seconds, rounds=rounds, ids=ids)
-    print("| row | setting | steps/s (median of rounds) |")
-    print("| --- | --- | ---: |")
     for row in rows:
         print(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} |")
-    print()
     for note in notes:
         print(f"- {note}")
 
