@@ -107,6 +107,10 @@ _CORRIDOR_BASELINES = (
 _FIELD_BASELINES = (_swarm("aplite", "APLite"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking"))
 
 
+def _beast(name: str, cls: str, **kwargs) -> Baseline:
+    return Baseline(name, f"baselines.beast:{cls}", kwargs)
+
+
 REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotWallFollow-v0",
@@ -140,6 +144,45 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
         baselines=(_buckybot("goal_seeker", "GoalSeeker"),),
         paper="goal_seeker",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastTumble-v0",
+        entry_point="polyenvs.beast.tasks:BeastTumbleEnv",
+        max_episode_steps=3000,
+        family="beast",
+        description="Platonic 4-beast (MuJoCo): one canonical tumble (1234) from the working tumble's start stance; "
+        "success when limbs 1, 4, 2 stand and 3 is free",
+        baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
+        paper="rolling_gait",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRoll-v0",
+        entry_point="polyenvs.beast.tasks:BeastRollEnv",
+        max_episode_steps=8000,
+        family="beast",
+        description="Platonic beast (MuJoCo): roll along a commanded heading by tumbles; reward = body velocity "
+        "along the heading - control cost",
+        baselines=(_beast("rolling_gait", "RollingGait"),),
+        paper="rolling_gait",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastTurn-v0",
+        entry_point="polyenvs.beast.tasks:BeastTurnEnv",
+        max_episode_steps=8000,
+        family="beast",
+        description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
+        baselines=(_beast("sharp_turn", "SharpTurn"),),
+        paper="sharp_turn",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRecover-v0",
+        entry_point="polyenvs.beast.tasks:BeastRecoverEnv",
+        max_episode_steps=2000,
+        family="beast",
+        description="Platonic beast (MuJoCo): thrown in a random orientation, reach a still stance on three or "
+        "more feet",
+        baselines=(_beast("righting", "Righting"),),
+        paper="righting",
     ),
     EnvEntry(
         id="polyenvs/BumperCartExplore-v0",

@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 
 import pytest
+
+# MuJoCo renders headless through EGL here (osmesa also works where its library is installed); without a setting it
+# would look for a display. The rendering tests skip, with the reason, where no GL works at all.
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 _REQUIRED = ("gymnasium", "numpy", "numba")
 
@@ -14,5 +19,5 @@ def pytest_configure(config):
     if missing:
         raise pytest.UsageError(
             f"missing {', '.join(missing)}: install the project first, e.g. "
-            'python3 -m venv .venv && .venv/bin/pip install ".[dev,train,distributed]" && .venv/bin/python -m pytest'
+            'python3 -m venv .venv && .venv/bin/pip install ".[dev,train,distributed,mujoco]" && .venv/bin/python -m pytest'
         )

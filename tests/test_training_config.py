@@ -44,7 +44,7 @@ def test_every_key_is_a_registered_id_and_every_entry_loads(name):
         assert env_id in polyenvs.registry.ALL_IDS, f"configs/{name}: {env_id} is not a registered polyenvs id"
         config = load_config(CONFIGS / name, env_id, ALGO_OF_FILE[name])
         assert config.policy == "MlpPolicy"
-        assert config.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}  # small MLPs
+        assert config.hyperparams["policy_kwargs"]["net_arch"] == [64, 64]  # small MLPs
         if config.algo != "dqn":
             rollout = config.hyperparams["n_steps"] * config.n_envs
             assert rollout % config.hyperparams["batch_size"] == 0, f"{name}: {env_id}: minibatches do not fit"
