@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import tempfile
 
 import gymnasium as gym
@@ -86,6 +87,20 @@ class TumbleCounter:
         if tumbled:
             self.count += 1
         return tumbled
+
+
+def _reinitialize_egl_display() -> None:
+    """Initialise MuJoCo's EGL display again if something else terminated it.
+
+    MuJoCo initialises the process's EGL display once; SDL (a pygame window of another environment's
+    ``render_mode="human"``, headless) terminates that same display when it quits, and every later MuJoCo context
+    then fails with ``EGL_NOT_INITIALIZED``. ``eglInitialize`` on an initialised display changes nothing.
+    """
+    if os.environ.get("MUJOCO_GL") != "egl" or "mujoco.egl" not in sys.modules:
+        return
+    egl = sys.modules["mujoco.egl"]
+    if egl.EGL_DISPLAY is not None:
+        egl.EGL.eglInitialize(egl.EGL_DISPLAY, None, None)
 
 
 class BeastEnv(MujocoEnv):
@@ -226,6 +241,10 @@ class BeastEnv(MujocoEnv):
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._sensordata, self._force, self._warnings = d.sensordata, d.actuator_force, d.warning.number
         self._shape = (self.n_joints,)
+
+    def render(self):
+        _reinitialize_egl_display()
+        return super().render()
 
     def __getstate__(self):
         state = self.__dict__.copy()
