@@ -357,8 +357,8 @@ def _cmd_record(args) -> int:
     try:
         env_id = args.env_id.split(":", 1)[-1]
         policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
-        frames = episode_frames(env, policy, args.seed, args.max_steps)
-        fps = args.fps or env.metadata.get("render_fps", 10)
+        frames = episode_frames(env, policy, args.seed, args.max_steps, every=args.every)
+        fps = args.fps or env.metadata.get("render_fps", 10) / args.every
     finally:
         env.close()
     video = np.stack(frames)
@@ -463,6 +463,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")
     p.add_argument("--max-steps", type=steps_type, default=300, help="at most this many steps, >= 1 (default 300)")
+    p.add_argument(
+        "--every", type=steps_type, default=1, help="keep one frame every this many steps, >= 1 (default 1: all)"
+    )
     p.add_argument(
         "--fps", type=_positive_finite, default=None, help="frames per second, > 0 (default: the env's render_fps)"
     )

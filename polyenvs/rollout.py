@@ -200,25 +200,29 @@ def _run_parallel_episode(env: ParallelEnv, agent, seed: int) -> dict[str, Any]:
     return {"seed": seed, "return": float(np.mean(list(returns.values()))), "length": length, "metrics": metrics}
 
 
-def episode_frames(env, agent, seed: int, max_steps: int) -> list[np.ndarray]:
-    """The ``rgb_array`` frames of one episode seeded ``seed``, at most ``max_steps`` steps (or cycles) long."""
+def episode_frames(env, agent, seed: int, max_steps: int, every: int = 1) -> list[np.ndarray]:
+    """The ``rgb_array`` frames of one episode seeded ``seed``, at most ``max_steps`` steps (or cycles) long: the
+    first, then one every ``every`` steps (only those are rendered: a long MuJoCo episode at 100 steps per second
+    need not draw them all), and the last."""
     if is_parallel(env):
         observations, infos = env.reset(seed=seed)
         shared = _SharedPolicy(env, agent)
         frames = [env.render()]
-        for _ in range(max_steps):
+        for step in range(1, max_steps + 1):
             if not env.agents:
                 break
             observations, _, _, _, infos = env.step(shared.act({a: observations[a] for a in env.agents}, infos))
-            frames.append(env.render())
+            if step % every == 0 or not env.agents:
+                frames.append(env.render())
         return frames
     obs, info = env.reset(seed=seed)
     frames, state, start = [env.render()], None, True
-    for _ in range(max_steps):
+    for step in range(1, max_steps + 1):
         action, state = policy_action(agent, obs, state, start, info)
         obs, _, terminated, truncated, info = env.step(action)
-        frames.append(env.render())
         start = False
+        if step % every == 0 or terminated or truncated:
+            frames.append(env.render())
         if terminated or truncated:
             break
     return frames

@@ -318,6 +318,18 @@ def test_record_writes_a_gif(tmp_path: Path):
     assert (out.stat().st_mode & 0o777) != 0o600
 
 
+def test_record_keeps_every_kth_frame_and_a_swarm_records_too(tmp_path: Path):
+    imageio = pytest.importorskip("imageio.v3")
+    out = tmp_path / "episode.gif"
+    assert main(["record", GOAL, "--max-steps", "9", "--every", "4", "--output", str(out)]) == 0
+    frames = imageio.imread(out, index=None)
+    assert len(frames) == 3  # the reset, steps 4 and 8 (the episode runs on past step 9)
+    swarm = tmp_path / "swarm.gif"
+    args = ["record", "polyenvs.swarm.corridor_v0", "--max-steps", "4", "--output", str(swarm)]
+    assert main([*args, "--env-kwargs", '{"n_robots": 2}']) == 0
+    assert len(imageio.imread(swarm, index=None)) == 5
+
+
 def test_record_writes_an_mp4(tmp_path: Path):
     pytest.importorskip("imageio_ffmpeg")
     imageio = pytest.importorskip("imageio.v3")
