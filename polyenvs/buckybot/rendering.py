@@ -12,6 +12,7 @@ from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
 from polyenvs.core.raster import Canvas
+from polyenvs.core.window import FrameWindow
 
 __all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
 
@@ -41,8 +42,7 @@ class BuckybotRenderer:
         self.render_mode = render_mode
         self.fps = fps
         self.view_bounds = tuple(float(v) for v in view_bounds)
-        self._window = None
-        self._clock = None
+        self._window = FrameWindow("polyenvs Buckybot", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
@@ -97,32 +97,8 @@ class BuckybotRenderer:
         frame = self.frame(env)
         if self.render_mode == "rgb_array":
             return frame
-        self._show(frame)
+        self._window.show(frame)
         return None
 
-    def _show(self, frame: np.ndarray) -> None:
-        try:
-            import pygame
-        except ImportError as exc:
-            from gymnasium.error import DependencyNotInstalled
-
-            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
-        if self._window is None:
-            pygame.init()
-            pygame.display.init()
-            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
-            pygame.display.set_caption("polyenvs Buckybot")
-            self._clock = pygame.time.Clock()
-        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
-        self._window.blit(surface, (0, 0))
-        pygame.event.pump()
-        pygame.display.flip()
-        self._clock.tick(self.fps)
-
     def close(self) -> None:
-        if self._window is not None:
-            import pygame
-
-            pygame.display.quit()
-            pygame.quit()
-            self._window = None
+        self._window.close()

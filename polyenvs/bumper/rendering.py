@@ -13,6 +13,7 @@ import numpy as np
 
 from polyenvs.bumper import cart as C
 from polyenvs.core.raster import Canvas
+from polyenvs.core.window import FrameWindow
 
 __all__ = ["BumperRenderer", "FRAME_WIDTH_PX"]
 
@@ -46,8 +47,7 @@ class BumperRenderer:
         x0, y0, x1, y1 = bounds
         pad = 0.05 * max(x1 - x0, y1 - y0)
         self.view_bounds = (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
-        self._window = None
-        self._clock = None
+        self._window = FrameWindow("polyenvs bumper cart", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
@@ -79,32 +79,8 @@ class BumperRenderer:
         frame = self.frame(env)
         if self.render_mode == "rgb_array":
             return frame
-        self._show(frame)
+        self._window.show(frame)
         return None
 
-    def _show(self, frame: np.ndarray) -> None:
-        try:
-            import pygame
-        except ImportError as exc:
-            from gymnasium.error import DependencyNotInstalled
-
-            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
-        if self._window is None:
-            pygame.init()
-            pygame.display.init()
-            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
-            pygame.display.set_caption("polyenvs bumper cart")
-            self._clock = pygame.time.Clock()
-        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
-        self._window.blit(surface, (0, 0))
-        pygame.event.pump()
-        pygame.display.flip()
-        self._clock.tick(self.fps)
-
     def close(self) -> None:
-        if self._window is not None:
-            import pygame
-
-            pygame.display.quit()
-            pygame.quit()
-            self._window = None
+        self._window.close()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from polyenvs.core.raster import Canvas
+from polyenvs.core.window import FrameWindow
 from polyenvs.swarm.env import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
@@ -33,8 +34,7 @@ class SwarmRenderer:
         self.render_mode = render_mode
         self.fps = fps
         self.bounds = tuple(float(v) for v in bounds)
-        self._window = None
-        self._clock = None
+        self._window = FrameWindow("polyenvs swarm", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.bounds, width=FRAME_WIDTH_PX)
@@ -70,32 +70,8 @@ class SwarmRenderer:
         frame = self.frame(env)
         if self.render_mode == "rgb_array":
             return frame
-        self._show(frame)
+        self._window.show(frame)
         return None
 
-    def _show(self, frame: np.ndarray) -> None:
-        try:
-            import pygame
-        except ImportError as exc:
-            from gymnasium.error import DependencyNotInstalled
-
-            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
-        if self._window is None:
-            pygame.init()
-            pygame.display.init()
-            self._window = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
-            pygame.display.set_caption("polyenvs swarm")
-            self._clock = pygame.time.Clock()
-        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
-        self._window.blit(surface, (0, 0))
-        pygame.event.pump()
-        pygame.display.flip()
-        self._clock.tick(self.fps)
-
     def close(self) -> None:
-        if self._window is not None:
-            import pygame
-
-            pygame.display.quit()
-            pygame.quit()
-            self._window = None
+        self._window.close()
