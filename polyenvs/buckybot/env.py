@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
@@ -274,22 +273,10 @@ class BuckybotEnv(RowsEnv):
         return self.sim.position[0].copy()
 
     # --- Gymnasium API (reset and step: RowsEnv's) ----------------------------------------------------------
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if not self._started:
-            raise gym.error.ResetNeeded("call reset() before render()")
+    def _make_renderer(self):
         from polyenvs.buckybot.rendering import BuckybotRenderer
 
-        if self._renderer is None:
-            self._renderer = BuckybotRenderer(self.render_mode, self.metadata["render_fps"], self.view_bounds)
-        return self._renderer.render(self)
-
-    def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        return BuckybotRenderer(self.render_mode, self.metadata["render_fps"], self.view_bounds)
 
     def action_masks(self) -> np.ndarray:
         """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""

@@ -12,7 +12,6 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
@@ -206,22 +205,10 @@ class BumperCartExploreEnv(RowsEnv):
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if not self._started:
-            raise gym.error.ResetNeeded("call reset() before render()")
+    def _make_renderer(self):
         from polyenvs.bumper.rendering import BumperRenderer
 
-        if self._renderer is None:
-            self._renderer = BumperRenderer(self.render_mode, self.metadata["render_fps"], self.world.bounds)
-        return self._renderer.render(self)
-
-    def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.world.bounds)
 
     def localization_context(self) -> LocalizationContext:
         """The map and the cart's nominal geometry, for estimators run on this environment's logs."""

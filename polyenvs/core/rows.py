@@ -15,7 +15,8 @@ batch of many, so a family's equations exist once, in compiled kernels over pack
 - ``_row_generator(row)`` (the row's generator, ``None`` before its first reset), ``_row_steps()`` (steps into
   each row's episode, for time limits), ``_check_actions(actions)`` (a batch, for the vector env), and
   ``_get_info(row)`` / ``_vector_info()`` (one row's info; every row's, in the vector convention);
-- optionally ``_on_row0_step()`` (after row 0 moved: trails for rendering).
+- optionally ``_on_row0_step()`` (after row 0 moved: trails for rendering) and ``_make_renderer()`` (an object
+  whose ``render(env)`` draws row 0 and ``close()`` closes its window), built at the first ``render()``.
 
 Conventions every family inherits from here:
 
@@ -122,6 +123,11 @@ class RowsEnv(gym.Env):
     def _on_row0_step(self) -> None:
         """Called after row 0 moved (not after a restart): rendering trails."""
 
+    def _make_renderer(self):
+        raise NotImplementedError
+
+    _renderer = None
+
     # --- Gymnasium API ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         options = self._check_options(options)
@@ -132,6 +138,21 @@ class RowsEnv(gym.Env):
         self._commit_rows([self._prepare_row(0, rng, options, reseeded=seed is not None)])
         self._np_random, self._np_random_seed = rng, used_seed
         return self._observations[0].copy(), self._get_info(0)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
+        if self._renderer is None:
+            self._renderer = self._make_renderer()
+        return self._renderer.render(self)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
     def step(self, action):
         if not self._started:
