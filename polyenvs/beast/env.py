@@ -62,8 +62,10 @@ class TumbleCounter:
     """Support changes that are tumbles, from the foot-contact bits.
 
     A support is a set of three or more feet on the floor held for ``STANCE_TICKS`` ticks. A change of support is a
-    tumble when the body has turned by more than 45 degrees since the previous support (a tumble of the 4-beast
-    turns it by 109.5 degrees; re-placing a foot without rolling turns it hardly at all).
+    tumble when the body has turned by more than 45 degrees since the support of the last tumble (a tumble turns
+    the 4-beast by 109.5 degrees and the 6-beast by 70.5; re-placing a foot without rolling turns it hardly at all).
+    Measuring from the last tumble's support, not the last support, counts a tumble that passes through a brief
+    four-foot support (the 6-beast's do) once, not zero times.
     """
 
     def __init__(self, support: int, qpos: np.ndarray):
@@ -83,8 +85,8 @@ class TumbleCounter:
             return False
         tumbled = _rotation_angle(self.quat, qpos[3:7]) > math.radians(45)
         self.support = mask
-        self.quat = qpos[3:7].copy()
         if tumbled:
+            self.quat = qpos[3:7].copy()
             self.count += 1
         return tumbled
 
