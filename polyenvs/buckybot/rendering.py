@@ -12,7 +12,7 @@ from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
 from polyenvs.core.raster import Canvas
-from polyenvs.core.window import FrameWindow
+from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
 
@@ -31,18 +31,18 @@ TIP = (90, 50, 0)
 _HEXAGON_ANGLES = np.radians(np.arange(6) * 60.0 + 30.0)
 
 
-class BuckybotRenderer:
+class BuckybotRenderer(FrameRenderer):
     """Renders row 0 of a :class:`~polyenvs.buckybot.env.BuckybotEnv`; ``human`` mode opens a pygame window lazily.
 
     Every frame covers ``view_bounds`` (the plan's, or the box every random room fits in), so one renderer makes
     frames of one size whatever the room, and pixel-observation wrappers stay inside their space.
     """
 
+    caption = "polyenvs Buckybot"
+
     def __init__(self, render_mode: str, fps: int, view_bounds):
-        self.render_mode = render_mode
-        self.fps = fps
+        super().__init__(render_mode, fps)
         self.view_bounds = tuple(float(v) for v in view_bounds)
-        self._window = FrameWindow("polyenvs Buckybot", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
@@ -92,13 +92,3 @@ class BuckybotRenderer:
         label_at = pos + 1.6 * env.body_radius_cm * np.array([1.0, 1.0])  # beside the body: it is too small
         canvas.text(label_at, str(face + 1), TIP, scale=2)
         return canvas.image
-
-    def render(self, env):
-        frame = self.frame(env)
-        if self.render_mode == "rgb_array":
-            return frame
-        self._window.show(frame)
-        return None
-
-    def close(self) -> None:
-        self._window.close()

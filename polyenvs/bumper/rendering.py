@@ -13,7 +13,7 @@ import numpy as np
 
 from polyenvs.bumper import cart as C
 from polyenvs.core.raster import Canvas
-from polyenvs.core.window import FrameWindow
+from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BumperRenderer", "FRAME_WIDTH_PX"]
 
@@ -37,17 +37,17 @@ def body_outline(pose, model) -> np.ndarray:
     return np.stack([x + local[:, 0] * c - local[:, 1] * s, y + local[:, 0] * s + local[:, 1] * c], axis=-1)
 
 
-class BumperRenderer:
+class BumperRenderer(FrameRenderer):
     """Renders row 0 of a :class:`~polyenvs.bumper.env.BumperCartExploreEnv`; every frame covers the map's bounds,
     so one instance makes frames of one size."""
 
+    caption = "polyenvs bumper cart"
+
     def __init__(self, render_mode: str, fps: int, bounds):
-        self.render_mode = render_mode
-        self.fps = fps
+        super().__init__(render_mode, fps)
         x0, y0, x1, y1 = bounds
         pad = 0.05 * max(x1 - x0, y1 - y0)
         self.view_bounds = (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
-        self._window = FrameWindow("polyenvs bumper cart", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
@@ -74,13 +74,3 @@ class BumperRenderer:
         canvas.polygon(outline, BODY, outline=BUMPER)
         canvas.lines(outline[0:1], outline[1:2], BUMPER, width_px=3.0)
         return canvas.image
-
-    def render(self, env):
-        frame = self.frame(env)
-        if self.render_mode == "rgb_array":
-            return frame
-        self._window.show(frame)
-        return None
-
-    def close(self) -> None:
-        self._window.close()

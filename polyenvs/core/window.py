@@ -1,4 +1,4 @@
-"""The window of ``render_mode="human"``: rgb frames shown in a pygame window, opened at the first frame.
+"""Rendering modes over a family's frames: ``rgb_array`` returns them, ``human`` shows them in a pygame window.
 
 Every family draws its frames with :mod:`polyenvs.core.raster` and shows them here, so the window's behaviour (the
 frame rate, closing it, the missing-dependency message) is the same for all of them.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FrameWindow"]
+__all__ = ["FrameRenderer", "FrameWindow"]
 
 
 class FrameWindow:
@@ -47,3 +47,28 @@ class FrameWindow:
             pygame.display.quit()
             pygame.quit()
             self._surface = None
+
+
+class FrameRenderer:
+    """Base of a family's renderer: subclasses draw ``frame(env)``; ``render(env)`` returns it (``rgb_array``) or
+    shows it in a window titled ``caption`` (``human``, opened at the first frame)."""
+
+    caption = "polyenvs"
+
+    def __init__(self, render_mode: str, fps: float):
+        self.render_mode = render_mode
+        self.fps = fps
+        self._window = FrameWindow(self.caption, fps)
+
+    def frame(self, env) -> np.ndarray:
+        raise NotImplementedError
+
+    def render(self, env):
+        frame = self.frame(env)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._window.show(frame)
+        return None
+
+    def close(self) -> None:
+        self._window.close()

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from polyenvs.core.raster import Canvas
-from polyenvs.core.window import FrameWindow
+from polyenvs.core.window import FrameRenderer
 from polyenvs.swarm.env import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
@@ -27,14 +27,14 @@ BEAM_HIT = (40, 160, 60)
 BEAM_NONE = (205, 205, 205)
 
 
-class SwarmRenderer:
+class SwarmRenderer(FrameRenderer):
     """Renders a :class:`~polyenvs.swarm.env.SwarmEnv`; ``human`` mode opens a pygame window lazily."""
 
+    caption = "polyenvs swarm"
+
     def __init__(self, render_mode: str, fps: int, bounds):
-        self.render_mode = render_mode
-        self.fps = fps
+        super().__init__(render_mode, fps)
         self.bounds = tuple(float(v) for v in bounds)
-        self._window = FrameWindow("polyenvs swarm", fps)
 
     def frame(self, env) -> np.ndarray:
         canvas = Canvas(self.bounds, width=FRAME_WIDTH_PX)
@@ -65,13 +65,3 @@ class SwarmRenderer:
             tip = pose[live, :2] + radius * np.column_stack([np.cos(pose[live, 2]), np.sin(pose[live, 2])])
             canvas.lines(pose[live, :2], tip, HEADING, width_px=2.0)
         return canvas.image
-
-    def render(self, env):
-        frame = self.frame(env)
-        if self.render_mode == "rgb_array":
-            return frame
-        self._window.show(frame)
-        return None
-
-    def close(self) -> None:
-        self._window.close()
