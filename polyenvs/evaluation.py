@@ -30,10 +30,12 @@ from polyenvs.rollout import policy_action, run_episode
 
 __all__ = [
     "InputError",
+    "add_progress_flag",
     "atomic_path",
     "check_count",
     "check_writable_directory",
     "evaluate",
+    "int_flag",
     "interquartile_mean",
     "iqm_with_ci",
     "is_terminal",
@@ -95,6 +97,38 @@ def is_terminal(stream) -> bool:
         return bool(stream.isatty())
     except (AttributeError, ValueError):  # no isatty, or a closed stream
         return False
+
+
+def int_flag(flag: str, text: str | None, minimum: int) -> int | None:
+    """A command-line flag's integer (``1e6`` and ``1_000`` accepted), at least ``minimum``; ``None`` stays ``None``;
+    anything else raises :class:`InputError` naming the flag."""
+    if text is None:
+        return None
+    try:
+        value = int(str(text).replace("_", ""))
+    except ValueError:
+        try:  # 1e6, as configs write it
+            number = float(text)
+        except ValueError:
+            raise InputError(f"{flag} must be an integer, got {text!r}") from None
+        if not number.is_integer():
+            raise InputError(f"{flag} must be an integer, got {text!r}") from None
+        value = int(number)
+    if value < minimum:
+        raise InputError(f"{flag} must be >= {minimum}, got {value}")
+    return value
+
+
+def add_progress_flag(parser) -> None:
+    """``--progress`` / ``--no-progress`` on an ``argparse`` parser (default ``None``: when stderr is a terminal)."""
+    import argparse
+
+    parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="show a progress bar (default: when stderr is a terminal)",
+    )
 
 
 def check_count(name: str, value, minimum: int) -> int:

@@ -390,7 +390,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs sweep`` for parsed ``args``: 0 when every job finished, 1 if any failed, 130 after Ctrl-C."""
-    from polyenvs.training.command import int_flag
+    from polyenvs.evaluation import int_flag
 
     seeds = [int_flag("--seeds", s, 0) for s in args.seeds]
     timesteps = int_flag("--timesteps", args.timesteps, 1)

@@ -23,7 +23,14 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import InputError, check_writable_directory, is_terminal, parse_json_object
+from polyenvs.evaluation import (
+    InputError,
+    add_progress_flag,
+    check_writable_directory,
+    int_flag,
+    is_terminal,
+    parse_json_object,
+)
 from polyenvs.localization import DEFAULT_ENV_ID
 
 __all__ = ["DEFAULT_ENV_ID", "add_parser", "run"]
@@ -63,12 +70,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seed", default="0", help="first seed, >= 0; run r uses seed + r (default 0)")
     p.add_argument("--out", default=None, help=f"output directory (default {DEFAULT_LOCALIZE_DIR}/MAP)")
     p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="show a progress bar (default: when stderr is a terminal)",
-    )
+    add_progress_flag(p)
     p.set_defaults(func=run)
     return p
 
@@ -78,7 +80,6 @@ def run(args: argparse.Namespace) -> int:
     from polyenvs.localization import estimator_kwargs, estimators, make_estimator
     from polyenvs.localization.report import convergence_plot, convergence_table, write_png
     from polyenvs.localization.runner import CONVERGED_CM, CONVERGED_DEG, rollout_logs, score_estimator, summarize
-    from polyenvs.training.command import int_flag
 
     particles = int_flag("--particles", args.particles, 10)
     runs = int_flag("--runs", args.runs, 1)

@@ -17,9 +17,9 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import InputError, is_terminal, parse_json_object
+from polyenvs.evaluation import add_progress_flag, int_flag, is_terminal, parse_json_object
 
-__all__ = ["add_parser", "default_out_dir", "int_flag", "run"]
+__all__ = ["add_parser", "default_out_dir", "run"]
 
 #: Where ``polyenvs train`` writes by default (gitignored, like every run's output).
 DEFAULT_TRAIN_DIR = Path("runs/train")
@@ -51,32 +51,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--n-envs", default=None, help="parallel environments, >= 1 (default: the config's n_envs)")
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--out", default=None, help=f"output directory (default {DEFAULT_TRAIN_DIR}/ENV/ALGO/seedS)")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="show a progress bar (default: when stderr is a terminal)",
-    )
+    add_progress_flag(p)
     p.set_defaults(func=run)
     return p
-
-
-def int_flag(flag: str, text: str | None, minimum: int) -> int | None:
-    if text is None:
-        return None
-    try:
-        value = int(str(text).replace("_", ""))
-    except ValueError:
-        try:  # 1e6, as configs write it
-            number = float(text)
-        except ValueError:
-            raise InputError(f"{flag} must be an integer, got {text!r}") from None
-        if not number.is_integer():
-            raise InputError(f"{flag} must be an integer, got {text!r}") from None
-        value = int(number)
-    if value < minimum:
-        raise InputError(f"{flag} must be >= {minimum}, got {value}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:
