@@ -6,10 +6,9 @@
 from __future__ import annotations
 
 import numpy as np
-from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
 
 from polyenvs.core.validation import check_in_range
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, start_block
 
 __all__ = ["CorridorEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
@@ -129,16 +128,4 @@ class CorridorEnv(SwarmEnv):
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=np.array(GOAL_M))
 
 
-def parallel_env(**kwargs) -> CorridorEnv:
-    """The PettingZoo parallel environment (keywords: see :class:`CorridorEnv`)."""
-    return CorridorEnv(**kwargs)
-
-
-def raw_env(**kwargs):
-    """The AEC form, without wrappers."""
-    return parallel_to_aec(CorridorEnv(**kwargs))
-
-
-def env(**kwargs):
-    """The AEC form with PettingZoo's order-enforcing wrapper."""
-    return OrderEnforcingWrapper(raw_env(**kwargs))
+parallel_env, raw_env, env = module_constructors(CorridorEnv)

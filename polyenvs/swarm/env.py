@@ -23,7 +23,15 @@ from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
 from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 
-__all__ = ["Episode", "Layout", "PARAMETER_RANGES", "SwarmEnv", "observation_structure", "structure_for"]
+__all__ = [
+    "Episode",
+    "Layout",
+    "PARAMETER_RANGES",
+    "SwarmEnv",
+    "module_constructors",
+    "observation_structure",
+    "structure_for",
+]
 
 #: Physical parameters: (low, high) plausible range. Outside it a parameter is refused at construction.
 PARAMETER_RANGES = {
@@ -508,3 +516,23 @@ def structure_for(dim: int) -> dict[str, tuple[int, int]]:
 
 def _copy_box(box: spaces.Box) -> spaces.Box:
     return spaces.Box(box.low.copy(), box.high.copy(), dtype=box.dtype)
+
+
+def module_constructors(env_class: type[SwarmEnv]):
+    """A task module's PettingZoo constructors, ``parallel_env, raw_env, env = module_constructors(TaskEnv)``:
+    the parallel environment, the AEC form without wrappers, and the AEC form with the order-enforcing wrapper."""
+    from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
+
+    def parallel_env(**kwargs) -> SwarmEnv:
+        return env_class(**kwargs)
+
+    def raw_env(**kwargs):
+        return parallel_to_aec(env_class(**kwargs))
+
+    def env(**kwargs):
+        return OrderEnforcingWrapper(raw_env(**kwargs))
+
+    parallel_env.__doc__ = f"The PettingZoo parallel environment (keywords: see :class:`{env_class.__name__}`)."
+    raw_env.__doc__ = "The AEC form, without wrappers."
+    env.__doc__ = "The AEC form with PettingZoo's order-enforcing wrapper."
+    return parallel_env, raw_env, env

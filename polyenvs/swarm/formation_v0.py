@@ -8,11 +8,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
 
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
 
 __all__ = ["FormationEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
@@ -146,16 +145,4 @@ def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):
             per_robot[i] /= count[i]
 
 
-def parallel_env(**kwargs) -> FormationEnv:
-    """The PettingZoo parallel environment (keywords: see :class:`FormationEnv`)."""
-    return FormationEnv(**kwargs)
-
-
-def raw_env(**kwargs):
-    """The AEC form, without wrappers."""
-    return parallel_to_aec(FormationEnv(**kwargs))
-
-
-def env(**kwargs):
-    """The AEC form with PettingZoo's order-enforcing wrapper."""
-    return OrderEnforcingWrapper(raw_env(**kwargs))
+parallel_env, raw_env, env = module_constructors(FormationEnv)

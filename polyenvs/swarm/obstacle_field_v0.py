@@ -8,10 +8,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
 
 from polyenvs.core.validation import check_in_range, check_int
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, random_obstacles, start_block
 
 __all__ = ["MAX_CYCLES", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
@@ -103,16 +102,4 @@ class ObstacleFieldEnv(SwarmEnv):
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
 
-def parallel_env(**kwargs) -> ObstacleFieldEnv:
-    """The PettingZoo parallel environment (keywords: see :class:`ObstacleFieldEnv`)."""
-    return ObstacleFieldEnv(**kwargs)
-
-
-def raw_env(**kwargs):
-    """The AEC form, without wrappers."""
-    return parallel_to_aec(ObstacleFieldEnv(**kwargs))
-
-
-def env(**kwargs):
-    """The AEC form with PettingZoo's order-enforcing wrapper."""
-    return OrderEnforcingWrapper(raw_env(**kwargs))
+parallel_env, raw_env, env = module_constructors(ObstacleFieldEnv)
