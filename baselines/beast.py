@@ -20,9 +20,11 @@ from polyenvs.beast.gait import (
     BeastPlanner,
     RightingController,
     RollingGaitController,
+    joint_ranges_of,
     n_limbs_of,
     polyhedron_of,
 )
+from polyenvs.beast.sensors import observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
 
 __all__ = ["RollingGait", "SharpTurn", "Righting"]
@@ -36,25 +38,26 @@ class _ControllerPolicy(Policy):
     def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0):
         super().__init__(observation_space, action_space)
         self.rate_deg_s = check_in_range("rate_deg_s", rate_deg_s, 5.0, 90.0)
-        n_limbs, _ = n_limbs_of(int(np.prod(observation_space.shape)))
+        n_limbs = n_limbs_of(int(np.prod(observation_space.shape)))
         if action_space.shape != (3 * n_limbs,):
             raise ValueError(f"action_space must have shape ({3 * n_limbs},), got {action_space.shape}")
         self.polyhedron = polyhedron_of(n_limbs)
         config = dataclasses.replace(DEFAULT_CONFIGS[self.polyhedron], rate_deg_s=self.rate_deg_s)
-        self.planner = BeastPlanner(self.polyhedron, config=config)
+        self.planner = BeastPlanner(self.polyhedron, joint_ranges=joint_ranges_of(observation_space), config=config)
         self._controllers: dict[int, object] = {}
         self._handles = itertools.count(1)
 
-    def make_controller(self):
+    def make_controller(self, observation: np.ndarray):
+        """A controller for an episode that starts with this observation."""
         raise NotImplementedError
 
-    def controller(self, memory: np.ndarray):
+    def controller(self, memory: np.ndarray, observation: np.ndarray):
         """The controller of the environment whose memory row this is (a new one after a restart)."""
         handle = int(memory[0])
         if handle not in self._controllers:
             handle = next(self._handles)
             memory[0] = handle
-            self._controllers[handle] = self.make_controller()
+            self._controllers[handle] = self.make_controller(observation)
         return self._controllers[handle]
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
@@ -66,7 +69,7 @@ class _ControllerPolicy(Policy):
         return super().predict(observation, state, episode_start, deterministic)
 
     def act(self, observation, memory):
-        return self.controller(memory)(observation)
+        return self.controller(memory, observation)(observation)
 
 
 class RollingGait(_ControllerPolicy):
@@ -107,22 +110,23 @@ class RollingGait(_ControllerPolicy):
             "disabled_limbs": list(self.disabled_limbs),
         }
 
-    def make_controller(self):
+    def make_controller(self, observation):
         return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, disabled_limbs=self.disabled_limbs)
 
 
 class SharpTurn(_ControllerPolicy):
-    """A sharp turn (paper section 5, Figures 10 and 11): the rolling gait heading off ``turn_deg`` from its strip.
+    """The sharp turn (paper section 5, Figures 10 and 11): roll off in the direction the task commands.
 
-    The paper's turn keeps limb 1 planted while the robot rolls about it. With joint 1 limited to +-180 degrees at
-    most two tumbles in a row can keep one limb planted (the third tumble about it needs joint 1 near +-240), and
-    the 4-beast's straight strip admits only one forward tumble from each stance, so the turn is the rolling gait's
-    look-ahead steering for the turned heading, allowed to tip back over the last edge to change strips (a
-    three-point turn); ``pivot`` (1-based limb) restricts every tumble to edges containing that limb, the literal
-    cone, and stops when none is plannable.
+    The turn comes from the observation's ``command`` part (``BeastTurn-v0``: cos and sin of ``turn_deg``), so the
+    policy follows whatever turn the environment was made with. The paper keeps limb 1 planted while the robot rolls
+    about it. On a straight strip every limb is planted through two tumbles in a row; a turn keeps one planted
+    through a third, which rolls the strip by 60 degrees about that foot and winds its joint 1 by a further 120
+    degrees (hence ``BeastTurn-v0``'s joint-1 range of +-250 degrees for the 4-beast). The controller is the rolling
+    gait's look-ahead steering for the turned heading, allowed to tip back over the last edge; ``pivot`` (1-based
+    limb) instead restricts every tumble to edges containing that limb, the literal cone, and stops when none is
+    plannable.
 
     Args:
-        turn_deg: change of heading, counter-clockwise, in [-180, 180] degrees.
         pivot: None, or the limb kept planted (1..n_limbs).
         rate_deg_s, max_tumbles: as for :class:`RollingGait` (max_tumbles default 4).
     """
@@ -131,22 +135,24 @@ class SharpTurn(_ControllerPolicy):
         self,
         observation_space,
         action_space,
-        turn_deg: float = 60.0,
         pivot: int | None = None,
         rate_deg_s: float = 20.0,
         max_tumbles: int = 4,
     ):
         super().__init__(observation_space, action_space, rate_deg_s)
-        self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
+        self.command = observation_layout_of(int(np.prod(observation_space.shape))).get("command")
+        if self.command is None:
+            raise ValueError("SharpTurn needs an observation with a command part (the turn), as BeastTurn-v0's")
         self.pivot = None if pivot is None else check_int("pivot", pivot, 1, self.planner.n_limbs)
         self.max_tumbles = check_int("max_tumbles", max_tumbles, 1, 1000)
 
     def describe(self):
-        return {"name": "sharp_turn", "turn_deg": self.turn_deg, "pivot": self.pivot, "rate_deg_s": self.rate_deg_s}
+        return {"name": "sharp_turn", "pivot": self.pivot, "rate_deg_s": self.rate_deg_s}
 
-    def make_controller(self):
+    def make_controller(self, observation):
+        cos_turn, sin_turn = np.asarray(observation, dtype=np.float64)[self.command]
         strip = math.radians(30.0 if self.planner.n_limbs == 4 else 0.0)
-        angle = strip + math.radians(self.turn_deg)
+        angle = strip + math.atan2(sin_turn, cos_turn)
         heading = np.array([math.cos(angle), math.sin(angle), 0.0])
         return RollingGaitController(
             self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=self.pivot, allow_back=True
@@ -170,5 +176,5 @@ class Righting(_ControllerPolicy):
     def describe(self):
         return {"name": "righting", "rate_deg_s": self.rate_deg_s, "roll_after": self.roll_after}
 
-    def make_controller(self):
+    def make_controller(self, observation):
         return RightingController(self.planner, roll_after=self.roll_after)

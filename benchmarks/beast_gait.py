@@ -9,7 +9,7 @@ Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beas
   along the heading, time, per-tumble advance and time (feasibility study: 155 mm and 17.3 s per tumble at 20 deg/s),
   and the random policy over the same time.
 - ``roll6``: the same for the 6-beast (``polyhedron="octahedron"``).
-- ``turn``: BeastTurn, ``SharpTurn`` (4-beast with pivot limb 2 and with look-ahead steering; 6-beast): heading
+- ``turn``: BeastTurn, ``SharpTurn`` (4-beast with pivot limb 1 and with look-ahead steering; 6-beast): heading
   change.
 - ``recover``: BeastRecover (4-beast), ``Righting``: success rate and time to stance.
 - ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
@@ -123,11 +123,12 @@ def bench_turn(seeds):
     from polyenvs.beast.tasks import BeastTurnEnv
 
     out = {}
-    cases = [("tetrahedron", 60.0, 2), ("tetrahedron", 60.0, None), ("tetrahedron", 180.0, None)]
+    cases = [("tetrahedron", 60.0, 1), ("tetrahedron", 60.0, None), ("tetrahedron", -60.0, None)]
+    cases += [("tetrahedron", 120.0, None), ("tetrahedron", 180.0, None)]
     cases += [("octahedron", 60.0, None), ("octahedron", -60.0, None)]
     for polyhedron, turn, pivot in cases:
         env = BeastTurnEnv(turn_deg=turn, polyhedron=polyhedron)
-        policy = SharpTurn(env.observation_space, env.action_space, turn_deg=turn, pivot=pivot, max_tumbles=6)
+        policy = SharpTurn(env.observation_space, env.action_space, pivot=pivot, max_tumbles=6)
         runs = [run_episode(env, policy, s, 8000) for s in seeds]
         out[f"{polyhedron} {turn} {pivot}"] = runs
         print(

@@ -122,6 +122,7 @@ def test_tilt_axes_are_the_icosahedron_vertices():
 
 def test_backlash_is_a_dead_band():
     joints, misc = np.zeros((S.N_JOINT_ROWS, 1)), np.zeros(S.N_MISC)
+    joints[S.LIMIT_LOW], joints[S.LIMIT_HIGH] = -math.pi, math.radians(1.9)
     misc[S.HALF_BAND], misc[S.INV_DT] = math.radians(1.0) / 2, 100.0
     obs = np.zeros(1 * 2 + 12 + 0 + 1, np.float32)
     sensordata = np.array([0.0, 0.0, 0.0, 1.0])  # no limbs: robot-floor count, then the up vector
@@ -132,8 +133,9 @@ def test_backlash_is_a_dead_band():
         warnings = np.zeros(7, np.int32)
         assert not S.sense(qpos, np.zeros(7), sensordata, np.zeros(1), warnings, S.TILT_AXES, joints, misc, obs)
         readings.append(obs[0])
-    # Inside the band the motor side does not move; beyond it, it trails the joint by half the band.
-    np.testing.assert_allclose(readings, np.radians([0.0, 0.0, 1.5, 1.5, 1.0, 2.0]), atol=1e-7)
+    # Inside the band the motor side does not move; beyond it, it trails the joint by half the band; a joint sunk
+    # past its limit (MuJoCo's soft limit) reads the limit, inside the observation space's bounds.
+    np.testing.assert_allclose(readings, np.radians([0.0, 0.0, 1.5, 1.5, 1.0, 1.9]), atol=1e-7)
 
 
 def test_same_seed_same_episode_and_seeds_differ():
@@ -313,6 +315,17 @@ def test_tumble_counter_needs_a_roll_not_just_a_new_foot():
     rolled[3:7] = [math.cos(half), 0, math.sin(half), 0]
     results = [counter.update(0b1101, 3, rolled) for _ in range(STANCE_TICKS + 1)]
     assert results.count(True) == 1 and counter.count == 1
+    # The 6-beast lands after about 30 degrees and turns the rest of its 70.5 standing on the new feet: the tumble
+    # counts once the turn passes 45 degrees on that support, once.
+    def turned(deg):
+        q = rolled.copy()
+        extra = math.radians(deg) / 2
+        q[3:7] = [math.cos(half + extra), 0, math.sin(half + extra), 0]
+        return q
+
+    results = [counter.update(0b1110, 3, turned(30)) for _ in range(STANCE_TICKS + 5)]
+    results += [counter.update(0b1110, 3, turned(deg)) for deg in np.linspace(30, 70.5, 50)]
+    assert results.count(True) == 1 and counter.count == 2 and results.index(True) > STANCE_TICKS + 5
 
 
 def test_recover_starts_in_the_air_and_reports_success_in_a_stance():
@@ -386,3 +399,28 @@ def test_torque_control_acts_as_torques():
     for _ in range(50):
         push.step(action)
     assert push.data.qpos[7 + 11] > math.radians(30)
+
+
+def test_encoder_bounds_are_the_joint_limits_and_the_turn_observes_its_command():
+    roll = BeastRollEnv()
+    s = roll.observation_structure
+    np.testing.assert_allclose(roll.observation_space.high[s["joint_pos"]][:3], np.radians([180, 160, 150]), rtol=1e-6)
+    np.testing.assert_allclose(
+        roll.observation_space.low[s["joint_pos"]][:3], np.radians([-180, -120, -150]), rtol=1e-6
+    )
+    assert "command" not in s
+    # The sharp turn winds a planted limb's joint 1 past a half-turn: its default range is +-250 degrees, kept when
+    # other physics are given, and the commanded turn is the observation's last part.
+    turn = BeastTurnEnv(turn_deg=-60.0, physics={"friction": 0.8})
+    s = turn.observation_structure
+    assert list(s)[-1] == "command" and s["command"] == slice(52, 54)
+    assert turn.params.joint1_high_deg == 250.0 and turn.params.friction == 0.8
+    np.testing.assert_allclose(turn.observation_space.high[s["joint_pos"]][0], np.radians(250), rtol=1e-6)
+    obs, _ = turn.reset(seed=0)
+    np.testing.assert_allclose(obs[s["command"]], [0.5, -math.sqrt(3) / 2], atol=1e-6)
+    obs, *_ = turn.step(turn.control_to_action(turn.data.qpos[7:]))
+    np.testing.assert_allclose(obs[s["command"]], [0.5, -math.sqrt(3) / 2], atol=1e-6)
+    assert turn.observation_space.contains(obs)
+    assert BeastTurnEnv(physics={"joint1_low_deg": -180.0}).params.joint1_low_deg == -180.0
+    with pytest.raises(ValueError, match="joint1_high_deg"):
+        BeastTurnEnv(physics={"joint1_high_deg": 300.0})

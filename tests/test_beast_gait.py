@@ -140,21 +140,25 @@ def test_four_tumbles_plannable_in_sequence_only_with_theta1_in_range(planner):
 
 
 def test_observation_split_and_sizes():
-    assert n_limbs_of(52) == (4, False)
-    assert n_limbs_of(65) == (4, True)
-    assert n_limbs_of(72) == (6, False)
+    assert [n_limbs_of(n) for n in (52, 65, 54, 67, 72, 87, 92, 107)] == [4, 4, 4, 4, 6, 6, 8, 8]
     with pytest.raises(ValueError):
         n_limbs_of(50)
     obs = np.arange(52, dtype=np.float32)
-    parts = split_observation(obs, 4)
-    assert parts["contact"].tolist() == [36.0, 37.0, 38.0, 39.0]
-    assert parts["prev_action"].shape == (12,)
+    parts = split_observation(obs)
+    assert parts["foot_contact"].tolist() == [36.0, 37.0, 38.0, 39.0]
+    assert parts["prev_action"].shape == (12,) and "command" not in parts
+    parts = split_observation(np.arange(67, dtype=np.float32))  # privileged, with a command
+    assert parts["body_angvel"].tolist() == [62.0, 63.0, 64.0] and parts["command"].tolist() == [65.0, 66.0]
 
 
-def _spaces(n_limbs=4):
+def _spaces(n_limbs=4, command=0):
+    """A beast's spaces: encoder bounds the default joint limits, everything else unbounded."""
     nj = 3 * n_limbs
-    obs = spaces.Box(-np.inf, np.inf, shape=(10 * n_limbs + 12,), dtype=np.float32)
-    return obs, spaces.Box(-1.0, 1.0, shape=(nj,), dtype=np.float32)
+    low = np.full(10 * n_limbs + 12 + command, -np.inf, dtype=np.float32)
+    high = -low
+    low[:nj] = np.tile(np.radians([-180.0, -120.0, -150.0]), n_limbs)
+    high[:nj] = np.tile(np.radians([180.0, 160.0, 150.0]), n_limbs)
+    return spaces.Box(low, high, dtype=np.float32), spaces.Box(-1.0, 1.0, shape=(nj,), dtype=np.float32)
 
 
 def test_policies_validate_their_arguments():
@@ -165,15 +169,18 @@ def test_policies_validate_their_arguments():
         with pytest.raises(ValueError, match=next(iter(kwargs))):
             RollingGait(obs_space, act_space, **kwargs)
     with pytest.raises(ValueError, match="pivot"):
-        SharpTurn(obs_space, act_space, pivot=5)
+        SharpTurn(*_spaces(command=2), pivot=5)
+    with pytest.raises(ValueError, match="command"):
+        SharpTurn(obs_space, act_space)  # nothing says which way to turn
     with pytest.raises(ValueError, match="roll_after"):
         Righting(obs_space, act_space, roll_after=1)
     with pytest.raises(ValueError, match="disabled_limbs"):
         RollingGait(obs_space, act_space, disabled_limbs=(5,))
     with pytest.raises(ValueError, match="disabled_limbs"):
         RollingGait(obs_space, act_space, disabled_limbs="1")
-    with pytest.raises(ValueError, match="turn_deg"):
-        SharpTurn(obs_space, act_space, turn_deg=200.0)
+    unbounded = spaces.Box(-np.inf, np.inf, shape=(52,), dtype=np.float32)
+    with pytest.raises(ValueError, match="joint limits"):
+        RollingGait(unbounded, act_space)
     with pytest.raises(ValueError, match="action_space"):
         RollingGait(obs_space, spaces.Box(-1, 1, shape=(18,)))
 
@@ -220,6 +227,31 @@ def test_canonical_tumble_succeeds_closed_loop(seed):
     assert contact.tolist() == [1.0, 1.0, 0.0, 1.0]  # limbs 1, 4, 2 down, 3 free
     advance = env.data.qpos[:2] - start
     assert 0.13 < advance[0] < 0.19 and abs(advance[1]) < 0.03  # along +x, the feasibility study's ~155 mm
+
+
+def test_four_beast_sharp_turn_follows_the_commanded_turn():
+    """A limb kept planted through a third tumble rolls the strip by 60 degrees about it (the paper's Figures 10
+    and 11); with joint 1 limited to +-180 degrees the same policy can only roll along its strip."""
+    from baselines.beast import SharpTurn
+    from polyenvs.beast.tasks import BeastTurnEnv
+
+    env = BeastTurnEnv(turn_deg=60.0)
+    policy = SharpTurn(env.observation_space, env.action_space)
+    assert np.degrees(policy.planner.joint_ranges[0]).round(3).tolist() == [-250.0, 250.0]
+    obs, _ = env.reset(seed=0)
+    state, start = None, True
+    for _ in range(8000):
+        action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
+        obs, _, _, truncated, info = env.step(action)
+        start = False
+        if info["episode_metrics"]["tumbles"] >= 4:
+            break
+    metrics = info["episode_metrics"]
+    assert metrics["tumbles"] == 4 and metrics["heading_error_deg"] < 5.0  # measured: 59.6 degrees
+    controller = next(iter(policy._controllers.values()))
+    assert controller.history[:3] == [(1, 2, 3, 4), (4, 2, 1, 3), (3, 2, 4, 1)]  # limb 2 planted thrice
+    strip_only = BeastPlanner(joint_ranges=np.radians([[-180, 180], [-120, 160], [-150, 150]]))
+    assert len(strip_only.plannable()) == 8 and len(policy.planner.plannable()) == 12
 
 
 def test_six_beast_tumbles_are_all_plannable_and_disabled_limbs_never_land():

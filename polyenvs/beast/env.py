@@ -61,11 +61,12 @@ def _rotation_angle(q0: np.ndarray, q1: np.ndarray) -> float:
 class TumbleCounter:
     """Support changes that are tumbles, from the foot-contact bits.
 
-    A support is a set of three or more feet on the floor held for ``STANCE_TICKS`` ticks. A change of support is a
-    tumble when the body has turned by more than 45 degrees since the support of the last tumble (a tumble turns
-    the 4-beast by 109.5 degrees and the 6-beast by 70.5; re-placing a foot without rolling turns it hardly at all).
-    Measuring from the last tumble's support, not the last support, counts a tumble that passes through a brief
-    four-foot support (the 6-beast's do) once, not zero times.
+    A support is a set of three or more feet on the floor held for ``STANCE_TICKS`` ticks. A tumble is counted once
+    the robot stands on a new support and its body has turned by more than 45 degrees since the last tumble (a
+    tumble turns the 4-beast by 109.5 degrees and the 6-beast by 70.5; re-placing a foot without rolling turns it
+    hardly at all). The turn is checked for as long as the new support holds, not only when it is reached: the
+    6-beast lands its foot after about 30 degrees and turns the rest of the way standing on the new feet. Measuring
+    from the last tumble, not the last support, counts a tumble that passes through a brief four-foot support once.
     """
 
     def __init__(self, support: int, qpos: np.ndarray):
@@ -73,6 +74,7 @@ class TumbleCounter:
         self.quat = qpos[3:7].copy()
         self.candidate = -1
         self.held = 0
+        self.pending = False  # on a new support that has not yet turned enough to count
         self.count = 0
 
     def update(self, mask: int, n_feet: float, qpos: np.ndarray) -> bool:
@@ -81,14 +83,14 @@ class TumbleCounter:
             self.candidate, self.held = mask, 0
             return False
         self.held += 1
-        if self.held != STANCE_TICKS or n_feet < 3 or mask == self.support:
+        if self.held == STANCE_TICKS and n_feet >= 3 and mask != self.support:
+            self.support, self.pending = mask, True
+        if not self.pending or self.held < STANCE_TICKS or _rotation_angle(self.quat, qpos[3:7]) <= math.radians(45):
             return False
-        tumbled = _rotation_angle(self.quat, qpos[3:7]) > math.radians(45)
-        self.support = mask
-        if tumbled:
-            self.quat = qpos[3:7].copy()
-            self.count += 1
-        return tumbled
+        self.pending = False
+        self.quat = qpos[3:7].copy()
+        self.count += 1
+        return True
 
 
 def _reinitialize_egl_display() -> None:
@@ -114,6 +116,8 @@ class BeastEnv(MujocoEnv):
     option_names: tuple[str, ...] = ("qpos", "qvel")
     #: Direction (rad, counter-clockwise from world +x) along which the summary measures velocity and distance.
     heading_rad: float = 0.0
+    #: A task's constant command, appended to every observation as its ``command`` part (empty: none).
+    command: tuple[float, ...] = ()
 
     def __init__(
         self,
@@ -162,8 +166,9 @@ class BeastEnv(MujocoEnv):
         self.disabled_limbs = params.locked_limbs
         self.n_limbs = params.n_limbs
         self.n_joints = 3 * params.n_limbs
-        self.observation_structure = self._layout()
+        self.observation_structure = S.observation_layout(self.n_limbs, self.privileged, len(self.command))
         size = max(s.stop for s in self.observation_structure.values())
+        limits = np.tile(params.joint_ranges, (params.n_limbs, 1))
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, f"beast_{polyhedron}.xml")
             with open(path, "w") as f:
@@ -172,7 +177,7 @@ class BeastEnv(MujocoEnv):
                 self,
                 path,
                 frame_skip,
-                observation_space=self._observation_space(size),
+                observation_space=self._observation_space(size, limits),
                 render_mode=render_mode,
                 width=width,
                 height=height,
@@ -180,15 +185,18 @@ class BeastEnv(MujocoEnv):
             )
         self.fullpath = None  # generated, not a file
         nj = self.n_joints
-        ranges = np.tile(params.joint_ranges, (params.n_limbs, 1))
         self._joints = np.zeros((S.N_JOINT_ROWS, nj))
+        self._joints[S.LIMIT_LOW], self._joints[S.LIMIT_HIGH] = limits[:, 0], limits[:, 1]
         if control == "position":
-            self._joints[S.LOW], self._joints[S.SPAN] = ranges[:, 0], ranges[:, 1] - ranges[:, 0]
+            self._joints[S.LOW], self._joints[S.SPAN] = limits[:, 0], limits[:, 1] - limits[:, 0]
         else:
             self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
         for limb in self.disabled_limbs:
             self._joints[S.FROZEN, 3 * (limb - 1) : 3 * limb] = 1.0
         self._obs = np.zeros(size, dtype=np.float32)
+        if len(self.command):
+            # Constant through the episode: written once, and the sensor kernel never touches it.
+            self._obs[self.observation_structure["command"]] = self.command
         self._misc = np.zeros(S.N_MISC)
         self._misc[: S.TORQUE_NORM + 1] = [
             math.radians(self.backlash_deg) / 2,
@@ -203,22 +211,10 @@ class BeastEnv(MujocoEnv):
         self._bind()
 
     # --- set-up helpers ---------------------------------------------------------------------------------------
-    def _layout(self) -> dict[str, slice]:
-        nj, names = self.n_joints, []
-        names += [("joint_pos", nj), ("joint_vel", nj), ("tilt", S.N_TILT), ("foot_contact", self.n_limbs)]
-        names += [("prev_action", nj)]
-        if self.privileged:
-            names += [("body_pos", 3), ("body_quat", 4), ("body_linvel", 3), ("body_angvel", 3)]
-        layout, start = {}, 0
-        for name, n in names:
-            layout[name] = slice(start, start + n)
-            start += n
-        return layout
-
-    def _observation_space(self, size: int) -> spaces.Box:
+    def _observation_space(self, size: int, limits: np.ndarray) -> spaces.Box:
+        """Bounds of every part; the encoder angles' are the joint limits, so a policy can read them from here."""
         low, high = np.empty(size, np.float32), np.empty(size, np.float32)
         bounds = {
-            "joint_pos": 2 * math.pi,
             "joint_vel": S.VELOCITY_CLIP,
             "tilt": 1.0,
             "foot_contact": 1.0,
@@ -227,10 +223,14 @@ class BeastEnv(MujocoEnv):
             "body_quat": 1.0,
             "body_linvel": S.VELOCITY_CLIP,
             "body_angvel": S.VELOCITY_CLIP,
+            "command": 1.0,
         }
         for name, part in self.observation_structure.items():
-            high[part] = bounds[name]
-            low[part] = 0.0 if name in ("tilt", "foot_contact") else -bounds[name]
+            if name == "joint_pos":
+                low[part], high[part] = limits[:, 0], limits[:, 1]
+            else:
+                high[part] = bounds[name]
+                low[part] = 0.0 if name in ("tilt", "foot_contact") else -bounds[name]
         return spaces.Box(low, high, dtype=np.float32)
 
     def _set_action_space(self):

@@ -54,7 +54,7 @@ import math
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.sensors import N_TILT, TILT_AXES
+from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
 
 __all__ = [
     "DEFAULT_CONFIGS",
@@ -63,6 +63,7 @@ __all__ = [
     "JointTrajectory",
     "RightingController",
     "RollingGaitController",
+    "joint_ranges_of",
     "split_observation",
     "CONTROL_DT",
 ]
@@ -83,26 +84,28 @@ _PLANNABLE: dict = {}
 TUCKED = np.array([0.0, math.pi / 2, 0.0])
 
 
-def split_observation(obs: np.ndarray, n_limbs: int) -> dict[str, np.ndarray]:
-    """The sensor part of a beast observation by name (the agreed layout; a privileged tail is ignored)."""
-    nj = 3 * n_limbs
+def split_observation(obs: np.ndarray) -> dict[str, np.ndarray]:
+    """A beast observation by part name (``sensors.observation_layout``), as float64 views."""
     obs = np.asarray(obs, dtype=np.float64)
-    return {
-        "joint_pos": obs[:nj],
-        "joint_vel": obs[nj : 2 * nj],
-        "tilt": obs[2 * nj : 2 * nj + N_TILT],
-        "contact": obs[2 * nj + N_TILT : 2 * nj + N_TILT + n_limbs],
-        "prev_action": obs[2 * nj + N_TILT + n_limbs : 3 * nj + N_TILT + n_limbs + nj],
-    }
+    return {name: obs[part] for name, part in observation_layout_of(obs.shape[-1]).items()}
 
 
-def n_limbs_of(obs_dim: int) -> tuple[int, bool]:
-    """(number of limbs, privileged) from an observation length: 10 n + 12 sensors, plus 13 when privileged."""
-    for privileged, extra in ((False, 0), (True, 13)):
-        n, rest = divmod(obs_dim - N_TILT - extra, 10)
-        if rest == 0 and n in K.N_LIMBS.values():
-            return n, privileged
-    raise ValueError(f"observation length {obs_dim} is not a beast's (10 n + 12, or + 13 privileged)")
+def n_limbs_of(obs_dim: int) -> int:
+    """The number of limbs of a beast whose observations have this length."""
+    part = observation_layout_of(obs_dim)["foot_contact"]
+    return part.stop - part.start
+
+
+def joint_ranges_of(observation_space) -> np.ndarray:
+    """The joint limits (3, 2) in radians, rows joint 1, 2, 3, from a beast observation space: the encoder angles'
+    bounds are the limits, the same for every limb (the actions scale to them)."""
+    n_limbs = n_limbs_of(int(np.prod(observation_space.shape)))
+    nj = 3 * n_limbs
+    low = np.asarray(observation_space.low, dtype=np.float64).ravel()[:nj].reshape(n_limbs, 3)
+    high = np.asarray(observation_space.high, dtype=np.float64).ravel()[:nj].reshape(n_limbs, 3)
+    if not (np.isfinite(low).all() and np.isfinite(high).all() and (low == low[0]).all() and (high == high[0]).all()):
+        raise ValueError("observation_space must bound the encoder angles by joint limits shared by every limb")
+    return np.stack([low[0], high[0]], axis=1)
 
 
 def polyhedron_of(n_limbs: int) -> str:
@@ -541,9 +544,9 @@ class RollingGaitController:
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         p = self.planner
-        sensors = split_observation(obs, p.n_limbs)
+        sensors = split_observation(obs)
         q = sensors["joint_pos"]
-        contact = sensors["contact"] > 0.5
+        contact = sensors["foot_contact"] > 0.5
         dt = CONTROL_DT
         if self.phase == "start":
             self.hold_q = q.copy()
@@ -576,7 +579,7 @@ class RollingGaitController:
                     self._start(plan, "stance")
             elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
                 self.nudges += 1
-                plan = p.tip_plan(q, self.tumble, extra=self.nudges * p.config.nudge, future=self.future)
+                plan, self.future = self._tip_plan(q, self.tumble, self.future, extra=self.nudges * p.config.nudge)
                 if plan is not None:
                     self._start(plan, "tip")
             elif self.waited >= ROLL_TIMEOUT:
@@ -627,18 +630,23 @@ class RollingGaitController:
         p = self.planner
         feet = p.feet(q)
         for tumble, future in self._candidates(feet):
-            # The look-ahead's path after this tumble, as far as the landing branch can be planned for it.
-            for depth in range(min(len(future), FUTURE), -1, -1):
-                plan = p.tip_plan(q, tumble, future=future[:depth])
-                if plan is not None:
-                    break
+            plan, future = self._tip_plan(q, tumble, future[:FUTURE])
             if plan is not None:
                 self._carry_heading(feet, tumble)
-                self.tumble, self.future, self.nudges = tumble, future[:depth], 0
+                self.tumble, self.future, self.nudges = tumble, future, 0
                 self._start(plan, "tip")
                 return
         # A pivot turn ends where no tumble about the pivot is plannable; otherwise nothing is, which is stuck.
         self.phase = "done" if self.pivot is not None else "stuck"
+
+    def _tip_plan(self, q: np.ndarray, tumble, future: tuple, extra: float = 0.0) -> tuple:
+        """(tip plan, the part of ``future`` it keeps plannable): the landing branch is chosen for as much of the
+        look-ahead's path as can be planned, down to none (a nudged tip may leave no room for the path)."""
+        for depth in range(len(future), -1, -1):
+            plan = self.planner.tip_plan(q, tumble, extra=extra, future=future[:depth])
+            if plan is not None:
+                return plan, future[:depth]
+        return None, future
 
     def _heading_body(self, feet: np.ndarray) -> np.ndarray:
         """The carried heading in the body frame, from the feet that anchor it."""
@@ -779,9 +787,9 @@ class RightingController:
         p = self.planner
         if self.gait is not None:
             return self.gait(obs)
-        sensors = split_observation(obs, p.n_limbs)
+        sensors = split_observation(obs)
         q = sensors["joint_pos"]
-        contact = sensors["contact"] > 0.5
+        contact = sensors["foot_contact"] > 0.5
         if self.phase == "start":
             # Let a thrown robot land and settle first: the tilt switches only say where "down" is at rest.
             self.waited += CONTROL_DT

@@ -55,8 +55,10 @@ PARAMETER_RANGES = {
     "armature": (0.0, 1.0),
     "friction": (0.1, 2.0),
     "timestep": (0.0005, 0.005),
-    "joint1_low_deg": (-180.0, 0.0),
-    "joint1_high_deg": (0.0, 180.0),
+    # Joint 1 turns the whole limb about its face normal; a cable wrap lets it wind past a half-turn (the 4-beast's
+    # sharp turn needs about +-250 degrees), the bent joints 2 and 3 stop at their links.
+    "joint1_low_deg": (-270.0, 0.0),
+    "joint1_high_deg": (0.0, 270.0),
     "joint2_low_deg": (-180.0, 0.0),
     "joint2_high_deg": (0.0, 180.0),
     "joint3_low_deg": (-180.0, 0.0),
@@ -86,7 +88,7 @@ class BeastModelParams:
     | damping, armature | 5.0, 0.02 | N m s/rad, kg m^2 | worm drive, feasibility study |
     | friction | 1.0 | | sliding friction of every contact |
     | timestep | 0.002 | s | implicitfast integrator |
-    | joint{k}_low_deg, joint{k}_high_deg | -180/180, -120/160, -150/150 | deg | ours: the ranges the gaits need |
+    | joint{k}_low_deg, joint{k}_high_deg | -180/180, -120/160, -150/150 | deg | ours: the ranges the gaits need (joint 1 up to +-270, joints 2 and 3 up to +-180) |
     | control | "position" | | "torque" makes the actuators plain motors limited to +-torque_limit |
     | locked_limbs | () | | 1-based limbs whose joints are locked (a failed worm drive does not backdrive) |
     """

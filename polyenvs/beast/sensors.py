@@ -14,13 +14,23 @@ the kernel writes the observation in place and reports divergence, so a step cos
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from polyenvs.core.jit import njit
 
-__all__ = ["N_TILT", "TILT_AXES", "VELOCITY_CLIP", "DIVERGED_SPEED", "sense", "actuate"]
+__all__ = [
+    "N_TILT",
+    "TILT_AXES",
+    "VELOCITY_CLIP",
+    "DIVERGED_SPEED",
+    "actuate",
+    "observation_layout",
+    "observation_layout_of",
+    "sense",
+]
 
 _PHI = (1 + math.sqrt(5)) / 2
 #: The tilt switches' axes in the body frame: the icosahedron's 12 vertex directions (*ours*, spec beast.md).
@@ -38,11 +48,43 @@ DIVERGED_SPEED = 1.0e3
 #: MuJoCo's warnings for a non-finite or huge position, velocity or acceleration (mjtWarning values).
 UNSTABLE_WARNINGS = (3, 4, 5)
 
+#: The privileged tail of an observation: torso position, orientation (w, x, y, z), linear and angular velocity.
+PRIVILEGED_PARTS = (("body_pos", 3), ("body_quat", 4), ("body_linvel", 3), ("body_angvel", 3))
+
+
+def observation_layout(n_limbs: int, privileged: bool = False, command: int = 0) -> dict[str, slice]:
+    """Name -> slice of a beast observation: the sensors (written by :func:`sense`), the privileged tail when asked
+    for, then a task's constant ``command`` (e.g. the turn the sharp turn is to make), when it has one."""
+    nj = 3 * n_limbs
+    parts = [("joint_pos", nj), ("joint_vel", nj), ("tilt", N_TILT), ("foot_contact", n_limbs), ("prev_action", nj)]
+    parts += list(PRIVILEGED_PARTS) if privileged else []
+    parts += [("command", command)] if command else []
+    layout, start = {}, 0
+    for name, size in parts:
+        layout[name] = slice(start, start + size)
+        start += size
+    return layout
+
+
+@functools.cache
+def observation_layout_of(obs_dim: int) -> dict[str, slice]:
+    """The layout of a beast observation of this length (10 n + 12 sensors, + 13 privileged, + 2 command: the sizes
+    of the 4-, 6- and 8-beast never coincide). Cached: treat the dict as read-only."""
+    for n_limbs in (4, 6, 8):
+        for privileged in (False, True):
+            for command in (0, 2):
+                layout = observation_layout(n_limbs, privileged, command)
+                if max(part.stop for part in layout.values()) == obs_dim:
+                    return layout
+    raise ValueError(f"observation length {obs_dim} is not a beast's (10 n + 12, + 13 privileged, + 2 command)")
+
+
 # Rows of the per-joint state ``joints`` (n_rows, n_joints): the action scaling (control = LOW + (a + 1)/2 SPAN),
 # the control held by frozen joints and whether a joint is frozen, the last applied action, the encoders' motor-side
-# angles and their previous readings. Packed so that a kernel call unboxes one array, not seven.
-LOW, SPAN, HOLD, FROZEN, APPLIED, MOTOR, READING = range(7)
-N_JOINT_ROWS = 7
+# angles and their previous readings, and the joint's limits (the encoder range). Packed so that a kernel call unboxes
+# one array, not nine.
+LOW, SPAN, HOLD, FROZEN, APPLIED, MOTOR, READING, LIMIT_LOW, LIMIT_HIGH = range(9)
+N_JOINT_ROWS = 9
 # Layout of ``misc``: parameters, then the body's (x, y) at the previous tick and at the start and the heading's
 # unit vector, then the per-step summary the tasks read.
 HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM = range(5)
@@ -77,6 +119,8 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
 
     ``joints[MOTOR]`` is each encoder's motor-side angle, dragged along by the joint across the backlash band;
     ``joints[READING]`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.
+    The angle reported is clipped to the joint's limits: MuJoCo's soft limits let a loaded joint sink a little past
+    them, which the real hard stop does not, and the observation space's bounds are the limits.
     The summary (``misc[SUMMARY]``): body velocity along the heading over the tick and distance along it from the
     start (the previous position is updated), the feet-on-floor bitmask (bit i = limb i + 1) and count, contacts of
     anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2).
@@ -105,7 +149,7 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
         joints[MOTOR, j] = m
         v = (m - joints[READING, j]) * inv_dt
         joints[READING, j] = m
-        obs[k + j] = m
+        obs[k + j] = min(max(m, joints[LIMIT_LOW, j]), joints[LIMIT_HIGH, j])
         obs[k + nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
     k += 2 * nj
     # The world's up direction in the body frame: a switch is on when its axis points down by more than the

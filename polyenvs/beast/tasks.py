@@ -21,6 +21,8 @@ __all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", 
 #: working tumble's sequence (1234)(4213)(4321)(1342) runs from foot 3 towards foot 2 of K0, 30 degrees to the left
 #: of the first tumble (spec appendix); the other beasts have no measured strip and roll along their first tumble.
 STRIP_OFFSET_DEG = {"tetrahedron": 30.0, "octahedron": 0.0, "cube": 0.0}
+#: The sharp turn's joint-1 range (deg): a limb planted through three tumbles in a row winds joint 1 by 360 degrees.
+TURN_JOINT1_RANGE = {"joint1_low_deg": -250.0, "joint1_high_deg": 250.0}
 #: Limbs on the floor after the canonical tumble (1234): 1, 4 and 2, with 3 free (bitmask of limb numbers).
 CANONICAL_END = (1 << 0) | (1 << 3) | (1 << 1)
 
@@ -47,6 +49,9 @@ _SHARED = """
     | foot_contact | n_limbs | foot switches: 1 while the foot sphere touches the floor | 0/1 |
     | prev_action | n_joints | the last action applied (at reset: the action that holds the start pose) | |
     | body_pos, body_quat, body_linvel, body_angvel | 3, 4, 3, 3 | only with ``privileged=True``: torso position (world, m), orientation (w, x, y, z), linear velocity (world, m/s), angular velocity (body frame, rad/s), velocities clipped to +-50 | |
+    | command | 2 | ``BeastTurn-v0`` only: cos and sin of ``turn_deg``, constant through the episode | |
+
+    The encoder angles are clipped to the joint limits, which are their bounds in the observation space.
 """
 
 _ARGS = """
@@ -195,7 +200,11 @@ class BeastTurnEnv(BeastEnv):
     The beast starts as in ``BeastRoll-v0``, facing world +x along its strip, and must roll off in the direction
     turned by ``turn_deg`` from it, as a beast turning a sharp corner or passing a wall does: the paper keeps limb 1
     planted while the robot rolls about it, synthesising a cone. The heading of travel is measured over the last
-    two tumbles (a straight strip zig-zags by +-30 degrees from one tumble to the next, and two tumbles follow it).""",
+    two tumbles (a straight strip zig-zags by +-30 degrees from one tumble to the next, and two tumbles follow it).
+    The commanded turn is part of the observation (``command``). On a straight strip every limb stays planted
+    through two tumbles in a row; turning keeps one planted through a third, which winds its joint 1 by 360
+    degrees, so here joint 1's range defaults to +-250 degrees (a cable wrap, *ours*; ``physics`` may override it:
+    with +-180 the 4-beast can only roll along its strip).""",
         """    - ``forward``: body velocity along the target direction (+x turned by ``turn_deg``) (m/s);
     - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
 """,
@@ -211,10 +220,13 @@ class BeastTurnEnv(BeastEnv):
     reward_names = ("forward", "ctrl")
     metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m")
 
-    def __init__(self, turn_deg: float = 60.0, **kwargs):
+    def __init__(self, turn_deg: float = 60.0, physics: dict | None = None, **kwargs):
         self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
         self.heading_rad = math.radians(self.turn_deg)
-        super().__init__(**kwargs)
+        self.command = (math.cos(self.heading_rad), math.sin(self.heading_rad))
+        if physics is None or isinstance(physics, dict):
+            physics = {**TURN_JOINT1_RANGE, **(physics or {})}
+        super().__init__(physics=physics, **kwargs)
 
     def _initial_state(self, rng):
         qpos, qvel = self._stance_state(rng)
