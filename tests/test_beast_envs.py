@@ -288,6 +288,9 @@ def _k3_qpos(params):
 def test_tumble_success_when_limbs_1_4_2_stand_and_3_is_free():
     env = BeastTumbleEnv()
     obs, _ = env.reset(seed=0)
+    start = _hold_action(env, obs)
+    for _ in range(STANCE_TICKS + 5):  # the start stance registers as where the robot stands
+        env.step(start)
     k3 = _k3_qpos(env.params)
     # Teleport the robot into the end stance mid-episode (as if it had tumbled) and hold it there.
     env.data.qpos[:] = k3
@@ -315,6 +318,7 @@ def test_tumble_counter_needs_a_roll_not_just_a_new_foot():
     rolled[3:7] = [math.cos(half), 0, math.sin(half), 0]
     results = [counter.update(0b1101, 3, rolled) for _ in range(STANCE_TICKS + 1)]
     assert results.count(True) == 1 and counter.count == 1
+
     # The 6-beast lands after about 30 degrees and turns the rest of its 70.5 standing on the new feet: the tumble
     # counts once the turn passes 45 degrees on that support, once.
     def turned(deg):

@@ -229,13 +229,14 @@ def test_canonical_tumble_succeeds_closed_loop(seed):
     assert 0.13 < advance[0] < 0.19 and abs(advance[1]) < 0.03  # along +x, the feasibility study's ~155 mm
 
 
-def test_four_beast_sharp_turn_follows_the_commanded_turn():
+@pytest.mark.parametrize("turn_deg", [60.0, -60.0])
+def test_four_beast_sharp_turn_follows_the_commanded_turn(turn_deg):
     """A limb kept planted through a third tumble rolls the strip by 60 degrees about it (the paper's Figures 10
     and 11); with joint 1 limited to +-180 degrees the same policy can only roll along its strip."""
     from baselines.beast import SharpTurn
     from polyenvs.beast.tasks import BeastTurnEnv
 
-    env = BeastTurnEnv(turn_deg=60.0)
+    env = BeastTurnEnv(turn_deg=turn_deg)
     policy = SharpTurn(env.observation_space, env.action_space)
     assert np.degrees(policy.planner.joint_ranges[0]).round(3).tolist() == [-250.0, 250.0]
     obs, _ = env.reset(seed=0)
@@ -247,9 +248,12 @@ def test_four_beast_sharp_turn_follows_the_commanded_turn():
         if info["episode_metrics"]["tumbles"] >= 4:
             break
     metrics = info["episode_metrics"]
-    assert metrics["tumbles"] == 4 and metrics["heading_error_deg"] < 5.0  # measured: 59.6 degrees
+    assert (
+        metrics["tumbles"] == 4 and metrics["heading_error_deg"] < 5.0
+    )  # seeds 0, 1: 61.4-61.7 and -60.0 to -60.3 degrees
     controller = next(iter(policy._controllers.values()))
-    assert controller.history[:3] == [(1, 2, 3, 4), (4, 2, 1, 3), (3, 2, 4, 1)]  # limb 2 planted thrice
+    if turn_deg > 0:
+        assert controller.history[:3] == [(1, 2, 3, 4), (4, 2, 1, 3), (3, 2, 4, 1)]  # limb 2 planted thrice
     strip_only = BeastPlanner(joint_ranges=np.radians([[-180, 180], [-120, 160], [-150, 150]]))
     assert len(strip_only.plannable()) == 8 and len(policy.planner.plannable()) == 12
 
@@ -267,7 +271,7 @@ def test_six_beast_tumbles_are_all_plannable_and_disabled_limbs_never_land():
     for disabled in (6, 2):
         controller = RollingGaitController(planner, disabled_limbs=(disabled,))
         controller.support = (1, 3, 5)
-        (first, future), *_ = controller._candidates(feet)
+        (first, _, future), *_ = controller._candidates(feet, q.ravel())
         assert first[2] == disabled - 1  # a broken limb in the support is lifted first...
         assert all(t[3] != disabled - 1 for t in (first, *future))  # ...and never lands again
 
@@ -320,4 +324,4 @@ def test_lookahead_follows_the_strip_and_tips_back_only_when_allowed(planner):
         controller = RollingGaitController(planner, allow_back=allow_back)
         controller.support, controller.tumbles_done, controller.last_edge = (0, 1, 3), 1, frozenset((0, 1))
         controller.heading_edge, controller.heading_vec = (0, 1), np.array(heading)
-        assert controller._candidates(feet)[0][0] == expected
+        assert controller._candidates(feet, q.ravel())[0][0] == expected

@@ -84,8 +84,11 @@ class TumbleCounter:
             return False
         self.held += 1
         if self.held == STANCE_TICKS and n_feet >= 3 and mask != self.support:
-            self.support, self.pending = mask, True
-        if not self.pending or self.held < STANCE_TICKS or _rotation_angle(self.quat, qpos[3:7]) <= math.radians(45):
+            # The first support of an episode (the feet are not yet down when it starts) is where it stands.
+            self.support, self.pending = mask, self.support != 0
+        if not self.pending or mask != self.support or self.held < STANCE_TICKS:
+            return False
+        if _rotation_angle(self.quat, qpos[3:7]) <= math.radians(45):
             return False
         self.pending = False
         self.quat = qpos[3:7].copy()

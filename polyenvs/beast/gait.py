@@ -33,11 +33,14 @@ The same plan serves every tumble by relabelling limbs, and every polyhedron: a 
 face of the octahedron of its feet, the tumble lands the limb opposite the lifted one, and the stance's "up" is minus
 the sum of the support limbs' axes. Which edge to tip over comes from a heading carried across tumbles in a frame
 attached to planted feet (the robot cannot see the world's axes) and a short look-ahead that rolls the support
-triangle on paper over the tumbles plannable from a nominal stance (joint 1 must stay within its range through the
-tip and the stance after it: 8 of the 4-beast's 12 tumbles, all 24 of the 6-beast's on its "centred" stance
-branch), never straight back unless allowed. For the 4-beast this reproduces the straight strip
-(1234)(4213)(4321)(1342) of the feasibility study. A planted limb cannot change its inverse-kinematics branch, so a
-landing limb takes the branch from which the next two tumbles of the look-ahead's path stay plannable.
+triangle on paper, never straight back unless allowed. A planted limb cannot unwind joint 1: each tumble it tips over
+turns it by the same amount (120 degrees on the 4-beast), so the look-ahead follows every planted limb's joint 1 with
+each tumble's sweep (planned once from the nominal stance; the first tumble from the measured angles) and keeps it in
+range, choosing where the landing limb's joint 1 starts (either knee-branch solution, at any turn in range). With
+joint 1 within +-180 degrees this leaves the 4-beast one strip, the feasibility study's (1234)(4213)(4321)(1342)
+(8 of its 12 tumbles are plannable from the nominal stance); a limb planted through a third tumble, which a turn
+needs, winds joint 1 by 360 degrees. The landing limb's branch is the one from which the next two tumbles of the
+look-ahead's path stay plannable.
 
 Public names: :class:`GaitConfig` (rates, stance, tip keyframes, stance branch), ``DEFAULT_CONFIGS`` (per beast),
 :class:`BeastPlanner` (geometry and trajectory planning, no state but a cache of plannable tumbles),
@@ -306,33 +309,113 @@ class BeastPlanner:
         return min(free, key=lambda limb: float(self.dirs[limb] @ self.dirs[l3]))
 
     def roll_on_paper(self, pts: dict, tumble) -> dict:
-        """Ground positions (2-D, by limb) after ``tumble``: the landing foot at the nominal apex over the edge."""
+        """Ground positions (2-D, by limb l1, l2, l4) after ``tumble``: the landing foot at the nominal apex over the
+        edge."""
         l1, l2, l3, l4 = tumble
         edge = (pts[l2] - pts[l1]) / np.linalg.norm(pts[l2] - pts[l1])
         out = np.array([edge[1], -edge[0]])  # to the right of l1 -> l2: away from l3
-        new = dict(pts)
-        del new[l3]
-        new[l4] = (pts[l1] + pts[l2]) / 2 + out * (self.config.stance_side * math.sqrt(3) / 2)
-        return new
+        landed = (pts[l1] + pts[l2]) / 2 + out * (self.config.stance_side * math.sqrt(3) / 2)
+        return {l1: pts[l1], l2: pts[l2], l4: landed}
+
+    def sweeps(self) -> dict:
+        """How joint 1 of the planted limbs moves through each tumble, and where the landing limb's ends.
+
+        Keys ``(tumble, landing)``, landing 0 or 1 for the landing limb's two knee-branch solutions (joint 1 half a
+        turn apart); values ``(l1, l2, l3 sweeps, landed joint 1 in (-pi, pi])``, a sweep being (change from the
+        start to the end stance, lowest and highest excursion on the way) in radians. Planned once per geometry from
+        the nominal stance with joint 1 unbounded, so that the look-ahead can judge any winding: a planted limb
+        cannot unwind joint 1 (its motion depends only on the feet, not on the turn it started at), and a limb kept
+        planted through three tumbles winds it by 360 degrees.
+        """
+        key = ("sweeps", self.polyhedron, self.links, self.config, self.foot_radius)
+        if key not in _PLANNABLE:
+            wide = np.array(self.joint_ranges)
+            wide[0] = [-4 * np.pi, 4 * np.pi]
+            planner = BeastPlanner(self.polyhedron, self.links, wide, self.foot_radius, self.config)
+            table = {}
+            for (l1, l2, l3), q in self._nominal_starts():
+                tumble = (l1, l2, l3, self.landing_limb(l1, l2, l3))
+                for landing in (0.0, math.pi):
+                    tip = planner.tip_plan(
+                        q, tumble, landing=self.stance_angles((l1, tumble[3], l2))[tumble[3]][0] + landing
+                    )
+                    if tip is None:
+                        continue
+                    stance = planner.stance_plan(tip.q[-1], (l1, l2, tumble[3]), (l3,))
+                    theta1 = np.concatenate([tip.q, stance.q])[:, 0::3]
+                    moves = []
+                    for path in (theta1[:, l1], theta1[:, l2], tip.q[:, 3 * l3]):
+                        rel = path - path[0]
+                        moves.append((float(rel[-1]), float(rel.min()), float(rel.max())))
+                    landed = float(np.mod(theta1[-1, tumble[3]] + np.pi, 2 * np.pi) - np.pi)
+                    table[(tumble, int(landing > 0))] = (*moves, landed)
+            _PLANNABLE[key] = table
+        return _PLANNABLE[key]
+
+    def wind_on_paper(self, theta1: dict, tumble) -> list[dict]:
+        """The planted limbs' joint 1 (by limb) after ``tumble`` on paper: one dict for each landing solution and
+        turn that keeps every joint 1 in range (with a few degrees to spare for the feet's drift)."""
+        l1, l2, l3, l4 = tumble
+        low, high = self.joint_ranges[0] + np.radians([3.0, -3.0])
+        out = []
+        for landing in (0, 1):
+            entry = self.sweeps().get((tuple(tumble), landing))
+            if entry is None:
+                continue
+            *moves, landed = entry
+            if not all(
+                low <= theta1[limb] + lowest and theta1[limb] + highest <= high
+                for limb, (_, lowest, highest) in zip((l1, l2, l3), moves, strict=True)
+            ):
+                continue
+            after = {l1: theta1[l1] + moves[0][0], l2: theta1[l2] + moves[1][0]}
+            for turns in (-1, 0, 1):
+                if low <= landed + 2 * np.pi * turns <= high:
+                    out.append({**after, l4: landed + 2 * np.pi * turns})
+        return out
+
+    def wind_now(self, q: np.ndarray, tumble) -> list[dict]:
+        """As :meth:`wind_on_paper`, but for a tumble from the measured angles ``q``, planned for real: the first
+        tumble from a stance off the nominal pattern (a task's start) sweeps joint 1 differently."""
+        l1, l2, l3, l4 = tumble
+        out = []
+        for landing in (0, 1):
+            entry = self.sweeps().get((tuple(tumble), landing))
+            if entry is None:
+                continue
+            for turns in (-1, 0, 1):
+                target = entry[-1] + 2 * np.pi * turns
+                if not self.joint_ranges[0, 0] <= target <= self.joint_ranges[0, 1]:
+                    continue
+                tip = self.tip_plan(q, tumble, landing=target)
+                stance = None if tip is None else self.stance_plan(tip.q[-1], (l1, l2, l4), (l3,))
+                if stance is not None and abs(stance.q[-1][3 * l4] - target) < np.pi / 2:
+                    out.append({limb: float(stance.q[-1][3 * limb]) for limb in (l1, l2, l4)})
+        return out
+
+    def _nominal_starts(self):
+        """((l1, l2, l3), joint angles) for every tumble's start: a support face ordered by :meth:`order_edge`, in
+        its nominal stance with the free limbs tucked."""
+        for support in itertools.combinations(range(self.n_limbs), 3):
+            if any(float(self.dirs[i] @ self.dirs[j]) < -0.99 for i, j in itertools.combinations(support, 2)):
+                continue  # opposite limbs never stand together
+            q = np.tile(TUCKED, (self.n_limbs, 1))
+            for limb, angles in self.stance_angles(support).items():
+                q[limb] = angles
+            feet = self.feet(q.ravel())
+            for c in support:
+                a, b = (limb for limb in support if limb != c)
+                yield self.order_edge(feet, a, b, c), q.ravel()
 
     def plannable(self) -> frozenset:
         """The tumbles (0-based) plannable from the nominal stance of their support, computed once per geometry."""
         key = (self.polyhedron, self.links, self.config, self.joint_ranges.tobytes(), self.foot_radius)
         if key not in _PLANNABLE:
             found = set()
-            for support in itertools.combinations(range(self.n_limbs), 3):
-                if any(float(self.dirs[i] @ self.dirs[j]) < -0.99 for i, j in itertools.combinations(support, 2)):
-                    continue  # opposite limbs never stand together
-                q = np.tile(TUCKED, (self.n_limbs, 1))
-                for limb, angles in self.stance_angles(support).items():
-                    q[limb] = angles
-                feet = self.feet(q.ravel())
-                for c in support:
-                    a, b = (limb for limb in support if limb != c)
-                    l1, l2, l3 = self.order_edge(feet, a, b, c)
-                    tumble = (l1, l2, l3, self.landing_limb(l1, l2, l3))
-                    if self.tip_plan(q.ravel(), tumble) is not None:
-                        found.add(tumble)
+            for (l1, l2, l3), q in self._nominal_starts():
+                tumble = (l1, l2, l3, self.landing_limb(l1, l2, l3))
+                if self.tip_plan(q, tumble) is not None:
+                    found.add(tumble)
             _PLANNABLE[key] = frozenset(found)
         return _PLANNABLE[key]
 
@@ -414,16 +497,24 @@ class BeastPlanner:
         qd = dq_ds * s_dot[:, None, None]
         return JointTrajectory(times, q.reshape(n, -1), qd.reshape(n, -1))
 
-    def tip_plan(self, q_now: np.ndarray, tumble: tuple[int, int, int, int], extra: float = 0.0, future=()):
-        """The tip plan of the configured keyframe, or of the first alternative keyframe that is plannable."""
+    def tip_plan(
+        self,
+        q_now: np.ndarray,
+        tumble: tuple[int, int, int, int],
+        extra: float = 0.0,
+        future=(),
+        landing: int | None = None,
+    ):
+        """The tip plan of the configured keyframe, or of the first alternative keyframe that is plannable.
+        ``landing`` (radians) asks for the landing limb's foothold solution whose joint 1 is nearest it."""
         cfg = self.config
         for keyframe in ((cfg.tip_centre, cfg.tip_rotation_deg, cfg.roll_deg), *cfg.tip_alternatives):
-            traj = self._tip_plan(q_now, tumble, extra, future, *keyframe)
+            traj = self._tip_plan(q_now, tumble, extra, future, landing, *keyframe)
             if traj is not None:
                 return traj
         return None
 
-    def _tip_plan(self, q_now, tumble, extra, future, tip_centre, tip_rotation_deg, roll_deg):
+    def _tip_plan(self, q_now, tumble, extra, future, landing, tip_centre, tip_rotation_deg, roll_deg):
         """Trajectory K0 -> K1 of tumble (l1, l2, l3, l4) (0-based limbs) from the measured angles, or None.
 
         ``extra`` pushes the tip keyframe that much further forward (a retry when the body did not tip). None when a
@@ -455,13 +546,23 @@ class BeastPlanner:
         p_limb = self.base[l4].T @ p_body
         if not K.reachable(p_limb, self.links):
             return None
-        # The landing limb's knee-branch solutions, the one nearest its nominal stance after landing first.
-        sols = K.inverse_kinematics(p_limb[None], self.links, knee=1, flip=np.array([False, True]))
+        # The landing limb's knee-branch solutions with joint 1 at every turn within its range, the one nearest its
+        # nominal stance after landing first (or only the one asked for).
         near = self.ik_near(p_limb[None], self.stance_angles((l1, l4, l2))[l4][None])[0]
-        sols = sorted(sols, key=lambda q: float(np.abs(np.mod(q - near + np.pi, 2 * np.pi) - np.pi).sum()))
+        options = []
+        for sol in K.inverse_kinematics(p_limb[None], self.links, knee=1, flip=np.array([False, True])):
+            q_pre = near + np.mod(sol - near + np.pi, 2 * np.pi) - np.pi
+            for turns in (-1, 0, 1):
+                shifted = q_pre + [2 * np.pi * turns, 0.0, 0.0]
+                if self.joint_ranges[0, 0] <= shifted[0] <= self.joint_ranges[0, 1]:
+                    options.append(shifted)
+        if landing is not None:
+            options = sorted(options, key=lambda q: abs(q[0] - landing))[:1]
+        else:
+            options.sort(key=lambda q: float(np.abs(q - near).sum()))
         free = {limb: TUCKED for limb in range(self.n_limbs) if limb not in tumble}
-        for q_pre in sols:
-            free[l4] = near + np.mod(q_pre - near + np.pi, 2 * np.pi) - np.pi
+        for q_pre in options:
+            free[l4] = q_pre
             traj = self.body_motion(q_now, [l1, l2, l3], feet_t, (rot0, c0), (r1, c1), free)
             if traj is None or not self.in_range(traj.q):
                 continue
@@ -530,6 +631,7 @@ class RollingGaitController:
         self.traj: JointTrajectory | None = None
         self.t = 0.0
         self.tumble: tuple[int, ...] | None = None
+        self.landing: float | None = None  # the landing limb's joint 1 that the look-ahead planned for
         self.future: tuple = ()
         self.support: tuple[int, ...] | None = None
         self.tumbles_done = 0
@@ -579,7 +681,8 @@ class RollingGaitController:
                     self._start(plan, "stance")
             elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
                 self.nudges += 1
-                plan, self.future = self._tip_plan(q, self.tumble, self.future, extra=self.nudges * p.config.nudge)
+                extra = self.nudges * p.config.nudge
+                plan, self.future = self._tip_plan(q, self.tumble, self.future, self.landing, extra)
                 if plan is not None:
                     self._start(plan, "tip")
             elif self.waited >= ROLL_TIMEOUT:
@@ -629,23 +732,25 @@ class RollingGaitController:
             return
         p = self.planner
         feet = p.feet(q)
-        for tumble, future in self._candidates(feet):
-            plan, future = self._tip_plan(q, tumble, future[:FUTURE])
+        for tumble, landing, future in self._candidates(feet, q):
+            plan, future = self._tip_plan(q, tumble, future[:FUTURE], landing)
             if plan is not None:
                 self._carry_heading(feet, tumble)
-                self.tumble, self.future, self.nudges = tumble, future, 0
+                self.tumble, self.landing, self.future, self.nudges = tumble, landing, future, 0
                 self._start(plan, "tip")
                 return
         # A pivot turn ends where no tumble about the pivot is plannable; otherwise nothing is, which is stuck.
         self.phase = "done" if self.pivot is not None else "stuck"
 
-    def _tip_plan(self, q: np.ndarray, tumble, future: tuple, extra: float = 0.0) -> tuple:
-        """(tip plan, the part of ``future`` it keeps plannable): the landing branch is chosen for as much of the
-        look-ahead's path as can be planned, down to none (a nudged tip may leave no room for the path)."""
-        for depth in range(len(future), -1, -1):
-            plan = self.planner.tip_plan(q, tumble, extra=extra, future=future[:depth])
-            if plan is not None:
-                return plan, future[:depth]
+    def _tip_plan(self, q: np.ndarray, tumble, future: tuple, landing: float, extra: float = 0.0) -> tuple:
+        """(tip plan, the part of ``future`` it keeps plannable): the landing foothold the look-ahead chose, checked
+        for as much of its path as can be planned, down to none (a nudged tip may leave no room for the path); then
+        any foothold."""
+        for target in (landing, None):
+            for depth in range(len(future), -1, -1):
+                plan = self.planner.tip_plan(q, tumble, extra=extra, future=future[:depth], landing=target)
+                if plan is not None:
+                    return plan, future[:depth]
         return None, future
 
     def _heading_body(self, feet: np.ndarray) -> np.ndarray:
@@ -668,13 +773,15 @@ class RollingGaitController:
         h[2] = 0.0
         self.heading_vec, self.heading_edge = _unit(h), (l1, l2)
 
-    def _candidates(self, feet) -> list[tuple[tuple[int, int, int, int], tuple]]:
-        """Tumbles from the current support, best first, each with the look-ahead's best path after it.
+    def _candidates(self, feet, q) -> list[tuple[tuple[int, int, int, int], float, tuple]]:
+        """Tumbles from the current support, best first, each with the landing limb's joint 1 and the look-ahead's
+        best path after it.
 
         The look-ahead rolls the support triangle on paper (each landing foot at the nominal apex over the tipping
-        edge) through ``LOOKAHEAD`` tumbles that are plannable from a nominal stance and keep disabled limbs off the
-        ground, never straight back, and scores a first tumble by the best final advance along the heading; a branch
-        that runs into a dead end scores a metre less. With ``pivot`` every tumble keeps that limb planted.
+        edge) through ``LOOKAHEAD`` tumbles whose joint-1 sweeps (:meth:`BeastPlanner.sweeps`) keep every planted
+        limb in range as it winds, from the measured angles ``q``, and that keep disabled limbs off the ground,
+        never straight back, and scores a first tumble by the best final advance along the heading; a branch that
+        runs into a dead end scores a metre less. With ``pivot`` every tumble keeps that limb planted.
         """
         p = self.planner
         s = self.support
@@ -686,6 +793,7 @@ class RollingGaitController:
             self.heading_edge, self.heading_vec = (l1, l2), self._default_heading()
         rot = self._edge_frame(feet, s[0], s[1])
         h = (rot @ self._heading_body(feet))[:2]
+        theta1 = {limb: float(q[3 * limb]) for limb in s}
         if self.tumbles_done == 0:
             a, b, c = sorted(s)
             l1, l2, l3 = p.order_edge(feet, a, b, c)
@@ -697,20 +805,23 @@ class RollingGaitController:
                 # A disabled limb standing in the support is lifted first, and none ever lands (paper section 5:
                 # reorient so that the defective limb is on top); otherwise the look-ahead picks the first tumble.
                 pts = {limb: (rot @ feet[limb])[:2] for limb in s}
-                options = self._options(pts, s, None)
+                options = self._options(pts, theta1, None)
                 lift = [t for t in options if t[2] in self.disabled]
                 options = lift or options
         else:
-            options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, s, self.last_edge)
+            options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, theta1, self.last_edge)
         pts = {limb: (rot @ feet[limb])[:2] for limb in s}
         scored = []
         for t in options:
-            score, path = self._lookahead(
-                p.roll_on_paper(pts, t), (t[0], t[1], t[3]), frozenset(t[:2]), LOOKAHEAD - 1, h
-            )
-            scored.append((score, t, path))
+            rolled = p.roll_on_paper(pts, t)
+            outcomes = p.wind_now(q, t)
+            if not outcomes:  # a first tumble the task asks for: the planner itself is the judge
+                scored.append((-np.inf, t, None, ()))
+            for wound in outcomes:
+                score, path = self._lookahead(rolled, wound, frozenset(t[:2]), LOOKAHEAD - 1, h)
+                scored.append((score, t, wound[t[3]], path))
         scored.sort(key=lambda item: -item[0])
-        return [(t, path) for _, t, path in scored]
+        return [(t, landing, path) for _, t, landing, path in scored]
 
     def _default_heading(self) -> np.ndarray:
         """The heading in the first tumble's frame: the 4-beast's straight strip runs 30 degrees to the left of the
@@ -719,36 +830,37 @@ class RollingGaitController:
             return np.asarray(self.heading_first, dtype=float)
         return np.array([0.866, 0.5, 0.0]) if self.planner.n_limbs == 4 else np.array([1.0, 0.0, 0.0])
 
-    def _options(self, pts: dict, support, last_edge) -> list[tuple[int, int, int, int]]:
+    def _options(self, pts: dict, theta1: dict, last_edge) -> list[tuple[int, int, int, int]]:
+        """The tumbles from a support on paper (ground points and joint 1 by planted limb) worth looking at."""
         p = self.planner
         out = []
-        for c in support:
-            a, b = (limb for limb in support if limb != c)
-            back = frozenset((a, b)) == last_edge and not self.allow_back
+        for c in pts:
+            a, b = (limb for limb in pts if limb != c)
+            back = frozenset((a, b)) == last_edge and (not self.allow_back or self.pivot is not None)
             if back or (self.pivot is not None and self.pivot not in (a, b)):
                 continue
             e, f = pts[b] - pts[a], pts[c] - pts[a]
             l1, l2 = (a, b) if e[0] * f[1] - e[1] * f[0] > 0 else (b, a)
             t = (l1, l2, c, p.landing_limb(l1, l2, c))
-            if t in p.plannable() and t[3] not in self.disabled:
+            if t[3] not in self.disabled and p.wind_on_paper(theta1, t):
                 out.append(t)
         return out
 
-    def _lookahead(self, pts: dict, support, last_edge, depth: int, h: np.ndarray) -> tuple[float, tuple]:
+    def _lookahead(self, pts: dict, theta1: dict, last_edge, depth: int, h: np.ndarray) -> tuple[float, tuple]:
         """(best advance along h after ``depth`` more tumbles, the path of tumbles that reaches it)."""
-        here = float(np.mean([pts[limb] for limb in support], axis=0) @ h)
+        here = float(np.mean(list(pts.values()), axis=0) @ h)
         if depth == 0:
             return here, ()
-        options = self._options(pts, support, last_edge)
+        options = self._options(pts, theta1, last_edge)
         if not options:
             return here - 1.0, ()
         best = (-np.inf, ())
         for t in options:
-            score, path = self._lookahead(
-                self.planner.roll_on_paper(pts, t), (t[0], t[1], t[3]), frozenset(t[:2]), depth - 1, h
-            )
-            if score > best[0]:
-                best = (score, (t, *path))
+            rolled = self.planner.roll_on_paper(pts, t)
+            for wound in self.planner.wind_on_paper(theta1, t):
+                score, path = self._lookahead(rolled, wound, frozenset(t[:2]), depth - 1, h)
+                if score > best[0]:
+                    best = (score, (t, *path))
         return best
 
 
