@@ -781,7 +781,8 @@ class RollingGaitController:
         edge) through ``LOOKAHEAD`` tumbles whose joint-1 sweeps (:meth:`BeastPlanner.sweeps`) keep every planted
         limb in range as it winds, from the measured angles ``q``, and that keep disabled limbs off the ground,
         never straight back, and scores a first tumble by the best final advance along the heading; a branch that
-        runs into a dead end scores a metre less. With ``pivot`` every tumble keeps that limb planted.
+        runs into a dead end scores a metre less for every tumble it falls short. With ``pivot`` every tumble keeps
+        that limb planted.
         """
         p = self.planner
         s = self.support
@@ -805,17 +806,17 @@ class RollingGaitController:
                 # A disabled limb standing in the support is lifted first, and none ever lands (paper section 5:
                 # reorient so that the defective limb is on top); otherwise the look-ahead picks the first tumble.
                 pts = {limb: (rot @ feet[limb])[:2] for limb in s}
-                options = self._options(pts, theta1, None)
+                options = self._options(pts, None)
                 lift = [t for t in options if t[2] in self.disabled]
                 options = lift or options
         else:
-            options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, theta1, self.last_edge)
+            options = self._options({limb: (rot @ feet[limb])[:2] for limb in s}, self.last_edge)
         pts = {limb: (rot @ feet[limb])[:2] for limb in s}
         scored = []
         for t in options:
             rolled = p.roll_on_paper(pts, t)
             outcomes = p.wind_now(q, t)
-            if not outcomes:  # a first tumble the task asks for: the planner itself is the judge
+            if not outcomes:  # tried last: the planner itself is the judge
                 scored.append((-np.inf, t, None, ()))
             for wound in outcomes:
                 score, path = self._lookahead(rolled, wound, frozenset(t[:2]), LOOKAHEAD - 1, h)
@@ -830,8 +831,8 @@ class RollingGaitController:
             return np.asarray(self.heading_first, dtype=float)
         return np.array([0.866, 0.5, 0.0]) if self.planner.n_limbs == 4 else np.array([1.0, 0.0, 0.0])
 
-    def _options(self, pts: dict, theta1: dict, last_edge) -> list[tuple[int, int, int, int]]:
-        """The tumbles from a support on paper (ground points and joint 1 by planted limb) worth looking at."""
+    def _options(self, pts: dict, last_edge) -> list[tuple[int, int, int, int]]:
+        """The tumbles from a support on paper (ground points by planted limb) worth looking at."""
         p = self.planner
         out = []
         for c in pts:
@@ -842,7 +843,7 @@ class RollingGaitController:
             e, f = pts[b] - pts[a], pts[c] - pts[a]
             l1, l2 = (a, b) if e[0] * f[1] - e[1] * f[0] > 0 else (b, a)
             t = (l1, l2, c, p.landing_limb(l1, l2, c))
-            if t[3] not in self.disabled and p.wind_on_paper(theta1, t):
+            if t[3] not in self.disabled:
                 out.append(t)
         return out
 
@@ -851,15 +852,12 @@ class RollingGaitController:
         here = float(np.mean(list(pts.values()), axis=0) @ h)
         if depth == 0:
             return here, ()
-        options = self._options(pts, theta1, last_edge)
-        if not options:
-            return here - 1.0, ()
-        best = (-np.inf, ())
-        for t in options:
+        best = (here - float(depth), ())  # a dead end: a metre less for every tumble it cuts short
+        for t in self._options(pts, last_edge):
             rolled = self.planner.roll_on_paper(pts, t)
             for wound in self.planner.wind_on_paper(theta1, t):
                 score, path = self._lookahead(rolled, wound, frozenset(t[:2]), depth - 1, h)
-                if score > best[0]:
+                if score > best[0] or not best[1]:
                     best = (score, (t, *path))
         return best
 
