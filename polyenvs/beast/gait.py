@@ -794,7 +794,6 @@ class RollingGaitController:
             self.heading_edge, self.heading_vec = (l1, l2), self._default_heading()
         rot = self._edge_frame(feet, s[0], s[1])
         h = (rot @ self._heading_body(feet))[:2]
-        theta1 = {limb: float(q[3 * limb]) for limb in s}
         if self.tumbles_done == 0:
             a, b, c = sorted(s)
             l1, l2, l3 = p.order_edge(feet, a, b, c)
