@@ -229,6 +229,25 @@ def test_canonical_tumble_succeeds_closed_loop(seed):
     assert 0.13 < advance[0] < 0.19 and abs(advance[1]) < 0.03  # along +x, the feasibility study's ~155 mm
 
 
+def test_joint_one_winds_by_a_third_of_a_turn_per_tumble_and_the_look_ahead_keeps_it_in_range():
+    wide = BeastPlanner(joint_ranges=np.radians([[-250, 250], [-120, 160], [-150, 150]]))
+    *moves, landed = wide.sweeps()[((0, 1, 2, 3), 0)]  # landing on the nominal stance's solution
+    (d1, low1, _), (d2, _, high2), _ = moves
+    assert np.degrees([d1, d2]) == pytest.approx([120.0, -120.0], abs=1.0)  # the appendix: limb 1 0 -> 120, 2 120 -> 0
+    assert np.degrees(low1) == pytest.approx(-17.2, abs=1.0) and high2 == pytest.approx(0.0, abs=1e-6)
+    assert np.degrees(landed) == pytest.approx(-120.0, abs=1.0)  # limb 4 lands at K3's -120...
+    assert np.degrees(wide.sweeps()[((0, 1, 2, 3), 1)][-1]) == pytest.approx(60.0, abs=1.0)  # ...or flipped, at 60
+    start = {0: 0.0, 1: math.radians(120), 2: math.radians(-120)}
+    (after, *_) = wide.wind_on_paper(start, (0, 1, 2, 3))
+    assert np.degrees([after[0], after[1], after[3]]) == pytest.approx([120.0, 0.0, -120.0], abs=1.0)
+    # Limb 1 planted through a second and a third tumble about it: 240 degrees fits +-250, 360 does not.
+    twice = wide.wind_on_paper({0: math.radians(120), 1: 0.0, 3: math.radians(-120)}, (0, 3, 1, 2))
+    assert twice and all(math.degrees(w[0]) == pytest.approx(240.0, abs=1.0) for w in twice)
+    assert not wide.wind_on_paper({0: math.radians(240), 3: 0.0, 2: 0.0}, (0, 2, 3, 1))
+    strip = BeastPlanner()  # +-180: the second tumble about limb 1 is already out of range
+    assert not strip.wind_on_paper({0: math.radians(120), 1: 0.0, 3: math.radians(-120)}, (0, 3, 1, 2))
+
+
 @pytest.mark.parametrize("turn_deg", [60.0, -60.0])
 def test_four_beast_sharp_turn_follows_the_commanded_turn(turn_deg):
     """A limb kept planted through a third tumble rolls the strip by 60 degrees about it (the paper's Figures 10

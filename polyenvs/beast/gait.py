@@ -81,7 +81,7 @@ ROLL_TIMEOUT = 4.0
 LOOKAHEAD = 4
 #: Tumbles after the next one that the landing limb's branch is chosen for.
 FUTURE = 2
-#: Plannable tumbles per geometry (BeastPlanner.plannable), shared by every planner of that geometry.
+#: Per-geometry planning caches (BeastPlanner.plannable, BeastPlanner.sweeps), shared by every planner of that geometry.
 _PLANNABLE: dict = {}
 #: The free limb's pose on top: straight out along its face normal, clear of the ground and the other limbs.
 TUCKED = np.array([0.0, math.pi / 2, 0.0])
