@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from baselines.base import Policy
+from polyenvs.beast.crawl import CrawlConfig, CrawlController
 from polyenvs.beast.gait import (
     DEFAULT_CONFIGS,
     BeastPlanner,
@@ -27,7 +28,7 @@ from polyenvs.beast.gait import (
 from polyenvs.beast.sensors import observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
 
-__all__ = ["RollingGait", "SharpTurn", "Righting"]
+__all__ = ["Crawl", "RollingGait", "SharpTurn", "Righting"]
 
 
 class _ControllerPolicy(Policy):
@@ -178,3 +179,72 @@ class Righting(_ControllerPolicy):
 
     def make_controller(self, observation):
         return RightingController(self.planner, roll_after=self.roll_after)
+
+
+class Crawl(_ControllerPolicy):
+    """The quadruped crawl of a 6-beast with a broken limb on top (paper section 5), closed loop on its own sensors.
+
+    The broken limb points up and its opposite is folded away under the body; the four limbs perpendicular to it
+    walk a statically stable crawl (one leg at a time, lateral sequence left-hind, left-front, right-hind,
+    right-front; before each lift the body shifts the centre of mass into the other three feet's triangle with a
+    margin), each shift and swing planned from the encoder angles (feet by forward kinematics) and the contact
+    switches (:mod:`polyenvs.beast.crawl`). It starts from the crawl stance
+    (:func:`polyenvs.beast.crawl.crawl_stance_qpos`); the heading is fixed to the body, so the robot goes where its
+    forward direction points.
+
+    Args:
+        disabled_limbs: the one broken 1-based limb (a sequence of one limb number, 1..6), put on top.
+        heading_deg: direction of travel, counter-clockwise about the broken limb from the crawl's forward (the
+            bisector of the two lowest-numbered perpendicular legs), in [-180, 180].
+        rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s.
+        stride: foot advance per crawl cycle (m), in [0, 0.2].
+        margin: least distance of the centre of mass from the support triangle's edges while a leg swings (m),
+            in [0, 0.06].
+        max_cycles: stop (hold) after this many crawl cycles of four steps, in [1, 1000]; None walks on.
+    """
+
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        disabled_limbs=(1,),
+        heading_deg: float = 0.0,
+        rate_deg_s: float = 20.0,
+        stride: float = CrawlConfig.stride,
+        margin: float = CrawlConfig.margin,
+        max_cycles: int | None = None,
+    ):
+        super().__init__(observation_space, action_space, rate_deg_s)
+        if self.planner.n_limbs != 6:
+            raise ValueError(f"Crawl needs a 6-beast (octahedron) observation space, got a {self.polyhedron}")
+        if isinstance(disabled_limbs, (str, bytes)) or not hasattr(disabled_limbs, "__iter__"):
+            raise ValueError(f"disabled_limbs must be a sequence of one limb number, got {disabled_limbs!r}")
+        limbs = tuple(sorted({check_int("disabled_limbs", v, 1, 6) for v in disabled_limbs}))
+        if len(limbs) != 1:
+            raise ValueError(f"disabled_limbs must name exactly one limb (the one put on top), got {disabled_limbs!r}")
+        self.disabled_limbs = limbs
+        self.heading_deg = check_in_range("heading_deg", heading_deg, -180.0, 180.0)
+        self.stride = check_in_range("stride", stride, 0.0, 0.2)
+        self.margin = check_in_range("margin", margin, 0.0, 0.06)
+        self.max_cycles = None if max_cycles is None else check_int("max_cycles", max_cycles, 1, 1000)
+        self.config = CrawlConfig(rate_deg_s=self.rate_deg_s, stride=self.stride, margin=self.margin)
+
+    def describe(self):
+        return {
+            "name": "crawl",
+            "disabled_limbs": list(self.disabled_limbs),
+            "heading_deg": self.heading_deg,
+            "rate_deg_s": self.rate_deg_s,
+            "stride": self.stride,
+            "margin": self.margin,
+            "max_cycles": self.max_cycles,
+        }
+
+    def make_controller(self, observation):
+        return CrawlController(
+            self.planner,
+            self.disabled_limbs[0] - 1,
+            config=self.config,
+            heading_rad=math.radians(self.heading_deg),
+            max_cycles=self.max_cycles,
+        )

@@ -14,6 +14,10 @@ Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beas
 - ``recover``: BeastRecover (4-beast), ``Righting``: success rate and time to stance.
 - ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
   along the heading and straight-line displacement.
+- ``crawl``: the 6-beast with each limb disabled in turn, reoriented with that limb on top (the crawl stance,
+  ``polyenvs.beast.crawl.crawl_stance_qpos``, forward along world +x) and walking the quadruped crawl (``Crawl``) for
+  60 s: distance along the heading, displacement, speed, crawl steps, and whether anything but a foot touched the
+  floor or the simulation went unstable.
 
 From the repo root::
 
@@ -32,8 +36,11 @@ import numpy as np
 __all__ = ["main", "run_episode"]
 
 
-def run_episode(env, policy, seed: int, max_steps: int, until_done: bool = True, reset_options=None) -> dict:
-    """One seeded episode; stops at termination/truncation, ``max_steps``, or when the controller is done/stuck."""
+def run_episode(
+    env, policy, seed: int, max_steps: int, until_done: bool = True, reset_options=None, on_step=None
+) -> dict:
+    """One seeded episode; stops at termination/truncation, ``max_steps``, or when the controller is done/stuck.
+    ``on_step(env, info)``, if given, is called after every step."""
     obs, info = env.reset(seed=seed, options=reset_options)
     state, start = None, True
     start_xy = env.unwrapped.data.qpos[:2].copy()
@@ -43,6 +50,8 @@ def run_episode(env, policy, seed: int, max_steps: int, until_done: bool = True,
         action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
         start = False
         obs, _, terminated, truncated, info = env.step(action)
+        if on_step is not None:
+            on_step(env, info)
         controllers = getattr(policy, "_controllers", None)
         controller = controllers.get(int(state[0, 0])) if controllers is not None else None
         if terminated or truncated:
@@ -53,6 +62,7 @@ def run_episode(env, policy, seed: int, max_steps: int, until_done: bool = True,
     out["steps"] = steps
     out["sim_s"] = steps * 0.01
     out["displacement_m"] = float(np.linalg.norm(env.unwrapped.data.qpos[:2] - start_xy))
+    out["sim_unstable"] = bool(info.get("sim_unstable", False))
     if controller is not None and hasattr(controller, "history"):
         out["history"] = ["".join(map(str, t)) for t in controller.history]
         out["phase"] = controller.phase
@@ -177,6 +187,55 @@ def bench_faults(seeds):
     return out
 
 
+def floor_touches(env) -> set:
+    """Names of the robot's geoms other than feet touching the floor now (body, links)."""
+    import mujoco
+
+    m, d = env.unwrapped.model, env.unwrapped.data
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    out = set()
+    for c in d.contact[: d.ncon]:
+        if floor in (c.geom1, c.geom2):
+            other = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, c.geom2 if c.geom1 == floor else c.geom1)
+            if not other.endswith("_foot"):
+                out.add(other)
+    return out
+
+
+def bench_crawl(seeds):
+    from baselines.beast import Crawl
+    from polyenvs.beast.crawl import crawl_stance_qpos
+    from polyenvs.beast.tasks import BeastRollEnv
+
+    out = {}
+    for limb in range(1, 7):
+        env = BeastRollEnv(polyhedron="octahedron", disabled_limbs=(limb,))
+        policy = Crawl(env.observation_space, env.action_space, disabled_limbs=(limb,))
+        options = {"qpos": crawl_stance_qpos(limb)}
+        runs = []
+        for s in seeds:
+            touched: set = set()
+            r = run_episode(
+                env, policy, s, 6000, until_done=False, reset_options=options,
+                on_step=lambda e, _, t=touched: t.update(floor_touches(e)),
+            )  # fmt: skip
+            controller = next(iter(policy._controllers.values()), None)
+            r["crawl_steps"] = getattr(controller, "steps", 0)
+            r["floor_touches"] = sorted(touched)
+            runs.append(r)
+        out[str(limb)] = runs
+        print(
+            f"6-beast crawl, limb {limb} disabled (on top), 60 s: along heading "
+            f"{_summary([r['distance_m'] for r in runs])} m, displacement {_summary([r['displacement_m'] for r in runs])}"
+            f" m, speed {_summary([r['distance_m'] / r['sim_s'] for r in runs])} m/s, steps "
+            f"{_summary([r['crawl_steps'] for r in runs])}; non-foot floor contacts "
+            f"{sorted({g for r in runs for g in r['floor_touches']}) or 'none'}; sim_unstable "
+            f"{sum(r['sim_unstable'] for r in runs)}/{len(runs)}",
+            flush=True,
+        )
+    return out
+
+
 def _task_support(env) -> set:
     from polyenvs.beast import model as M
 
@@ -218,6 +277,7 @@ BENCHES = {
     "turn": bench_turn,
     "recover": bench_recover,
     "faults": bench_faults,
+    "crawl": bench_crawl,
 }
 
 

@@ -1,0 +1,531 @@
+"""The quadruped crawl of a 6-beast with a broken limb (paper section 5), planned from the robot's own sensors.
+
+Paper: Pai, Barman and Ralph, "Platonic Beasts", section 5: "if a 6-beast loses operation of a limb while rolling,
+it can simply reorient the body so that the defective limb is on top and no longer used for locomotion, and walk
+with the slower quadruped crawl gait." The rolling gait cannot do without the broken limb: every tumble lands the
+limb opposite the one it lifts, so with limb k locked its opposite k' can never be lifted, becomes a permanent pivot
+and the robot rolls in small circles.
+
+**Stance.** The broken limb k points straight up; its opposite k' (pointing down) is folded sideways under the body,
+thigh horizontal and shank turned up past the body's edge, clear of the floor (its shoulder hangs 112 mm under the
+body centre, so the body stands ``height`` = 170 mm up); the four equatorial limbs are the legs, each foot on the
+floor about ``reach`` from the body's vertical axis along its limb's azimuth (an X-shaped quadruped whose forward
+direction lies between two legs), on the knee-up branch (the knee above the shoulder, the links clear of the floor).
+
+**Crawl.** A statically stable, "shift then swing" crawl (McGhee and Frank's creeping gait, the paper's ref. [16]):
+one leg at a time, in the lateral-sequence order left-hind, left-front, right-hind, right-front. For each leg:
+
+1. **Shift.** With all four feet planted, the body moves (level, the forward direction kept along the heading) so
+   that the centre of mass is a quarter stride further along the heading and inside the triangle of the other three
+   feet, at least ``margin`` from its edges (the nearest such point when the forward target is outside). Planted
+   limbs follow from the inverse kinematics with feet fixed (:meth:`BeastPlanner.body_motion`).
+2. **Swing.** The leg lifts ``lift`` straight up, moves in a lifted arc to its next foothold (half a stride ahead of
+   its nominal place under the body's forward target; in steady state each foot stands from half a stride ahead of
+   its nominal place to half a stride behind), and sets down a few millimetres into the floor so that it bears load;
+   if its contact switch is still off it reaches further down, a centimetre at a time.
+
+**Closed loop.** Every shift and swing is planned from the measured state: foot positions in the body frame by
+forward kinematics of the encoder angles, and which feet are down from the contact switches. The footholds are kept
+in a ground frame attached to the planted feet (odometry: x along the heading, z up, the floor at z = 0), which the
+robot sets up from its feet at the start; before each plan the body pose in that frame is fitted (Kabsch) to the
+planted feet's measured positions, so a body that sagged, yawed or slipped is re-levelled and re-aimed, and a foot's
+foothold is recorded where it actually landed. The centre of mass is computed from the encoder angles and the
+model's link masses. The tilt switches are not needed while standing on four feet: the feet give the floor's plane.
+
+Public names: :class:`CrawlConfig`, :class:`CrawlController`, :func:`crawl_frame` (the body-frame forward, left and
+up directions for a broken limb), :func:`crawl_stance_qpos` (the crawl stance as a MuJoCo state, for a reset),
+:func:`centre_of_mass`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from polyenvs.beast import kinematics as K
+from polyenvs.beast.gait import (
+    CONTROL_DT,
+    TUCKED,
+    BeastPlanner,
+    JointTrajectory,
+    rotation_exp,
+    rotation_log,
+    split_observation,
+)
+
+__all__ = [
+    "FOLDED",
+    "CrawlConfig",
+    "CrawlController",
+    "centre_of_mass",
+    "body_motion",
+    "crawl_frame",
+    "crawl_stance_qpos",
+]
+
+#: The folded limb opposite the broken one (joints 2 and 3, radians; joint 1 aims it, see :func:`folded_angles`):
+#: thigh level with the shoulder, shank turned 70 degrees up, so the foot ends 146 mm out and 20 mm above the body
+#: centre, 16 mm clear of the cube body's vertical edge and never below the shoulder.
+FOLDED = np.radians([0.0, -70.0])
+#: Mass model of the default 6-beast (kg): body, link 1, link 2, link 3, foot (``polyenvs.beast.model`` defaults).
+MASSES = (3.0, 0.15, 0.15, 0.12, 0.03)
+#: Inradius of the body (m): where link 1 starts along its limb axis (body of side 170 mm: 170 / sqrt(6)).
+INRADIUS = K.BODY_SIDE / math.sqrt(6)
+
+
+@dataclasses.dataclass(frozen=True)
+class CrawlConfig:
+    """Parameters of the crawl (metres, degrees, seconds).
+
+    ``height`` is the body centre above the floor: the folded limb's shoulder capsule reaches 132 mm below the
+    centre, so 170 mm leaves it 38 mm clear. ``reach`` is the feet's nominal distance from the body's vertical axis,
+    70 mm beyond the shoulders, leaving each foot room for ``stride`` along any heading inside the leg's reach on
+    the floor (about 150 mm around the point under its shoulder at this height). ``margin`` is the least distance
+    of the centre of mass from the edges of the support triangle while a leg swings (it covers the swinging leg's
+    own shift of the centre of mass, about 8 mm, and the feet's drift).
+    """
+
+    rate_deg_s: float = 20.0
+    height: float = 0.17
+    reach: float = 0.185
+    stride: float = 0.14
+    lift: float = 0.03
+    margin: float = 0.03
+    press: float = 0.004
+    settle: float = 0.5
+    knots: int = 12
+
+
+def crawl_frame(disabled: int, heading_rad: float = 0.0, polyhedron: str = "octahedron") -> np.ndarray:
+    """Body-frame (forward, left, up) rows (3, 3) of the crawl with 0-based limb ``disabled`` on top.
+
+    Up is the broken limb's axis. Forward is the bisector of the two lowest-numbered perpendicular (non-opposite)
+    legs, turned by ``heading_rad`` counter-clockwise about up: an X stance, two legs ahead and two behind.
+    """
+    dirs = K.limb_directions(polyhedron)
+    up = dirs[disabled]
+    legs = [i for i in range(len(dirs)) if abs(float(dirs[i] @ up)) < 0.5]
+    a = legs[0]
+    b = next(i for i in legs[1:] if float(dirs[i] @ dirs[a]) > -0.5)
+    forward = dirs[a] + dirs[b]
+    forward /= np.linalg.norm(forward)
+    left = np.cross(up, forward)
+    forward, left = (
+        math.cos(heading_rad) * forward + math.sin(heading_rad) * left,
+        -math.sin(heading_rad) * forward + math.cos(heading_rad) * left,
+    )
+    return np.stack([forward, left, up])
+
+
+def folded_angles(planner: BeastPlanner, limb: int, toward: np.ndarray) -> np.ndarray:
+    """Joint angles of ``limb`` folded (:data:`FOLDED`) with its thigh pointing along body direction ``toward``."""
+    local = planner.base[limb].T @ toward
+    return np.array([math.atan2(local[1], local[0]), *FOLDED])
+
+
+def centre_of_mass(planner: BeastPlanner, q: np.ndarray, masses=MASSES) -> np.ndarray:
+    """The centre of mass in the body frame from the joint angles: body at the centre, each link's mass at its
+    midpoint, the foot at the foot centre."""
+    body, m1, m2, m3, mf = masses
+    frames = K.dh_frames(np.asarray(q, dtype=float).reshape(planner.n_limbs, 3), planner.links)[..., :3, 3]
+    shoulder, knee, foot = frames[:, 0], frames[:, 1], frames[:, 2]
+    link1 = shoulder * (INRADIUS + planner.links.d1) / (2 * planner.links.d1)
+    local = m1 * link1 + m2 * (shoulder + knee) / 2 + m3 * (knee + foot) / 2 + mf * foot
+    total = body + planner.n_limbs * (m1 + m2 + m3 + mf)
+    return np.einsum("lij,lj->i", planner.base, local) / total
+
+
+def _ik_nearest(planner: BeastPlanner, limb: int, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
+    """Of the four closed-form solutions for one limb, the one nearest ``q_prev`` (angles wrapped onto it)."""
+    sols = K.ik_solutions(p_limb, planner.links)
+    diff = np.mod(sols - q_prev + np.pi, 2 * np.pi) - np.pi
+    return q_prev + diff[int(np.argmin(np.abs(diff).sum(axis=1)))]
+
+
+def body_motion(
+    planner: BeastPlanner,
+    q_now: np.ndarray,
+    planted: list[int],
+    feet_ground: np.ndarray,
+    pose0: tuple[np.ndarray, np.ndarray],
+    pose1: tuple[np.ndarray, np.ndarray],
+    free_targets: dict[int, np.ndarray],
+    knots: int = 12,
+) -> JointTrajectory | None:
+    """As :meth:`BeastPlanner.body_motion` (body from pose0 to pose1, rotation body -> ground and centre, planted
+    feet fixed; paper eq. 6-7 and the limb Jacobian for the knot velocities), but each planted limb follows the
+    nearest of all four inverse-kinematics solutions: the crawl's legs stand on whichever branch puts the knee up
+    with joint 1 mid-range (for a level leg that is theta3 < 0 on some limbs, where the planner's knee branch would
+    need joint 1 at its +-180 degree stop). None if a foot leaves its workspace or a joint its range."""
+    q_now = np.asarray(q_now, dtype=float).reshape(planner.n_limbs, 3)
+    (r0, c0), (r1, c1) = pose0, pose1
+    omega = rotation_log(r1 @ r0.T)
+    dc = c1 - c0
+    s_knots = np.linspace(0.0, 1.0, knots + 1)
+    q = np.repeat(q_now[None], len(s_knots), axis=0)
+    dq_ds = np.zeros_like(q)
+    prev = {limb: q_now[limb] for limb in planted}
+    for k, s in enumerate(s_knots):
+        rot = rotation_exp(s * omega) @ r0
+        rel = feet_ground[planted] - (c0 + s * dc)
+        p_limb = np.einsum("lji,lj->li", planner.base[planted], rel @ rot)
+        if not np.all(K.reachable(p_limb, planner.links, tol=-1e-3)):
+            return None
+        dp_limb = np.einsum("lji,lj->li", planner.base[planted], -(np.cross(omega, rel) + dc) @ rot)
+        for i, limb in enumerate(planted):
+            prev[limb] = _ik_nearest(planner, limb, p_limb[i], prev[limb])
+            q[k, limb] = prev[limb]
+            jac = K.limb_jacobian(prev[limb], planner.links)
+            dq_ds[k, limb] = np.linalg.lstsq(jac, dp_limb[i], rcond=1e-6)[0]
+    if len(s_knots) > 1 and np.abs(np.diff(q, axis=0)).max() > 0.6:
+        return None  # a branch jump: the motion crosses a singularity
+    for limb, target in free_targets.items():
+        delta = np.asarray(target, dtype=float) - q_now[limb]
+        q[:, limb] = q_now[limb] + s_knots[:, None] * delta
+        dq_ds[:, limb] = delta
+    flat = q.reshape(len(s_knots), -1)
+    if not planner.in_range(flat):
+        return None
+    # Timed as the planner's: each knot interval as long as its fastest joint needs at the rate; start and end at
+    # rest (the end intervals get the cubic's 1.5x).
+    dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / planner.rate, 1e-3)
+    dt[[0, -1]] *= 1.5
+    times = np.concatenate([[0.0], np.cumsum(dt)])
+    ds = np.diff(s_knots)
+    s_dot = np.zeros(len(s_knots))
+    s_dot[1:-1] = np.minimum(ds[:-1] / dt[:-1], ds[1:] / dt[1:])
+    return JointTrajectory(times, flat, (dq_ds * s_dot[:, None, None]).reshape(len(s_knots), -1))
+
+
+def crawl_stance_qpos(
+    disabled_limb: int, config: CrawlConfig | None = None, heading_rad: float = 0.0, planner=None
+) -> np.ndarray:
+    """MuJoCo qpos of the crawl stance with 1-based ``disabled_limb`` straight up, the crawl's forward along world
+    +x: body centre ``config.height`` up, the four legs' feet on the floor at ``config.reach`` from the vertical
+    axis on the knee-up branch, the opposite limb folded away behind."""
+    config = config or CrawlConfig()
+    planner = planner or BeastPlanner("octahedron")
+    k = disabled_limb - 1
+    frame = crawl_frame(k, heading_rad, planner.polyhedron)  # rows: forward, left, up in the body frame
+    rot = frame  # world-from-body: body forward -> +x, left -> +y, up -> +z
+    q = np.tile(TUCKED, (planner.n_limbs, 1))
+    opposite = int(np.argmin(planner.dirs @ planner.dirs[k]))
+    q[opposite] = folded_angles(planner, opposite, -crawl_frame(k, 0.0, planner.polyhedron)[0])
+    for leg in _legs(planner, k):
+        az = rot @ planner.dirs[leg]
+        foot_w = np.array([config.reach * az[0], config.reach * az[1], planner.foot_radius - config.height])
+        p_limb = planner.base[leg].T @ (rot.T @ foot_w)
+        sols = K.ik_solutions(p_limb, planner.links)
+        knees = (rot @ planner.base[leg] @ K.dh_frames(sols, planner.links)[:, 1, :3, 3].T)[2]
+        # The knee-up solution; of its two mirror forms (theta1 + pi, pi - theta2, -theta3) the one with joint 1
+        # nearer mid-range, so that the legs never work against the joint-1 stop at +-180 degrees.
+        q[leg] = sols[int(np.argmax(knees - 1e-6 * np.abs(sols[:, 0])))]
+    quat = np.zeros(4)
+    _mat2quat(rot, quat)
+    return np.concatenate([[0.0, 0.0, config.height], quat, q.ravel()])
+
+
+def _mat2quat(rot: np.ndarray, out: np.ndarray) -> None:
+    w = math.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
+    if w > 1e-6:
+        out[:] = [
+            w,
+            (rot[2, 1] - rot[1, 2]) / (4 * w),
+            (rot[0, 2] - rot[2, 0]) / (4 * w),
+            (rot[1, 0] - rot[0, 1]) / (4 * w),
+        ]
+    else:  # half-turns: from the largest diagonal term
+        i = int(np.argmax(np.diag(rot)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        v = np.zeros(3)
+        v[i] = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) / 2
+        v[j] = (rot[j, i] + rot[i, j]) / (4 * v[i])
+        v[k] = (rot[k, i] + rot[i, k]) / (4 * v[i])
+        out[:] = [(rot[k, j] - rot[j, k]) / (4 * v[i]), *v]
+
+
+def _legs(planner: BeastPlanner, disabled: int) -> list[int]:
+    """The four limbs perpendicular to the broken one: the crawl's legs."""
+    return [i for i in range(planner.n_limbs) if abs(float(planner.dirs[i] @ planner.dirs[disabled])) < 0.5]
+
+
+def _kabsch(p_body: np.ndarray, p_ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rot, centre) with rot @ p_body + centre ~ p_ground, least squares (rot body -> ground)."""
+    mb, mg = p_body.mean(axis=0), p_ground.mean(axis=0)
+    u, _, vt = np.linalg.svd((p_body - mb).T @ (p_ground - mg))
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return rot, mg - rot @ mb
+
+
+def _cross2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
+def _inside_triangle(point: np.ndarray, tri: np.ndarray, margin: float) -> np.ndarray:
+    """The point of triangle ``tri`` (3, 2), shrunk by ``margin`` about its incentre, nearest ``point``."""
+    a, b, c = (np.linalg.norm(tri[(i + 1) % 3] - tri[(i + 2) % 3]) for i in range(3))
+    incentre = (a * tri[0] + b * tri[1] + c * tri[2]) / (a + b + c)
+    area = abs(_cross2(tri[1] - tri[0], tri[2] - tri[0])) / 2
+    r_in = 2 * area / (a + b + c)
+    if r_in <= margin:
+        return incentre
+    small = incentre + (tri - incentre) * (r_in - margin) / r_in
+    orient = np.sign(_cross2(small[1] - small[0], small[2] - small[0]))
+    if all(orient * _cross2(small[(i + 1) % 3] - small[i], point - small[i]) >= 0 for i in range(3)):
+        return point
+    best, dist = point, np.inf
+    for i in range(3):
+        p, e = small[i], small[(i + 1) % 3] - small[i]
+        cand = p + np.clip((point - p) @ e / (e @ e), 0.0, 1.0) * e
+        if np.linalg.norm(cand - point) < dist:
+            best, dist = cand, np.linalg.norm(cand - point)
+    return best
+
+
+class CrawlController:
+    """The closed-loop crawl for one environment: ``controller(obs) -> action`` every 10 ms tick.
+
+    Phases: ``settle`` (hold the start pose, then set up the ground frame from the feet), ``shift`` (body over the
+    next support triangle), ``swing`` (one leg to its next foothold), ``reach`` (the swung foot has not touched: reach
+    further down), then the next leg. ``steps`` counts completed leg swings, ``cycles`` full crawl cycles.
+    """
+
+    def __init__(
+        self,
+        planner: BeastPlanner,
+        disabled_limb: int,
+        config: CrawlConfig | None = None,
+        heading_rad: float = 0.0,
+        max_cycles: int | None = None,
+    ):
+        self.planner = planner
+        self.config = config or CrawlConfig()
+        self.k = int(disabled_limb)  # 0-based
+        self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
+        self.legs = _legs(planner, self.k)
+        self.frame = crawl_frame(self.k, heading_rad, planner.polyhedron)
+        self.fold = folded_angles(planner, self.opposite, -crawl_frame(self.k, 0.0, planner.polyhedron)[0])
+        self.order = self._crawl_order()
+        self.max_cycles = max_cycles
+        self.rate = math.radians(self.config.rate_deg_s)
+        self.phase = "settle"
+        self.t = 0.0
+        self.waited = 0.0
+        self.traj: JointTrajectory | None = None
+        self.hold_q: np.ndarray | None = None
+        self.footholds: dict[int, np.ndarray] = {}  # ground-frame foot centres of the planted legs
+        self.steps = 0
+        self.reaches = 0
+        self.swing_leg: int | None = None
+        self.forward_target: np.ndarray | None = None
+        self.failures = 0
+
+    @property
+    def cycles(self) -> int:
+        return self.steps // 4
+
+    def _crawl_order(self) -> list[int]:
+        """Legs in the lateral-sequence crawl order: left-hind, left-front, right-hind, right-front (McGhee and
+        Frank: the order whose support triangles are widest for a given stride)."""
+        fwd, left, _ = self.frame
+        angle = {leg: math.atan2(left @ self.planner.dirs[leg], fwd @ self.planner.dirs[leg]) for leg in self.legs}
+        # Left-front: the leg nearest 45 degrees; the others follow at +90 (left-hind), 180 and -90 degrees.
+        lf = min(self.legs, key=lambda leg: abs(math.remainder(angle[leg] - math.pi / 4, 2 * math.pi)))
+        at = {round(math.remainder(angle[leg] - angle[lf], 2 * math.pi) / (math.pi / 2)) % 4: leg for leg in self.legs}
+        return [at[1], at[0], at[2], at[3]]
+
+    # ------------------------------------------------------------------------------------------------ the loop
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        p, cfg = self.planner, self.config
+        sensors = split_observation(obs)
+        q = sensors["joint_pos"].copy()
+        contact = sensors["foot_contact"] > 0.5
+        if self.hold_q is None:
+            self.hold_q = q.copy()
+        if self.phase == "settle":
+            self.waited += CONTROL_DT
+            if self.waited >= cfg.settle:
+                self._start_ground(q)
+                self._plan_shift(q)
+        elif self.phase in ("shift", "swing", "reach"):
+            self.t += CONTROL_DT
+            if self.t >= self.traj.duration:
+                self.hold_q = self.traj.q[-1].copy()
+                if self.phase == "shift":
+                    self._plan_swing(q)
+                elif contact[self.swing_leg] or self.reaches >= 4:
+                    self._landed(q)
+                    if self.max_cycles is not None and self.cycles >= self.max_cycles:
+                        self.phase = "done"
+                    else:
+                        self._plan_shift(q)
+                else:
+                    self._plan_reach(q)
+        elif self.phase == "stuck":
+            self.waited += CONTROL_DT
+            if self.waited >= 1.0:
+                self.waited = 0.0
+                self._plan_shift(q)
+        if self.traj is not None and self.phase in ("shift", "swing", "reach"):
+            return p.to_action(self.traj(self.t))
+        return p.to_action(self.hold_q)
+
+    # ------------------------------------------------------------------------------------------------ geometry
+    def _start_ground(self, q: np.ndarray):
+        """The ground frame from the four feet: floor plane fitted to them, x along the heading, origin on the
+        floor under the body centre."""
+        r = self.planner.foot_radius
+        feet = self.planner.feet(q)[self.legs]
+        centre = feet.mean(axis=0)
+        normal = np.linalg.svd(feet - centre)[2][2]
+        normal = normal if normal @ -centre > 0 else -normal
+        x = self.frame[0] - (self.frame[0] @ normal) * normal
+        x /= np.linalg.norm(x)
+        rot = np.stack([x, np.cross(normal, x), normal])  # body -> ground
+        origin = (centre @ normal) * normal - r * normal  # on the floor, under the body centre
+        self.footholds = {leg: rot @ (feet[i] - origin) for i, leg in enumerate(self.legs)}
+        for leg in self.legs:
+            self.footholds[leg][2] = r
+
+    def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
+        """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
+        feet = self.planner.feet(q)
+        return _kabsch(feet[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
+
+    def _level(self) -> np.ndarray:
+        """Rotation body -> ground of the level body facing the heading."""
+        return self.frame.copy()
+
+    def _nominal(self, leg: int) -> np.ndarray:
+        """A leg's nominal foot place relative to the centre of mass, in the ground frame (x, y)."""
+        az = self._level() @ self.planner.dirs[leg]
+        return self.config.reach * az[:2] / np.linalg.norm(az[:2])
+
+    def _feet_array(self) -> np.ndarray:
+        out = np.zeros((self.planner.n_limbs, 3))
+        for leg, pos in self.footholds.items():
+            out[leg] = pos
+        return out
+
+    # ------------------------------------------------------------------------------------------------ planning
+    def _plan_shift(self, q: np.ndarray):
+        """Body over the triangle of the three legs that stay down while the next leg swings."""
+        p, cfg = self.planner, self.config
+        leg = self.order[self.steps % 4]
+        pose0 = self._pose(q, self.legs)
+        rot1 = self._level()
+        xy = np.stack([self.footholds[i][:2] for i in self.legs])
+        # Steady state: just before a leg lifts, the feet sit (relative to the body's forward progress) at +1/4,
+        # 0, -1/4 and -1/2 stride about their nominal places, so the body stands 1/8 stride ahead of the feet's
+        # centroid; the nominal places themselves are centred on the centre of mass.
+        forward = xy.mean(axis=0) + np.array([cfg.stride / 8, 0.0])
+        tri = np.stack([self.footholds[i][:2] for i in self.legs if i != leg])
+        com_xy = _inside_triangle(forward, tri, cfg.margin)
+        q_end = q.reshape(p.n_limbs, 3).copy()
+        q_end[self.opposite] = self.fold
+        com = rot1 @ centre_of_mass(p, q_end)
+        centre = np.array([com_xy[0] - com[0], com_xy[1] - com[1], cfg.height])
+        traj = body_motion(
+            p, q, self.legs, self._feet_array(), pose0, (rot1, centre), {self.opposite: self.fold}, cfg.knots
+        )
+        if traj is None:
+            self.failures += 1
+            self.phase, self.waited = "stuck", 0.0
+            return
+        self.forward_target = forward
+        self.swing_leg = leg
+        self._start(traj, "shift")
+
+    def _plan_swing(self, q: np.ndarray):
+        """The swing leg's lifted arc to its next foothold, the body still."""
+        p, cfg = self.planner, self.config
+        leg = self.swing_leg
+        support = [i for i in self.legs if i != leg]
+        rot, centre = self._pose(q, support)
+        feet = p.feet(q)
+        start = rot @ feet[leg] + centre
+        base = self.forward_target + self._nominal(leg)
+        for scale in (1.0, 0.75, 0.5, 0.25, 0.0):
+            goal = np.array([*(base + np.array([scale * cfg.stride / 2, 0.0])), p.foot_radius - cfg.press])
+            path = self._arc(start, goal)
+            traj = self._leg_trajectory(q, leg, path, rot, centre)
+            if traj is not None:
+                self.reaches = 0
+                self._start(traj, "swing")
+                return
+        self.failures += 1
+        self.phase, self.waited = "stuck", 0.0
+
+    def _plan_reach(self, q: np.ndarray):
+        """The swung foot has not touched down: reach 1 cm further down."""
+        p = self.planner
+        leg = self.swing_leg
+        rot, centre = self._pose(q, [i for i in self.legs if i != leg])
+        start = rot @ p.feet(q)[leg] + centre
+        goal = start - np.array([0.0, 0.0, 0.01])
+        self.reaches += 1
+        traj = self._leg_trajectory(q, leg, np.linspace(start, goal, 4), rot, centre)
+        if traj is None:
+            self.reaches = 4
+            self.hold_q = q.copy()
+            self.traj = None
+            self._landed(q)
+            self._plan_shift(q)
+            return
+        self._start(traj, "reach")
+
+    def _landed(self, q: np.ndarray):
+        """Record where the swung foot stands, in the ground frame (from the other three feet), on the floor."""
+        leg = self.swing_leg
+        rot, centre = self._pose(q, [i for i in self.legs if i != leg])
+        pos = rot @ self.planner.feet(q)[leg] + centre
+        pos[2] = self.planner.foot_radius
+        self.footholds[leg] = pos
+        self.steps += 1
+
+    def _arc(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """Foot path (knots, 3): straight up to the lift height, across, straight down (smooth blends)."""
+        cfg = self.config
+        s = np.linspace(0.0, 1.0, 2 * cfg.knots + 1)
+        top = max(start[2], goal[2]) + cfg.lift
+        smooth = lambda u: 3 * np.clip(u, 0, 1) ** 2 - 2 * np.clip(u, 0, 1) ** 3  # noqa: E731
+        across = smooth((s - 0.2) / 0.6)
+        z = np.where(
+            s < 0.5,
+            start[2] + (top - start[2]) * smooth(s / 0.25),
+            top + (goal[2] - top) * smooth((s - 0.75) / 0.25),
+        )
+        xy = start[:2] + across[:, None] * (goal[:2] - start[:2])
+        return np.column_stack([xy, z])
+
+    def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
+        """Joint trajectory of one leg along a ground-frame foot path, the rest of the robot held; None if the
+        path leaves the leg's workspace or joint range."""
+        p = self.planner
+        q0 = q.reshape(p.n_limbs, 3)
+        p_limb = (path - centre) @ rot @ p.base[leg]  # ground -> body -> limb base frame, row-wise
+        if not np.all(K.reachable(p_limb, p.links, tol=-1e-3)):
+            return None
+        prev = q0[leg]
+        knots = np.repeat(q0[None].copy(), len(path), axis=0)
+        knots[:, self.opposite] = self.fold
+        for i, point in enumerate(p_limb):
+            prev = _ik_nearest(p, leg, point, prev)
+            knots[i, leg] = prev
+        if np.abs(np.diff(knots[:, leg], axis=0)).max() > 0.6:
+            return None  # a branch jump: the path crosses a singularity
+        flat = knots.reshape(len(path), -1)
+        if not p.in_range(flat):
+            return None
+        dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / self.rate, 0.02)
+        dt[[0, -1]] *= 1.5
+        times = np.concatenate([[0.0], np.cumsum(dt)])
+        qd = np.zeros_like(flat)
+        qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
+        return JointTrajectory(times, flat, qd)
+
+    def _start(self, traj: JointTrajectory, phase: str):
+        self.traj, self.t, self.phase = traj, 0.0, phase
