@@ -67,7 +67,8 @@ __all__ = [
 
 #: The folded limb opposite the broken one (joints 2 and 3, radians; joint 1 aims it, see :func:`folded_angles`):
 #: thigh level with the shoulder, shank turned 70 degrees up, so the foot ends 146 mm out and 20 mm above the body
-#: centre, 16 mm clear of the cube body's vertical edge and never below the shoulder.
+#: centre; the shank's axis passes 16 mm outside the cube body's lower corner (4 mm clear of its 12 mm capsule), and
+#: nothing of the limb hangs lower than its shoulder capsule (132 mm below the body centre).
 FOLDED = np.radians([0.0, -70.0])
 #: Mass model of the default 6-beast (kg): body, link 1, link 2, link 3, foot (``polyenvs.beast.model`` defaults).
 MASSES = (3.0, 0.15, 0.15, 0.12, 0.03)
