@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from baselines.base import Policy
-from polyenvs.beast.crawl import CrawlConfig, CrawlController
+from polyenvs.beast.crawl import CrawlConfig, CrawlController, ReorientController
 from polyenvs.beast.gait import (
     DEFAULT_CONFIGS,
     BeastPlanner,
@@ -24,8 +24,10 @@ from polyenvs.beast.gait import (
     joint_ranges_of,
     n_limbs_of,
     polyhedron_of,
+    split_observation,
 )
-from polyenvs.beast.sensors import observation_layout_of
+from polyenvs.beast.model import stance_orientation
+from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
 
 __all__ = ["Crawl", "RollingGait", "SharpTurn", "Righting"]
@@ -188,14 +190,19 @@ class Crawl(_ControllerPolicy):
     walk a statically stable crawl (one leg at a time, lateral sequence left-hind, left-front, right-hind,
     right-front; before each lift the body shifts the centre of mass into the other three feet's triangle with a
     margin), each shift and swing planned from the encoder angles (feet by forward kinematics) and the contact
-    switches (:mod:`polyenvs.beast.crawl`). It starts from the crawl stance
-    (:func:`polyenvs.beast.crawl.crawl_stance_qpos`); the heading is fixed to the body, so the robot goes where its
-    forward direction points.
+    switches (:mod:`polyenvs.beast.crawl`). From the crawl stance (:func:`polyenvs.beast.crawl.crawl_stance_qpos`;
+    the tilt switches say the broken limb points up) it crawls at once, the heading fixed to the body. From the
+    task's three-foot rolling stance with the broken limb free it first reorients
+    (:class:`polyenvs.beast.crawl.ReorientController`: a partial roll of about 55 degrees that lands two upper limbs
+    as legs and folds the broken limb's opposite, about 25 s), then crawls along the start stance's forward
+    direction (the task's heading) turned by ``heading_deg``. A broken limb that stands in the start support cannot
+    be reoriented (the controller holds; see the module's notes).
 
     Args:
         disabled_limbs: the one broken 1-based limb (a sequence of one limb number, 1..6), put on top.
         heading_deg: direction of travel, counter-clockwise about the broken limb from the crawl's forward (the
-            bisector of the two lowest-numbered perpendicular legs), in [-180, 180].
+            bisector of the two lowest-numbered perpendicular legs; from the task's start: from the task's
+            heading), in [-180, 180].
         rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s.
         stride: foot advance per crawl cycle (m), in [0, 0.2].
         margin: least distance of the centre of mass from the support triangle's edges while a leg swings (m),
@@ -241,9 +248,24 @@ class Crawl(_ControllerPolicy):
         }
 
     def make_controller(self, observation):
-        return CrawlController(
+        """The crawl itself when the tilt switches say the broken limb already points up (within 30 degrees);
+        otherwise (the task's rolling start) the reorientation first, heading along the start's forward."""
+        k = self.disabled_limbs[0] - 1
+        tilt = split_observation(observation)["tilt"] > 0.5
+        down = TILT_AXES[tilt].mean(axis=0) if tilt.any() else np.zeros(3)
+        norm = float(np.linalg.norm(down))
+        if norm > 0 and float(self.planner.dirs[k] @ -down) / norm > math.cos(math.radians(30.0)):
+            return CrawlController(
+                self.planner,
+                k,
+                config=self.config,
+                heading_rad=math.radians(self.heading_deg),
+                max_cycles=self.max_cycles,
+            )
+        return ReorientController(
             self.planner,
-            self.disabled_limbs[0] - 1,
+            k,
+            stance_orientation(self.polyhedron)[0][0],
             config=self.config,
             heading_rad=math.radians(self.heading_deg),
             max_cycles=self.max_cycles,

@@ -14,10 +14,11 @@ Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beas
 - ``recover``: BeastRecover (4-beast), ``Righting``: success rate and time to stance.
 - ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
   along the heading and straight-line displacement.
-- ``crawl``: the 6-beast with each limb disabled in turn, reoriented with that limb on top (the crawl stance,
-  ``polyenvs.beast.crawl.crawl_stance_qpos``, forward along world +x) and walking the quadruped crawl (``Crawl``) for
-  60 s: distance along the heading, displacement, speed, crawl steps, and whether anything but a foot touched the
-  floor or the simulation went unstable.
+- ``crawl``: the 6-beast with each limb disabled in turn, walking the quadruped crawl (``Crawl``) with that limb on
+  top: from the crawl stance (``polyenvs.beast.crawl.crawl_stance_qpos``, forward along world +x) for 60 s, and from
+  the task's own rolling stance (reorienting first) for 120 s (and at 60 s): whether and when it reoriented,
+  distance along the heading, displacement, crawl steps, and whether anything but a foot touched the floor or the
+  simulation went unstable.
 
 From the repo root::
 
@@ -211,28 +212,56 @@ def bench_crawl(seeds):
     for limb in range(1, 7):
         env = BeastRollEnv(polyhedron="octahedron", disabled_limbs=(limb,))
         policy = Crawl(env.observation_space, env.action_space, disabled_limbs=(limb,))
-        options = {"qpos": crawl_stance_qpos(limb)}
-        runs = []
-        for s in seeds:
-            touched: set = set()
-            r = run_episode(
-                env, policy, s, 6000, until_done=False, reset_options=options,
-                on_step=lambda e, _, t=touched: t.update(floor_touches(e)),
-            )  # fmt: skip
-            controller = next(iter(policy._controllers.values()), None)
-            r["crawl_steps"] = getattr(controller, "steps", 0)
-            r["floor_touches"] = sorted(touched)
-            runs.append(r)
-        out[str(limb)] = runs
-        print(
-            f"6-beast crawl, limb {limb} disabled (on top), 60 s: along heading "
-            f"{_summary([r['distance_m'] for r in runs])} m, displacement {_summary([r['displacement_m'] for r in runs])}"
-            f" m, speed {_summary([r['distance_m'] / r['sim_s'] for r in runs])} m/s, steps "
-            f"{_summary([r['crawl_steps'] for r in runs])}; non-foot floor contacts "
-            f"{sorted({g for r in runs for g in r['floor_touches']}) or 'none'}; sim_unstable "
-            f"{sum(r['sim_unstable'] for r in runs)}/{len(runs)}",
-            flush=True,
-        )
+        for start in ("on top", "task"):
+            # From the crawl stance, 60 s; from the task's rolling stance (reorientation first), 120 s, with the
+            # distance at 60 s as well.
+            options = {"qpos": crawl_stance_qpos(limb)} if start == "on top" else None
+            max_steps = 6000 if start == "on top" else 12000
+            runs = []
+            for s in seeds:
+                touched: set = set()
+                at60: dict = {}
+
+                def on_step(e, info, t=touched, a=at60):
+                    t.update(floor_touches(e))
+                    if e.unwrapped._elapsed == 6000:
+                        a["distance_m"] = info["episode_metrics"]["distance_m"]
+                        a["displacement_m"] = float(np.linalg.norm(e.unwrapped.data.qpos[:2]))
+
+                r = run_episode(env, policy, s, max_steps, until_done=False, reset_options=options, on_step=on_step)
+                controller = list(policy._controllers.values())[-1]  # this episode's
+                crawl = getattr(controller, "crawl", None) or controller
+                r["crawl_steps"] = getattr(crawl, "steps", 0)
+                r["reoriented_s"] = getattr(controller, "reoriented_at", 0.0 if start == "on top" else None)
+                r["failure"] = getattr(controller, "failure", None)
+                r["at60"] = at60
+                r["floor_touches"] = sorted(touched)
+                runs.append(r)
+            out[f"{limb} {start}"] = runs
+            reoriented = [r for r in runs if r["reoriented_s"] is not None]
+            line = (
+                f"6-beast crawl, limb {limb} disabled, start {start}: reoriented {len(reoriented)}/{len(runs)}"
+                + (
+                    f" in {_summary([r['reoriented_s'] for r in reoriented])} s"
+                    if start == "task" and reoriented
+                    else ""
+                )
+                + f"; {max_steps // 100} s: along heading {_summary([r['distance_m'] for r in runs])} m, displacement "
+                f"{_summary([r['displacement_m'] for r in runs])} m, steps {_summary([r['crawl_steps'] for r in runs])}"
+            )
+            if start == "task":
+                line += (
+                    f"; at 60 s: along heading {_summary([r['at60'].get('distance_m', np.nan) for r in runs])} m, "
+                    f"displacement {_summary([r['at60'].get('displacement_m', np.nan) for r in runs])} m"
+                )
+                fails = sorted({r["failure"] for r in runs if r["failure"]})
+                if fails:
+                    line += f"; not reoriented: {fails}"
+            line += (
+                f"; non-foot floor contacts {sorted({g for r in runs for g in r['floor_touches']}) or 'none'}; "
+                f"sim_unstable {sum(r['sim_unstable'] for r in runs)}/{len(runs)}"
+            )
+            print(line, flush=True)
     return out
 
 

@@ -168,3 +168,58 @@ def test_heading_turns_the_direction_of_travel_about_the_broken_limb():
         assert not truncated
     moved = env.unwrapped.data.qpos[:2] - start
     assert moved[1] > 0.09 and abs(moved[0]) < 0.03, moved
+
+
+def _broken_limb_up_deg(data, limb: int) -> float:
+    import mujoco
+
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, data.qpos[3:7])
+    return math.degrees(math.acos(float(np.clip((rot.reshape(3, 3) @ DIRS[limb - 1])[2], -1.0, 1.0))))
+
+
+def test_from_the_task_start_the_beast_reorients_with_the_broken_limb_on_top_and_crawls_along_x():
+    # Limb 1 is free (up) in the task's three-foot rolling stance: a partial roll puts it on top within 30 s, with
+    # only feet ever on the floor, then the crawl walks along the task's heading (+x).
+    from baselines.beast import Crawl
+    from polyenvs.beast.crawl import ReorientController
+
+    env = _env(1)
+    policy = Crawl(env.observation_space, env.action_space, disabled_limbs=(1,))
+    obs, _ = env.reset(seed=0)
+    data = env.unwrapped.data
+    start = data.qpos[:3].copy()
+    state, first, touched, info = None, True, set(), {}
+    for _ in range(4200):  # 42 s
+        action, state = policy.predict(obs, state=state, episode_start=np.array([first]))
+        first = False
+        obs, _, terminated, truncated, info = env.step(action)
+        assert not (terminated or truncated) and not info["sim_unstable"]
+        touched |= _floor_geoms(env)
+    controller = next(iter(policy._controllers.values()))
+    assert isinstance(controller, ReorientController) and controller.failure is None
+    assert controller.reoriented_at is not None and controller.reoriented_at < 30.0
+    assert _broken_limb_up_deg(data, 1) < 5.0
+    contact = obs[env.unwrapped.observation_structure["foot_contact"]] > 0.5
+    assert not contact[0] and not contact[1]  # the broken limb and its folded opposite are off the floor
+    assert contact[2:].sum() >= 3  # the four legs stand (one may be swinging)
+    assert touched and all(name.endswith("_foot") for name in touched), touched
+    assert controller.crawl.steps >= 2 and controller.crawl.failures == 0
+    assert data.qpos[0] - start[0] > 0.05 and info["episode_metrics"]["distance_m"] > 0.05
+
+
+def test_a_broken_limb_in_the_start_support_is_not_reoriented_and_the_robot_holds():
+    from baselines.beast import Crawl
+
+    env = _env(2)
+    policy = Crawl(env.observation_space, env.action_space, disabled_limbs=(2,))
+    obs, _ = env.reset(seed=0)
+    start = env.unwrapped.data.qpos[:3].copy()
+    state, first = None, True
+    for _ in range(150):
+        action, state = policy.predict(obs, state=state, episode_start=np.array([first]))
+        first = False
+        obs, *_ = env.step(action)
+    controller = next(iter(policy._controllers.values()))
+    assert controller.phase == "failed" and "stands in the support [2, 4, 6]" in controller.failure
+    assert np.linalg.norm(env.unwrapped.data.qpos[:3] - start) < 0.005

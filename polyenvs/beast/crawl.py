@@ -32,9 +32,21 @@ planted feet's measured positions, so a body that sagged, yawed or slipped is re
 foothold is recorded where it actually landed. The centre of mass is computed from the encoder angles and the
 model's link masses. The tilt switches are not needed while standing on four feet: the feet give the floor's plane.
 
-Public names: :class:`CrawlConfig`, :class:`CrawlController`, :func:`crawl_frame` (the body-frame forward, left and
-up directions for a broken limb), :func:`crawl_stance_qpos` (the crawl stance as a MuJoCo state, for a reset),
-:func:`centre_of_mass`.
+**Reorientation from the rolling stance** (:class:`ReorientController`). From the tasks' three-foot start stance
+with the broken limb k free, the support is k's opposite k' and two limbs a, b: a partial roll of about 55 degrees
+(the smallest turn that puts k straight up, turned about the vertical so that the heading bisects two legs) on
+k', a, b, then c, d (a's and b's opposites, the upper limbs) set down as the front legs, the body moves over the
+four legs at the crawl's height, k' lifts and folds, and the crawl takes over (about 25 s). A broken limb that
+stands in the start support is locked as a strut and cannot be put on top this way: every turn that lifts it is a
+roll over the edge of the other two support feet, whose tip needs the locked limb's joints to move (with them
+locked the body can only turn about its foot, which keeps the centre of mass within 0.26 m of that foot, while the
+opposite edge is 0.30 m away); a pure roll about an edge that contains the locked limb leaves its joints alone but
+keeps it on the floor; and the free limbs cannot push the body over that edge (their shoulders rise beyond their
+0.24 m reach of the floor). The controller then holds with ``failure`` set.
+
+Public names: :class:`CrawlConfig`, :class:`CrawlController`, :class:`ReorientController`, :func:`crawl_frame` (the
+body-frame forward, left and up directions for a broken limb), :func:`crawl_stance_qpos` (the crawl stance as a
+MuJoCo state, for a reset), :func:`centre_of_mass`.
 """
 
 from __future__ import annotations
@@ -59,6 +71,7 @@ __all__ = [
     "FOLDED",
     "CrawlConfig",
     "CrawlController",
+    "ReorientController",
     "centre_of_mass",
     "body_motion",
     "crawl_frame",
@@ -301,6 +314,7 @@ class CrawlController:
         config: CrawlConfig | None = None,
         heading_rad: float = 0.0,
         max_cycles: int | None = None,
+        fold: np.ndarray | None = None,
     ):
         self.planner = planner
         self.config = config or CrawlConfig()
@@ -308,7 +322,9 @@ class CrawlController:
         self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
         self.legs = _legs(planner, self.k)
         self.frame = crawl_frame(self.k, heading_rad, planner.polyhedron)
-        self.fold = folded_angles(planner, self.opposite, -crawl_frame(self.k, 0.0, planner.polyhedron)[0])
+        if fold is None:
+            fold = folded_angles(planner, self.opposite, -crawl_frame(self.k, 0.0, planner.polyhedron)[0])
+        self.fold = np.asarray(fold, dtype=float)
         self.order = self._crawl_order()
         self.max_cycles = max_cycles
         self.rate = math.radians(self.config.rate_deg_s)
@@ -527,6 +543,336 @@ class CrawlController:
         qd = np.zeros_like(flat)
         qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
         return JointTrajectory(times, flat, qd)
+
+    def _start(self, traj: JointTrajectory, phase: str):
+        self.traj, self.t, self.phase = traj, 0.0, phase
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit vector ``a`` onto unit vector ``b``."""
+    axis = np.cross(a, b)
+    s, c = float(np.linalg.norm(axis)), float(np.clip(a @ b, -1.0, 1.0))
+    if s < 1e-12:
+        return np.eye(3)
+    return rotation_exp(axis / s * math.atan2(s, c))
+
+
+class ReorientController:
+    """From the 6-beast's three-foot rolling stance to the crawl stance with the broken limb on top, then the crawl.
+
+    For a broken limb k that is free (pointing up) in the start stance, the support is k's opposite k' and two
+    limbs a, b; the other two free limbs c, d are a's and b's opposites. The body turns by the angle between k and
+    the vertical (54.7 degrees from a symmetric rolling stance) about the horizontal axis perpendicular to k, the
+    smallest rotation that puts k straight up; a and b become the crawl's rear legs, c and d come down in front as
+    the other two legs, and k' (then pointing straight down) is lifted and folded. Steps, each planned from the
+    measured state (feet by forward kinematics of the encoders in a ground frame set up from the start feet, the
+    body pose fitted to the planted feet before every plan, as the crawl does):
+
+    1. ``tilt``: on k', a, b the body turns part of the way (``fraction``) and sinks to ``tilt_height``, c and d
+       swing to a pose above their footholds;
+    2. ``place``: c, then d, set down on their footholds (reaching further down until the contact switch is on);
+    3. ``shift``: on all five feet the body turns the rest of the way, to the crawl stance's height, centre of mass
+       over the middle of a, b, c, d;
+    4. ``lift``: k' lifts off the floor and folds;
+
+    then :class:`CrawlController` takes over, heading along the start stance's forward direction (the task's
+    heading) turned by ``heading_rad``.
+    """
+
+    def __init__(
+        self,
+        planner: BeastPlanner,
+        disabled_limb: int,
+        start_forward: np.ndarray,
+        config: CrawlConfig | None = None,
+        heading_rad: float = 0.0,
+        max_cycles: int | None = None,
+        fraction: float = 0.5,
+        tilt_height: float = 0.15,
+    ):
+        self.planner = planner
+        self.config = config or CrawlConfig()
+        self.k = int(disabled_limb)
+        self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
+        self.start_forward = np.asarray(start_forward, dtype=float)
+        self.heading_rad = heading_rad
+        self.max_cycles = max_cycles
+        self.fraction = fraction
+        self.tilt_height = tilt_height
+        self.rate = math.radians(self.config.rate_deg_s)
+        self.phase = "settle"
+        self.t = 0.0
+        self.waited = 0.0
+        self.traj: JointTrajectory | None = None
+        self.hold_q: np.ndarray | None = None
+        self.footholds: dict[int, np.ndarray] = {}
+        self.crawl: CrawlController | None = None
+        self.placing: int | None = None
+        self.reaches = 0
+        self.failure: str | None = None
+        self.reoriented_at: float | None = None
+        self.elapsed = 0.0
+
+    # ------------------------------------------------------------------------------------------------ the loop
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        self.elapsed += CONTROL_DT
+        if self.crawl is not None:
+            return self.crawl(obs)
+        p = self.planner
+        sensors = split_observation(obs)
+        q = sensors["joint_pos"].copy()
+        contact = sensors["foot_contact"] > 0.5
+        if self.hold_q is None:
+            self.hold_q = q.copy()
+        if self.phase == "settle":
+            self.waited += CONTROL_DT
+            if self.waited >= self.config.settle:
+                self._start_ground(q, contact)
+                if self.phase != "failed":
+                    self._plan_tilt(q)
+        elif self.phase in ("tilt", "place", "reach", "shift", "lift"):
+            self.t += CONTROL_DT
+            if self.t >= self.traj.duration:
+                self.hold_q = self.traj.q[-1].copy()
+                if self.phase == "tilt":
+                    self._plan_place(q, self.c)
+                elif self.phase in ("place", "reach"):
+                    if contact[self.placing] or self.reaches >= 4:
+                        self._landed(q)
+                        if self.placing == self.c:
+                            self._plan_place(q, self.d)
+                        else:
+                            self._plan_shift(q)
+                    else:
+                        self._plan_reach(q)
+                elif self.phase == "shift":
+                    self._plan_lift(q)
+                else:
+                    self._hand_over(obs, q)
+                    return self.crawl(obs)
+        if self.traj is not None and self.phase in ("tilt", "place", "reach", "shift", "lift"):
+            return p.to_action(self.traj(self.t))
+        return p.to_action(self.hold_q)
+
+    # ------------------------------------------------------------------------------------------------ geometry
+    def _start_ground(self, q: np.ndarray, contact: np.ndarray):
+        p, r = self.planner, self.planner.foot_radius
+        down = [int(i) for i in np.flatnonzero(contact)]
+        limbs = [i + 1 for i in down]
+        if self.k in down:
+            self.phase, self.failure = "failed", f"the broken limb stands in the support {limbs}: locked, it stays down"
+            return
+        if self.opposite not in down or len(down) != 3:
+            self.phase, self.failure = "failed", f"support {limbs} is not the broken limb's opposite and two others"
+            return
+        self.support = down
+        a, b = (i for i in down if i != self.opposite)
+        self.a, self.b = a, b
+        self.c = int(np.argmin(p.dirs @ p.dirs[a]))
+        self.d = int(np.argmin(p.dirs @ p.dirs[b]))
+        self.legs = [a, b, self.c, self.d]
+        feet = p.feet(q)[down]
+        centre = feet.mean(axis=0)
+        normal = np.linalg.svd(feet - centre)[2][2]
+        normal = normal if normal @ -centre > 0 else -normal
+        x = self.start_forward - (self.start_forward @ normal) * normal
+        x /= np.linalg.norm(x)
+        rot = np.stack([x, np.cross(normal, x), normal])
+        origin = (centre @ normal) * normal - r * normal
+        self.footholds = {leg: rot @ (feet[i] - origin) for i, leg in enumerate(down)}
+        for leg in down:
+            self.footholds[leg][2] = r
+        self.rot0 = rot
+        self.q0 = q.copy()
+
+    def _aim(self, yaw: float):
+        """The crawl stance turned by ``yaw`` about the vertical from the smallest turn that puts k straight up: its
+        rotation, body position on the floor (x, y) and the footholds of c and d; the rear legs a, b where they
+        stand (their mean offset from the nominal places fixes the body's position)."""
+        p, cfg, r = self.planner, self.config, self.planner.foot_radius
+        self.rot1 = K.rot_z(yaw) @ _rotation_between(self.rot0 @ p.dirs[self.k], np.array([0.0, 0.0, 1.0])) @ self.rot0
+        az = {leg: (self.rot1 @ p.dirs[leg])[:2] for leg in self.legs}
+        az = {leg: v / np.linalg.norm(v) for leg, v in az.items()}
+        xy = np.mean([self.footholds[leg][:2] - cfg.reach * az[leg] for leg in (self.a, self.b)], axis=0)
+        self.target_xy = xy
+        self.targets = {leg: np.array([*(xy + cfg.reach * az[leg]), r - cfg.press]) for leg in (self.c, self.d)}
+
+    def _snap_yaw(self) -> float:
+        """The yaw that makes the crawl's heading (the ground x turned by heading_rad) bisect two legs: the crawl is
+        widest and fastest along a diagonal of its X stance."""
+        self._aim(0.0)
+        fwd = self.rot1 @ crawl_frame(self.k, 0.0, self.planner.polyhedron)[0]
+        off = math.atan2(fwd[1], fwd[0]) - self.heading_rad
+        return -math.remainder(off, math.pi / 2)
+
+    def _feet_array(self) -> np.ndarray:
+        out = np.zeros((self.planner.n_limbs, 3))
+        for leg, pos in self.footholds.items():
+            out[leg] = pos
+        return out
+
+    def _pose(self, q, legs):
+        return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
+
+    def _centre_for(self, rot: np.ndarray, q_end: np.ndarray, com_xy: np.ndarray, height: float) -> np.ndarray:
+        com = rot @ centre_of_mass(self.planner, q_end)
+        return np.array([com_xy[0] - com[0], com_xy[1] - com[1], height])
+
+    # ------------------------------------------------------------------------------------------------ planning
+    def _fail(self, why: str):
+        self.phase, self.failure, self.traj = "failed", why, None
+
+    def _plan_tilt(self, q: np.ndarray):
+        """The first step, for the largest fraction of the snapping yaw whose tilt and final shift are plannable."""
+        snap = self._snap_yaw()
+        for share in (1.0, 0.75, 0.5, 0.25, 0.0):
+            self._aim(share * snap)
+            traj = self._tilt(q)
+            if traj is not None:
+                self.yaw = share * snap
+                return self._start(traj, "tilt")
+        self._fail("tilt not plannable")
+
+    def _tilt(self, q: np.ndarray) -> JointTrajectory | None:
+        p, cfg = self.planner, self.config
+        pose0 = self._pose(q, self.support)
+        turn = rotation_log(self.rot1 @ pose0[0].T)
+        rot = rotation_exp(self.fraction * turn) @ pose0[0]
+        centre = pose0[1] + self.fraction * (np.array([*self.target_xy, 0.0]) - pose0[1] * [1, 1, 0])
+        centre[2] = self.tilt_height
+        free = {}
+        for leg in (self.c, self.d):
+            # Above the foothold, in joint space: the foot lift higher than its target.
+            above = self.targets[leg] + np.array([0.0, 0.0, 0.05])
+            p_limb = p.base[leg].T @ (rot.T @ (above - centre))
+            if not K.reachable(p_limb[None], p.links, tol=-1e-3)[0]:
+                return None
+            free[leg] = _ik_nearest(p, leg, p_limb, np.array([0.0, math.pi / 2, 0.0]))
+        traj = body_motion(p, q, self.support, self._feet_array(), pose0, (rot, centre), free, cfg.knots)
+        if traj is None:
+            return None
+        # The shift onto the four legs at the end must be plannable too (c and d on their footholds).
+        feet = self._feet_array()
+        for leg in (self.c, self.d):
+            feet[leg] = self.targets[leg] * [1, 1, 0] + [0, 0, p.foot_radius]
+        q_end = traj.q[-1]
+        com_xy = np.mean([feet[leg][:2] for leg in self.legs], axis=0)
+        centre1 = self._centre_for(self.rot1, q_end, com_xy, cfg.height)
+        planted = self.support + [self.c, self.d]
+        if body_motion(p, q_end, planted, feet, (rot, centre), (self.rot1, centre1), {}, cfg.knots) is None:
+            return None
+        return traj
+
+    def _plan_place(self, q: np.ndarray, leg: int):
+        planted = [i for i in self.footholds]
+        rot, centre = self._pose(q, planted)
+        start = rot @ self.planner.feet(q)[leg] + centre
+        goal = self.targets[leg]
+        s = np.linspace(0.0, 1.0, 2 * self.config.knots + 1)[:, None]
+        smooth = 3 * s**2 - 2 * s**3
+        path = start + smooth * (goal - start)
+        traj = self._leg_trajectory(q, leg, path, rot, centre)
+        if traj is None:
+            return self._fail(f"limb {leg + 1} cannot reach its foothold")
+        self.placing, self.reaches = leg, 0
+        self._start(traj, "place")
+
+    def _plan_reach(self, q: np.ndarray):
+        leg = self.placing
+        rot, centre = self._pose(q, list(self.footholds))
+        start = rot @ self.planner.feet(q)[leg] + centre
+        self.reaches += 1
+        traj = self._leg_trajectory(q, leg, np.linspace(start, start - [0.0, 0.0, 0.01], 4), rot, centre)
+        if traj is None:
+            self.reaches = 4
+            self._landed(q)
+            return self._plan_place(q, self.d) if leg == self.c else self._plan_shift(q)
+        self._start(traj, "reach")
+
+    def _landed(self, q: np.ndarray):
+        leg = self.placing
+        rot, centre = self._pose(q, list(self.footholds))
+        pos = rot @ self.planner.feet(q)[leg] + centre
+        pos[2] = self.planner.foot_radius
+        self.footholds[leg] = pos
+
+    def _plan_shift(self, q: np.ndarray):
+        p, cfg = self.planner, self.config
+        planted = self.support + [self.c, self.d]
+        pose0 = self._pose(q, planted)
+        com_xy = np.mean([self.footholds[leg][:2] for leg in self.legs], axis=0)
+        centre = self._centre_for(self.rot1, q, com_xy, cfg.height)
+        traj = body_motion(p, q, planted, self._feet_array(), pose0, (self.rot1, centre), {}, cfg.knots)
+        if traj is None:
+            return self._fail("shift onto the four legs not plannable")
+        self._start(traj, "shift")
+
+    def _plan_lift(self, q: np.ndarray):
+        """k' lifts 4 cm straight up, bends into the fold (joint 1 kept), then turns to the diagonal between two
+        legs nearest it: a short turn that keeps its shank clear of the legs."""
+        p = self.planner
+        rot, centre = self._pose(q, self.legs)
+        k2 = self.opposite
+        start = rot @ p.feet(q)[k2] + centre
+        up = self._leg_trajectory(q, k2, np.linspace(start, start + [0.0, 0.0, 0.04], 6), rot, centre)
+        if up is None:
+            return self._fail("cannot lift the opposite limb")
+        q_up = up.q[-1].reshape(p.n_limbs, 3)
+        options = []
+        for i, a in enumerate(self.legs):
+            for b in self.legs[i + 1 :]:
+                if float(p.dirs[a] @ p.dirs[b]) > -0.5:
+                    fold = folded_angles(p, k2, (p.dirs[a] + p.dirs[b]) / math.sqrt(2))
+                    for turns in (-1, 0, 1):
+                        theta1 = fold[0] + 2 * math.pi * turns
+                        if p.joint_ranges[0, 0] <= theta1 <= p.joint_ranges[0, 1]:
+                            options.append(np.array([theta1, *fold[1:]]))
+        self.fold = min(options, key=lambda f: abs(f[0] - q_up[k2, 0]))
+        bent = np.array([q_up[k2, 0], *self.fold[1:]])
+        knots = [up.q]
+        for target in (bent, self.fold):
+            stage = np.repeat(q_up.reshape(1, -1), 7, axis=0).reshape(7, p.n_limbs, 3)
+            begin = knots[-1][-1].reshape(p.n_limbs, 3)[k2]
+            stage[:, k2] = begin + np.linspace(0.0, 1.0, 7)[:, None] * (target - begin)
+            knots.append(stage.reshape(7, -1)[1:])
+        flat = np.concatenate(knots)
+        dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / self.rate, 0.02)
+        times = np.concatenate([[0.0], np.cumsum(dt)])
+        self._start(JointTrajectory(times, flat, np.zeros_like(flat)), "lift")
+
+    def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
+        p = self.planner
+        q0 = q.reshape(p.n_limbs, 3)
+        p_limb = (path - centre) @ rot @ p.base[leg]
+        if not np.all(K.reachable(p_limb, p.links, tol=-1e-3)):
+            return None
+        prev = q0[leg]
+        knots = np.repeat(q0[None].copy(), len(path), axis=0)
+        for i, point in enumerate(p_limb):
+            prev = _ik_nearest(p, leg, point, prev)
+            knots[i, leg] = prev
+        if np.abs(np.diff(knots[:, leg], axis=0)).max() > 0.6:
+            return None
+        flat = knots.reshape(len(path), -1)
+        if not p.in_range(flat):
+            return None
+        dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / self.rate, 0.02)
+        dt[[0, -1]] *= 1.5
+        times = np.concatenate([[0.0], np.cumsum(dt)])
+        qd = np.zeros_like(flat)
+        qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
+        return JointTrajectory(times, flat, qd)
+
+    def _hand_over(self, obs, q):
+        """The crawl takes over, heading along the ground frame's x (the start's forward) turned by heading_rad."""
+        rot, _ = self._pose(q, self.legs)
+        fwd0, left0, _ = crawl_frame(self.k, 0.0, self.planner.polyhedron)
+        x_body = rot.T @ np.array([1.0, 0.0, 0.0])
+        heading = math.atan2(float(left0 @ x_body), float(fwd0 @ x_body)) + self.heading_rad
+        self.reoriented_at = self.elapsed
+        self.crawl = CrawlController(self.planner, self.k, self.config, heading, self.max_cycles, self.fold)
+        self.crawl.hold_q = self.hold_q.copy()
+        self.phase = "crawl"
 
     def _start(self, traj: JointTrajectory, phase: str):
         self.traj, self.t, self.phase = traj, 0.0, phase
