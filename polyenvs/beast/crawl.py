@@ -151,13 +151,6 @@ def centre_of_mass(planner: BeastPlanner, q: np.ndarray, masses=MASSES) -> np.nd
     return np.einsum("lij,lj->i", planner.base, local) / total
 
 
-def _ik_nearest(planner: BeastPlanner, limb: int, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
-    """Of the four closed-form solutions for one limb, the one nearest ``q_prev`` (angles wrapped onto it)."""
-    sols = K.ik_solutions(p_limb, planner.links)
-    diff = np.mod(sols - q_prev + np.pi, 2 * np.pi) - np.pi
-    return q_prev + diff[int(np.argmin(np.abs(diff).sum(axis=1)))]
-
-
 def body_motion(
     planner: BeastPlanner,
     q_now: np.ndarray,
@@ -168,49 +161,39 @@ def body_motion(
     free_targets: dict[int, np.ndarray],
     knots: int = 12,
 ) -> JointTrajectory | None:
-    """As :meth:`BeastPlanner.body_motion` (body from pose0 to pose1, rotation body -> ground and centre, planted
-    feet fixed; paper eq. 6-7 and the limb Jacobian for the knot velocities), but each planted limb follows the
-    nearest of all four inverse-kinematics solutions: the crawl's legs stand on whichever branch puts the knee up
-    with joint 1 mid-range (for a level leg that is theta3 < 0 on some limbs, where the planner's knee branch would
-    need joint 1 at its +-180 degree stop). None if a foot leaves its workspace or a joint its range."""
-    q_now = np.asarray(q_now, dtype=float).reshape(planner.n_limbs, 3)
-    (r0, c0), (r1, c1) = pose0, pose1
-    omega = rotation_log(r1 @ r0.T)
-    dc = c1 - c0
-    s_knots = np.linspace(0.0, 1.0, knots + 1)
-    q = np.repeat(q_now[None], len(s_knots), axis=0)
-    dq_ds = np.zeros_like(q)
-    prev = {limb: q_now[limb] for limb in planted}
-    for k, s in enumerate(s_knots):
-        rot = rotation_exp(s * omega) @ r0
-        rel = feet_ground[planted] - (c0 + s * dc)
-        p_limb = np.einsum("lji,lj->li", planner.base[planted], rel @ rot)
-        if not np.all(K.reachable(p_limb, planner.links, tol=-1e-3)):
-            return None
-        dp_limb = np.einsum("lji,lj->li", planner.base[planted], -(np.cross(omega, rel) + dc) @ rot)
-        for i, limb in enumerate(planted):
-            prev[limb] = _ik_nearest(planner, limb, p_limb[i], prev[limb])
-            q[k, limb] = prev[limb]
-            jac = K.limb_jacobian(prev[limb], planner.links)
-            dq_ds[k, limb] = np.linalg.lstsq(jac, dp_limb[i], rcond=1e-6)[0]
-    if len(s_knots) > 1 and np.abs(np.diff(q, axis=0)).max() > 0.6:
-        return None  # a branch jump: the motion crosses a singularity
-    for limb, target in free_targets.items():
-        delta = np.asarray(target, dtype=float) - q_now[limb]
-        q[:, limb] = q_now[limb] + s_knots[:, None] * delta
-        dq_ds[:, limb] = delta
-    flat = q.reshape(len(s_knots), -1)
+    """:meth:`BeastPlanner.body_motion` for the legs, each on the nearest of its four inverse-kinematics solutions
+    (a level leg stands with theta3 < 0 on some limbs, where the tumbles' knee branch would need joint 1 at its
+    +-180 degree stop); None if a joint would leave its range."""
+    traj = planner.body_motion(q_now, planted, feet_ground, pose0, pose1, free_targets, any_branch=True, knots=knots)
+    return traj if traj is not None and planner.in_range(traj.q) else None
+
+
+def leg_trajectory(
+    planner: BeastPlanner, q: np.ndarray, leg: int, path: np.ndarray, rot: np.ndarray, centre: np.ndarray, rate: float
+) -> JointTrajectory | None:
+    """Joint trajectory of one leg along a ground-frame foot path (knots, 3), the rest of the robot held at ``q``
+    (body pose ``rot``, ``centre``); None if the path leaves the leg's workspace or joint range, or crosses a
+    singularity (a jump between solutions)."""
+    q0 = q.reshape(planner.n_limbs, 3)
+    p_limb = (path - centre) @ rot @ planner.base[leg]  # ground -> body -> limb base frame, row-wise
+    if not np.all(K.reachable(p_limb, planner.links, tol=-1e-3)):
+        return None
+    prev = q0[leg]
+    knots = np.repeat(q0[None].copy(), len(path), axis=0)
+    for i, point in enumerate(p_limb):
+        prev = planner.ik_nearest_any(point[None], prev[None])[0]
+        knots[i, leg] = prev
+    if np.abs(np.diff(knots[:, leg], axis=0)).max() > 0.6:
+        return None
+    flat = knots.reshape(len(path), -1)
     if not planner.in_range(flat):
         return None
-    # Timed as the planner's: each knot interval as long as its fastest joint needs at the rate; start and end at
-    # rest (the end intervals get the cubic's 1.5x).
-    dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / planner.rate, 1e-3)
+    dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / rate, 0.02)
     dt[[0, -1]] *= 1.5
     times = np.concatenate([[0.0], np.cumsum(dt)])
-    ds = np.diff(s_knots)
-    s_dot = np.zeros(len(s_knots))
-    s_dot[1:-1] = np.minimum(ds[:-1] / dt[:-1], ds[1:] / dt[1:])
-    return JointTrajectory(times, flat, (dq_ds * s_dot[:, None, None]).reshape(len(s_knots), -1))
+    qd = np.zeros_like(flat)
+    qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
+    return JointTrajectory(times, flat, qd)
 
 
 def crawl_stance_qpos(
@@ -236,28 +219,8 @@ def crawl_stance_qpos(
         # The knee-up solution; of its two mirror forms (theta1 + pi, pi - theta2, -theta3) the one with joint 1
         # nearer mid-range, so that the legs never work against the joint-1 stop at +-180 degrees.
         q[leg] = sols[int(np.argmax(knees - 1e-6 * np.abs(sols[:, 0])))]
-    quat = np.zeros(4)
-    _mat2quat(rot, quat)
+    quat = K.rotation_quat(rot)
     return np.concatenate([[0.0, 0.0, config.height], quat, q.ravel()])
-
-
-def _mat2quat(rot: np.ndarray, out: np.ndarray) -> None:
-    w = math.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
-    if w > 1e-6:
-        out[:] = [
-            w,
-            (rot[2, 1] - rot[1, 2]) / (4 * w),
-            (rot[0, 2] - rot[2, 0]) / (4 * w),
-            (rot[1, 0] - rot[0, 1]) / (4 * w),
-        ]
-    else:  # half-turns: from the largest diagonal term
-        i = int(np.argmax(np.diag(rot)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        v = np.zeros(3)
-        v[i] = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) / 2
-        v[j] = (rot[j, i] + rot[i, j]) / (4 * v[i])
-        v[k] = (rot[k, i] + rot[i, k]) / (4 * v[i])
-        out[:] = [(rot[k, j] - rot[j, k]) / (4 * v[i]), *v]
 
 
 def _legs(planner: BeastPlanner, disabled: int) -> list[int]:
@@ -299,7 +262,49 @@ def _inside_triangle(point: np.ndarray, tri: np.ndarray, margin: float) -> np.nd
     return best
 
 
-class CrawlController:
+class _FootholdController:
+    """What the crawl and the reorientation share: a state machine over joint trajectories, the planted feet's
+    footholds in a ground frame attached to them, and the body pose fitted to those feet before every plan."""
+
+    def __init__(self, planner: BeastPlanner, disabled_limb: int, config: CrawlConfig | None):
+        self.planner = planner
+        self.config = config or CrawlConfig()
+        self.k = int(disabled_limb)  # 0-based
+        self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
+        self.rate = math.radians(self.config.rate_deg_s)
+        self.phase = "settle"
+        self.t = 0.0
+        self.waited = 0.0
+        self.traj: JointTrajectory | None = None
+        self.hold_q: np.ndarray | None = None
+        self.footholds: dict[int, np.ndarray] = {}  # ground-frame foot centres of the planted legs
+        self.reaches = 0
+
+    def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
+        """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
+        return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
+
+    def _feet_array(self) -> np.ndarray:
+        out = np.zeros((self.planner.n_limbs, 3))
+        for leg, pos in self.footholds.items():
+            out[leg] = pos
+        return out
+
+    def _set_down(self, q: np.ndarray, leg: int, standing) -> None:
+        """Record where ``leg``'s foot stands, in the ground frame (from the ``standing`` feet), on the floor."""
+        rot, centre = self._pose(q, standing)
+        pos = rot @ self.planner.feet(q)[leg] + centre
+        pos[2] = self.planner.foot_radius
+        self.footholds[leg] = pos
+
+    def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
+        return leg_trajectory(self.planner, q, leg, path, rot, centre, self.rate)
+
+    def _start(self, traj: JointTrajectory, phase: str):
+        self.traj, self.t, self.phase = traj, 0.0, phase
+
+
+class CrawlController(_FootholdController):
     """The closed-loop crawl for one environment: ``controller(obs) -> action`` every 10 ms tick.
 
     Phases: ``settle`` (hold the start pose, then set up the ground frame from the feet), ``shift`` (body over the
@@ -316,10 +321,7 @@ class CrawlController:
         max_cycles: int | None = None,
         fold: np.ndarray | None = None,
     ):
-        self.planner = planner
-        self.config = config or CrawlConfig()
-        self.k = int(disabled_limb)  # 0-based
-        self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
+        super().__init__(planner, disabled_limb, config)
         self.legs = _legs(planner, self.k)
         self.frame = crawl_frame(self.k, heading_rad, planner.polyhedron)
         if fold is None:
@@ -327,15 +329,7 @@ class CrawlController:
         self.fold = np.asarray(fold, dtype=float)
         self.order = self._crawl_order()
         self.max_cycles = max_cycles
-        self.rate = math.radians(self.config.rate_deg_s)
-        self.phase = "settle"
-        self.t = 0.0
-        self.waited = 0.0
-        self.traj: JointTrajectory | None = None
-        self.hold_q: np.ndarray | None = None
-        self.footholds: dict[int, np.ndarray] = {}  # ground-frame foot centres of the planted legs
         self.steps = 0
-        self.reaches = 0
         self.swing_leg: int | None = None
         self.forward_target: np.ndarray | None = None
         self.failures = 0
@@ -407,11 +401,6 @@ class CrawlController:
         for leg in self.legs:
             self.footholds[leg][2] = r
 
-    def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
-        """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
-        feet = self.planner.feet(q)
-        return _kabsch(feet[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
-
     def _level(self) -> np.ndarray:
         """Rotation body -> ground of the level body facing the heading."""
         return self.frame.copy()
@@ -420,12 +409,6 @@ class CrawlController:
         """A leg's nominal foot place relative to the centre of mass, in the ground frame (x, y)."""
         az = self._level() @ self.planner.dirs[leg]
         return self.config.reach * az[:2] / np.linalg.norm(az[:2])
-
-    def _feet_array(self) -> np.ndarray:
-        out = np.zeros((self.planner.n_limbs, 3))
-        for leg, pos in self.footholds.items():
-            out[leg] = pos
-        return out
 
     # ------------------------------------------------------------------------------------------------ planning
     def _plan_shift(self, q: np.ndarray):
@@ -497,10 +480,7 @@ class CrawlController:
     def _landed(self, q: np.ndarray):
         """Record where the swung foot stands, in the ground frame (from the other three feet), on the floor."""
         leg = self.swing_leg
-        rot, centre = self._pose(q, [i for i in self.legs if i != leg])
-        pos = rot @ self.planner.feet(q)[leg] + centre
-        pos[2] = self.planner.foot_radius
-        self.footholds[leg] = pos
+        self._set_down(q, leg, [i for i in self.legs if i != leg])
         self.steps += 1
 
     def _arc(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -519,33 +499,9 @@ class CrawlController:
         return np.column_stack([xy, z])
 
     def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
-        """Joint trajectory of one leg along a ground-frame foot path, the rest of the robot held; None if the
-        path leaves the leg's workspace or joint range."""
-        p = self.planner
-        q0 = q.reshape(p.n_limbs, 3)
-        p_limb = (path - centre) @ rot @ p.base[leg]  # ground -> body -> limb base frame, row-wise
-        if not np.all(K.reachable(p_limb, p.links, tol=-1e-3)):
-            return None
-        prev = q0[leg]
-        knots = np.repeat(q0[None].copy(), len(path), axis=0)
-        knots[:, self.opposite] = self.fold
-        for i, point in enumerate(p_limb):
-            prev = _ik_nearest(p, leg, point, prev)
-            knots[i, leg] = prev
-        if np.abs(np.diff(knots[:, leg], axis=0)).max() > 0.6:
-            return None  # a branch jump: the path crosses a singularity
-        flat = knots.reshape(len(path), -1)
-        if not p.in_range(flat):
-            return None
-        dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / self.rate, 0.02)
-        dt[[0, -1]] *= 1.5
-        times = np.concatenate([[0.0], np.cumsum(dt)])
-        qd = np.zeros_like(flat)
-        qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
-        return JointTrajectory(times, flat, qd)
-
-    def _start(self, traj: JointTrajectory, phase: str):
-        self.traj, self.t, self.phase = traj, 0.0, phase
+        q = q.reshape(self.planner.n_limbs, 3).copy()
+        q[self.opposite] = self.fold
+        return super()._leg_trajectory(q, leg, path, rot, centre)
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -557,7 +513,7 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rotation_exp(axis / s * math.atan2(s, c))
 
 
-class ReorientController:
+class ReorientController(_FootholdController):
     """From the 6-beast's three-foot rolling stance to the crawl stance with the broken limb on top, then the crawl.
 
     For a broken limb k that is free (pointing up) in the start stance, the support is k's opposite k' and two
@@ -590,25 +546,14 @@ class ReorientController:
         fraction: float = 0.5,
         tilt_height: float = 0.15,
     ):
-        self.planner = planner
-        self.config = config or CrawlConfig()
-        self.k = int(disabled_limb)
-        self.opposite = int(np.argmin(planner.dirs @ planner.dirs[self.k]))
+        super().__init__(planner, disabled_limb, config)
         self.start_forward = np.asarray(start_forward, dtype=float)
         self.heading_rad = heading_rad
         self.max_cycles = max_cycles
         self.fraction = fraction
         self.tilt_height = tilt_height
-        self.rate = math.radians(self.config.rate_deg_s)
-        self.phase = "settle"
-        self.t = 0.0
-        self.waited = 0.0
-        self.traj: JointTrajectory | None = None
-        self.hold_q: np.ndarray | None = None
-        self.footholds: dict[int, np.ndarray] = {}
         self.crawl: CrawlController | None = None
         self.placing: int | None = None
-        self.reaches = 0
         self.failure: str | None = None
         self.reoriented_at: float | None = None
         self.elapsed = 0.0
@@ -705,15 +650,6 @@ class ReorientController:
         off = math.atan2(fwd[1], fwd[0]) - self.heading_rad
         return -math.remainder(off, math.pi / 2)
 
-    def _feet_array(self) -> np.ndarray:
-        out = np.zeros((self.planner.n_limbs, 3))
-        for leg, pos in self.footholds.items():
-            out[leg] = pos
-        return out
-
-    def _pose(self, q, legs):
-        return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
-
     def _centre_for(self, rot: np.ndarray, q_end: np.ndarray, com_xy: np.ndarray, height: float) -> np.ndarray:
         com = rot @ centre_of_mass(self.planner, q_end)
         return np.array([com_xy[0] - com[0], com_xy[1] - com[1], height])
@@ -747,7 +683,7 @@ class ReorientController:
             p_limb = p.base[leg].T @ (rot.T @ (above - centre))
             if not K.reachable(p_limb[None], p.links, tol=-1e-3)[0]:
                 return None
-            free[leg] = _ik_nearest(p, leg, p_limb, np.array([0.0, math.pi / 2, 0.0]))
+            free[leg] = p.ik_nearest_any(p_limb[None], np.array([[0.0, math.pi / 2, 0.0]]))[0]
         traj = body_motion(p, q, self.support, self._feet_array(), pose0, (rot, centre), free, cfg.knots)
         if traj is None:
             return None
@@ -790,11 +726,7 @@ class ReorientController:
         self._start(traj, "reach")
 
     def _landed(self, q: np.ndarray):
-        leg = self.placing
-        rot, centre = self._pose(q, list(self.footholds))
-        pos = rot @ self.planner.feet(q)[leg] + centre
-        pos[2] = self.planner.foot_radius
-        self.footholds[leg] = pos
+        self._set_down(q, self.placing, list(self.footholds))
 
     def _plan_shift(self, q: np.ndarray):
         p, cfg = self.planner, self.config
@@ -840,29 +772,6 @@ class ReorientController:
         times = np.concatenate([[0.0], np.cumsum(dt)])
         self._start(JointTrajectory(times, flat, np.zeros_like(flat)), "lift")
 
-    def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
-        p = self.planner
-        q0 = q.reshape(p.n_limbs, 3)
-        p_limb = (path - centre) @ rot @ p.base[leg]
-        if not np.all(K.reachable(p_limb, p.links, tol=-1e-3)):
-            return None
-        prev = q0[leg]
-        knots = np.repeat(q0[None].copy(), len(path), axis=0)
-        for i, point in enumerate(p_limb):
-            prev = _ik_nearest(p, leg, point, prev)
-            knots[i, leg] = prev
-        if np.abs(np.diff(knots[:, leg], axis=0)).max() > 0.6:
-            return None
-        flat = knots.reshape(len(path), -1)
-        if not p.in_range(flat):
-            return None
-        dt = np.maximum(np.abs(np.diff(flat, axis=0)).max(axis=1) / self.rate, 0.02)
-        dt[[0, -1]] *= 1.5
-        times = np.concatenate([[0.0], np.cumsum(dt)])
-        qd = np.zeros_like(flat)
-        qd[1:-1] = (flat[2:] - flat[:-2]) / (times[2:] - times[:-2])[:, None]
-        return JointTrajectory(times, flat, qd)
-
     def _hand_over(self, obs, q):
         """The crawl takes over, heading along the ground frame's x (the start's forward) turned by heading_rad."""
         rot, _ = self._pose(q, self.legs)
@@ -873,6 +782,3 @@ class ReorientController:
         self.crawl = CrawlController(self.planner, self.k, self.config, heading, self.max_cycles, self.fold)
         self.crawl.hold_q = self.hold_q.copy()
         self.phase = "crawl"
-
-    def _start(self, traj: JointTrajectory, phase: str):
-        self.traj, self.t, self.phase = traj, 0.0, phase

@@ -429,6 +429,14 @@ class BeastPlanner:
         rows = np.arange(len(p_limb))
         return q_prev + diff[rows, best]
 
+    def ik_nearest_any(self, p_limb: np.ndarray, q_prev: np.ndarray) -> np.ndarray:
+        """Of all four closed-form solutions (both knee signs, both shoulder flips), the one nearest ``q_prev``,
+        angles unwrapped onto it (both (m, 3))."""
+        sols = K.ik_solutions(p_limb, self.links)
+        diff = np.mod(sols - q_prev[:, None, :] + np.pi, 2 * np.pi) - np.pi
+        best = np.argmin(np.abs(diff).sum(axis=-1), axis=1)
+        return q_prev + diff[np.arange(len(p_limb)), best]
+
     def in_range(self, q: np.ndarray, margin: float = 0.0) -> bool:
         q = np.asarray(q).reshape(-1, self.n_limbs * 3)
         return bool(np.all(q >= self._low + margin) and np.all(q <= self._high - margin))
@@ -442,6 +450,8 @@ class BeastPlanner:
         pose0: tuple[np.ndarray, np.ndarray],
         pose1: tuple[np.ndarray, np.ndarray],
         free_targets: dict[int, np.ndarray],
+        any_branch: bool = False,
+        knots: int | None = None,
     ) -> JointTrajectory | None:
         """Joint trajectory moving the body from pose0 to pose1 (rotation body -> tumble, centre) with feet fixed.
 
@@ -449,14 +459,16 @@ class BeastPlanner:
         straight line and its orientation at a constant angular velocity (a constant twist split into translation
         and rotation, paper eq. 6-7), starting and ending at rest. Free limbs go in joint space
         from their current angles to ``free_targets``. The duration makes the fastest joint run at the configured
-        rate.
+        rate. Planted limbs stay on the theta3 > 0 knee branch the tumbles need, or with ``any_branch`` follow the
+        nearest of all four solutions (the crawl's legs, some of which stand with theta3 < 0 to keep joint 1 off
+        its stop); then a foot must stay 1 mm inside its workspace and a jump between branches (a singularity
+        crossed) is None. ``knots``: knot intervals (default the gait's).
         """
-        cfg = self.config
         q_now = np.asarray(q_now, dtype=float).reshape(self.n_limbs, 3)
         (r0, c0), (r1, c1) = pose0, pose1
         omega = rotation_log(r1 @ r0.T)  # spatial rotation vector, tumble frame
         dc = c1 - c0
-        s_knots = np.linspace(0.0, 1.0, cfg.knots + 1)
+        s_knots = np.linspace(0.0, 1.0, (self.config.knots if knots is None else knots) + 1)
         n = len(s_knots)
         q = np.repeat(q_now[None], n, axis=0)
         dq_ds = np.zeros_like(q)
@@ -470,9 +482,9 @@ class BeastPlanner:
                 rel = feet_tumble[planted] - centre
                 p_body = rel @ rot  # rot.T @ rel, row-wise
                 p_limb = np.einsum("lji,lj->li", base, p_body)
-                if not np.all(K.reachable(p_limb, self.links)):
+                if not np.all(K.reachable(p_limb, self.links, tol=-1e-3 if any_branch else 1e-9)):
                     return None
-                prev = self.ik_near(p_limb, prev)
+                prev = self.ik_nearest_any(p_limb, prev) if any_branch else self.ik_near(p_limb, prev)
                 q[k, planted] = prev
                 # d(foot in body)/ds = -R^T (omega x (p - c) + dc); then into the limb frame, through J^-1.
                 dp_body = -(np.cross(omega, rel) + dc) @ rot
@@ -481,6 +493,8 @@ class BeastPlanner:
                 dq_ds[k, planted] = np.stack(
                     [np.linalg.lstsq(jac[i], dp_limb[i], rcond=1e-6)[0] for i in range(len(planted))]
                 )
+            if any_branch and n > 1 and np.abs(np.diff(q[:, planted], axis=0)).max() > 0.6:
+                return None
         for limb, target in free_targets.items():
             delta = np.asarray(target, dtype=float) - q_now[limb]
             q[:, limb] = q_now[limb] + s_knots[:, None] * delta

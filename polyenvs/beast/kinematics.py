@@ -68,6 +68,7 @@ __all__ = [
     "rot_x",
     "rot_y",
     "rot_z",
+    "rotation_quat",
     "tumbles",
 ]
 
@@ -113,6 +114,23 @@ def rot_y(angle) -> np.ndarray:
 
 def rot_z(angle) -> np.ndarray:
     return _rot(angle, 2)
+
+
+def rotation_quat(rot: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), MuJoCo's order, of a proper rotation matrix."""
+    w = math.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
+    if w > 1e-6:
+        return np.array(
+            [w, (rot[2, 1] - rot[1, 2]) / (4 * w), (rot[0, 2] - rot[2, 0]) / (4 * w), (rot[1, 0] - rot[0, 1]) / (4 * w)]
+        )
+    # Half-turns: take the axis from the largest diagonal term.
+    i = int(np.argmax(np.diag(rot)))
+    j, k = (i + 1) % 3, (i + 2) % 3
+    v = np.zeros(3)
+    v[i] = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) / 2
+    v[j] = (rot[j, i] + rot[i, j]) / (4 * v[i])
+    v[k] = (rot[k, i] + rot[i, k]) / (4 * v[i])
+    return np.array([(rot[k, j] - rot[j, k]) / (4 * v[i]), *v])
 
 
 def _tetrahedron_rotations() -> np.ndarray:

@@ -172,23 +172,6 @@ def _body_vertices(params: BeastModelParams) -> np.ndarray:
     return np.array([[0, 0, r], [0, 0, -r], [s, s, 0], [s, -s, 0], [-s, s, 0], [-s, -s, 0]])
 
 
-def _quat(rot: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a proper rotation matrix."""
-    w = math.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
-    if w > 1e-6:
-        return np.array(
-            [w, (rot[2, 1] - rot[1, 2]) / (4 * w), (rot[0, 2] - rot[2, 0]) / (4 * w), (rot[1, 0] - rot[0, 1]) / (4 * w)]
-        )
-    # Half-turns: take the axis from the largest diagonal term.
-    i = int(np.argmax(np.diag(rot)))
-    j, k = (i + 1) % 3, (i + 2) % 3
-    v = np.zeros(3)
-    v[i] = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) / 2
-    v[j] = (rot[j, i] + rot[i, j]) / (4 * v[i])
-    v[k] = (rot[k, i] + rot[i, k]) / (4 * v[i])
-    return np.array([(rot[k, j] - rot[j, k]) / (4 * v[i]), *v])
-
-
 def _f(values) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
@@ -208,11 +191,11 @@ def beast_xml(params: BeastModelParams) -> str:
     for i, frame in enumerate(K.limb_base_frames(p.polyhedron), start=1):
         limbs.append(
             f"""
-      <body name="limb{i}_link1" quat="{_f(_quat(frame[:3, :3]))}">
+      <body name="limb{i}_link1" quat="{_f(K.rotation_quat(frame[:3, :3]))}">
         <joint name="limb{i}_joint1" range="{_f(rad[0])}"/>
         <geom name="limb{i}_link1" type="capsule" size="{_LINK1_RADIUS}"
               fromto="0 0 {inradius:.9g} 0 0 {p.d1:.9g}" mass="{p.link1_mass:.9g}"/>
-        <body name="limb{i}_link2" pos="0 0 {p.d1:.9g}" quat="{_f(_quat(K.rot_x(math.pi / 2)))}">
+        <body name="limb{i}_link2" pos="0 0 {p.d1:.9g}" quat="{_f(K.rotation_quat(K.rot_x(math.pi / 2)))}">
           <joint name="limb{i}_joint2" range="{_f(rad[1])}"/>
           <geom name="limb{i}_link2" type="capsule" size="{_LINK_RADIUS}" fromto="0 0 0 {p.a2:.9g} 0 0"
                 mass="{p.link2_mass:.9g}"/>
@@ -342,5 +325,5 @@ def stance_qpos(params: BeastModelParams, feet_radius: float, height: float, yaw
     knees = np.einsum("ij,ljk,lsk->lsi", rot, base, K.dh_frames(solutions, params.links)[..., 1, :3, 3])
     best = np.argmax(knees[..., 2] + 1e-6 * (solutions[..., 2] > 0), axis=1)
     theta[stance] = solutions[np.arange(len(stance)), best]
-    quat = _quat(rot)
+    quat = K.rotation_quat(rot)
     return np.concatenate([[0.0, 0.0, height], quat / np.linalg.norm(quat), theta.ravel()])
