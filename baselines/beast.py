@@ -54,6 +54,15 @@ class _ControllerPolicy(Policy):
         """A controller for an episode that starts with this observation."""
         raise NotImplementedError
 
+    def _require_tumbles(self) -> None:
+        """The tumble planner knows three-foot supports; the 8-beast stands and rolls on squares of four feet."""
+        if self.polyhedron == "cube":
+            raise ValueError(
+                f"observation_space is the 8-beast's (cube): {type(self).__name__} plans tumbles between triangles of "
+                "three feet, and the 8-beast stands on squares of four (no tumble is planned for it); the 4- and "
+                "6-beast roll"
+            )
+
     def controller(self, memory: np.ndarray, observation: np.ndarray):
         """The controller of the environment whose memory row this is (a new one after a restart)."""
         handle = int(memory[0])
@@ -99,6 +108,7 @@ class RollingGait(_ControllerPolicy):
         disabled_limbs=(),
     ):
         super().__init__(observation_space, action_space, rate_deg_s)
+        self._require_tumbles()
         self.max_tumbles = None if max_tumbles is None else check_int("max_tumbles", max_tumbles, 1, 1000)
         if isinstance(disabled_limbs, (str, bytes)) or not hasattr(disabled_limbs, "__iter__"):
             raise ValueError(f"disabled_limbs must be a sequence of limb numbers, got {disabled_limbs!r}")
@@ -143,6 +153,7 @@ class SharpTurn(_ControllerPolicy):
         max_tumbles: int = 4,
     ):
         super().__init__(observation_space, action_space, rate_deg_s)
+        self._require_tumbles()
         self.command = observation_layout_of(int(np.prod(observation_space.shape))).get("command")
         if self.command is None:
             raise ValueError("SharpTurn needs an observation with a command part (the turn), as BeastTurn-v0's")

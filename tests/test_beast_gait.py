@@ -178,6 +178,9 @@ def test_policies_validate_their_arguments():
         RollingGait(obs_space, act_space, disabled_limbs=(5,))
     with pytest.raises(ValueError, match="disabled_limbs"):
         RollingGait(obs_space, act_space, disabled_limbs="1")
+    with pytest.raises(ValueError, match="cube"):
+        RollingGait(*_spaces(8))
+    Righting(*_spaces(8))  # the righting routine stands any beast up
     unbounded = spaces.Box(-np.inf, np.inf, shape=(52,), dtype=np.float32)
     with pytest.raises(ValueError, match="joint limits"):
         RollingGait(unbounded, act_space)
