@@ -151,7 +151,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         max_episode_steps=3000,
         family="beast",
         description="Platonic 4-beast (MuJoCo): one canonical tumble (1234) from the working tumble's start stance; "
-        "success when limbs 1, 4, 2 stand and 3 is free",
+        "success when limbs 1, 4, 2 stand (nothing else touching) and 3 is free",
         baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
         paper="rolling_gait",
     ),

@@ -428,3 +428,18 @@ def test_encoder_bounds_are_the_joint_limits_and_the_turn_observes_its_command()
     assert BeastTurnEnv(physics={"joint1_low_deg": -180.0}).params.joint1_low_deg == -180.0
     with pytest.raises(ValueError, match="joint1_high_deg"):
         BeastTurnEnv(physics={"joint1_high_deg": 300.0})
+
+
+def test_a_fall_onto_the_body_is_not_a_tumble():
+    start = np.zeros(19)
+    start[3] = 1.0
+    rolled = start.copy()
+    half = math.radians(109.47) / 2
+    rolled[3:7] = [math.cos(half), 0, math.sin(half), 0]
+    counter = TumbleCounter(0b0111, start)
+    # Three feet down after rolling over, but the body lies on the floor too: fallen, not standing.
+    assert not any(counter.update(0b1011, 3, rolled, other_contacts=2) for _ in range(3 * STANCE_TICKS))
+    assert counter.count == 0
+    # It pushes itself up onto the same feet: now it is a stance, and the roll counts once.
+    results = [counter.update(0b1011, 3, rolled) for _ in range(2 * STANCE_TICKS)]
+    assert results.count(True) == 1 and counter.count == 1

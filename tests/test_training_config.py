@@ -19,7 +19,7 @@ from polyenvs.evaluation import InputError  # noqa: E402
 from polyenvs.training.config import jsonable, load_config, parse_python_value  # noqa: E402
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-ALGO_OF_FILE = {"ppo.yml": "ppo", "maskable_ppo.yml": "maskable_ppo", "dqn.yml": "dqn"}
+ALGO_OF_FILE = {"ppo.yml": "ppo", "maskable_ppo.yml": "maskable_ppo", "dqn.yml": "dqn", "sac.yml": "sac"}
 WALL = "polyenvs/BuckybotWallFollow-v0"
 
 
@@ -44,8 +44,10 @@ def test_every_key_is_a_registered_id_and_every_entry_loads(name):
         assert env_id in polyenvs.registry.ALL_IDS, f"configs/{name}: {env_id} is not a registered polyenvs id"
         config = load_config(CONFIGS / name, env_id, ALGO_OF_FILE[name])
         assert config.policy == "MlpPolicy"
-        assert config.hyperparams["policy_kwargs"]["net_arch"] == [64, 64]  # small MLPs
-        if config.algo != "dqn":
+        net_arch = config.hyperparams["policy_kwargs"]["net_arch"]
+        widths = [w for part in (net_arch.values() if isinstance(net_arch, dict) else [net_arch]) for w in part]
+        assert 0 < len(widths) <= 4 and max(widths) <= 256, f"{name}: {env_id}: not a small MLP: {net_arch}"
+        if config.algo in ("ppo", "maskable_ppo"):
             rollout = config.hyperparams["n_steps"] * config.n_envs
             assert rollout % config.hyperparams["batch_size"] == 0, f"{name}: {env_id}: minibatches do not fit"
 

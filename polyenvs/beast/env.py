@@ -61,7 +61,8 @@ def _rotation_angle(q0: np.ndarray, q1: np.ndarray) -> float:
 class TumbleCounter:
     """Support changes that are tumbles, from the foot-contact bits.
 
-    A support is a set of three or more feet on the floor held for ``STANCE_TICKS`` ticks. A tumble is counted once
+    A support is a set of three or more feet on the floor, nothing else touching it, held for ``STANCE_TICKS`` ticks
+    (contacts of the body or links make a fall, not a stance). A tumble is counted once
     the robot stands on a new support and its body has turned by more than 45 degrees since the last tumble (a
     tumble turns the 4-beast by 109.5 degrees and the 6-beast by 70.5; re-placing a foot without rolling turns it
     hardly at all). The turn is checked for as long as the new support holds, not only when it is reached: the
@@ -77,13 +78,19 @@ class TumbleCounter:
         self.pending = False  # on a new support that has not yet turned enough to count
         self.count = 0
 
-    def update(self, mask: int, n_feet: float, qpos: np.ndarray) -> bool:
-        """Feed one tick (the feet bitmask and count, MuJoCo's qpos); True when a tumble has just completed."""
+    def update(self, mask: int, n_feet: float, qpos: np.ndarray, other_contacts: float = 0.0) -> bool:
+        """Feed one tick (the feet bitmask and count, MuJoCo's qpos, contacts of anything but a foot with the floor);
+        True when a tumble has just completed. Only feet may touch the floor in a stance: a body lying on the floor
+        with three feet down has fallen, not tumbled."""
+        standing = n_feet >= 3 and other_contacts == 0
+        if not standing:
+            self.candidate, self.held = -1, 0
+            return False
         if mask != self.candidate:
             self.candidate, self.held = mask, 0
             return False
         self.held += 1
-        if self.held == STANCE_TICKS and n_feet >= 3 and mask != self.support:
+        if self.held == STANCE_TICKS and mask != self.support:
             # The first support of an episode (the feet are not yet down when it starts) is where it stands.
             self.support, self.pending = mask, self.support != 0
         if not self.pending or mask != self.support or self.held < STANCE_TICKS:

@@ -111,8 +111,8 @@ class BeastTumbleEnv(BeastEnv):
     positions in their backlash band drawn at random. ``reset(options={"qpos": ..., "qvel": ...})`` starts from a
     given MuJoCo state instead.
 """,
-        """    Terminates on success: limbs 1, 4, 2 on the floor and 3 free, held 0.2 s, after the body rolled by more than
-    45 degrees. Metrics: ``success`` (0/1), ``time_s`` (time to success, or elapsed), ``distance_m`` (along +x).
+        """    Terminates on success: limbs 1, 4, 2 on the floor and 3 free, nothing else touching the floor (a stance,
+    not a fall), held 0.2 s, after the body rolled by more than 45 degrees. Metrics: ``success`` (0/1), ``time_s`` (time to success, or elapsed), ``distance_m`` (along +x).
     Truncated after 3000 steps (30 s; the working tumble takes 17 s at 20 deg/s) by the registry's time limit.
 """,
         """    | success_reward | 10 | reward for completing the tumble |
@@ -132,7 +132,9 @@ class BeastTumbleEnv(BeastEnv):
 
     def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
         mask = int(feet_mask)
-        success = self._counter.update(mask, n_feet, self._qpos) and (self._target is None or mask == self._target)
+        success = self._counter.update(mask, n_feet, self._qpos, other_contacts) and (
+            self._target is None or mask == self._target
+        )
         m = self._metrics
         m["distance_m"] = distance
         m["time_s"] = self._elapsed * CONTROL_DT
@@ -184,7 +186,7 @@ class BeastRollEnv(BeastEnv):
 
     def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
         counter = self._counter
-        counter.update(int(feet_mask), n_feet, self._qpos)
+        counter.update(int(feet_mask), n_feet, self._qpos, other_contacts)
         m = self._metrics
         m["distance_m"] = distance
         m["tumbles"] = float(counter.count)
@@ -239,7 +241,7 @@ class BeastTurnEnv(BeastEnv):
 
     def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
         m = self._metrics
-        if self._counter.update(int(feet_mask), n_feet, self._qpos):
+        if self._counter.update(int(feet_mask), n_feet, self._qpos, other_contacts):
             self._stances = [*self._stances[-2:], self._qpos[:2].copy()]
             if len(self._stances) == 3:
                 dx, dy = self._stances[2] - self._stances[0]
