@@ -158,6 +158,15 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
             f"unknown environment id {env_id.split(':', 1)[-1]!r} (neither a Gymnasium id nor a PettingZoo "
             "module path); run 'polyenvs list' for ours"
         ) from None
+    except ModuleNotFoundError as exc:
+        from polyenvs.registry import entry
+
+        try:
+            extra = getattr(entry(env_id), "extra", None)
+        except KeyError:
+            extra = None
+        hint = f'pip install "polyenvs[{extra}]"' if extra else "see the README's Install section"
+        raise InputError(f"{env_id} needs the package {exc.name!r}, which is not installed: {hint}") from exc
     except (TypeError, ValueError, gym.error.Error) as exc:
         if not env_kwargs:
             raise

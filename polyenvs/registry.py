@@ -71,6 +71,8 @@ class EnvEntry:
     paper: str | None = None
     #: Estimators scored on this environment's logs (``factory(**kwargs)`` builds one), the paper's first.
     estimators: tuple[Baseline, ...] = ()
+    #: The optional extra (``pip install "polyenvs[<extra>]"``) whose packages the environment imports, if any.
+    extra: str | None = None
 
 
 @dataclass(frozen=True)
@@ -150,6 +152,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.beast.tasks:BeastTumbleEnv",
         max_episode_steps=3000,
         family="beast",
+        extra="mujoco",
         description="Platonic 4-beast (MuJoCo): one canonical tumble (1234) from the working tumble's start stance; "
         "success when limbs 1, 4, 2 stand (nothing else touching) and 3 is free",
         baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
@@ -160,6 +163,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.beast.tasks:BeastRollEnv",
         max_episode_steps=8000,
         family="beast",
+        extra="mujoco",
         description="Platonic beast (MuJoCo): roll along a commanded heading by tumbles; reward = body velocity "
         "along the heading - control cost",
         baselines=(_beast("rolling_gait", "RollingGait"),),
@@ -170,6 +174,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.beast.tasks:BeastTurnEnv",
         max_episode_steps=8000,
         family="beast",
+        extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
         baselines=(_beast("sharp_turn", "SharpTurn"),),
         paper="sharp_turn",
@@ -179,6 +184,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.beast.tasks:BeastRecoverEnv",
         max_episode_steps=2000,
         family="beast",
+        extra="mujoco",
         description="Platonic beast (MuJoCo): thrown in a random orientation, reach a still stance on three or "
         "more feet",
         baselines=(_beast("righting", "Righting"),),

@@ -427,3 +427,31 @@ def test_extras_install_one_pygame_and_an_mp4_writer():
         assert "pygame-ce" in names(extra) and "pygame" not in names(extra), extras[extra]
         assert {"imageio", "imageio-ffmpeg"} <= names(extra), extras[extra]
     assert not any("pygame" == n for extra in extras for n in names(extra))
+
+
+def test_an_environment_extra_brings_what_gymnasium_imports_with_it():
+    """Gymnasium's MujocoEnv imports imageio and packaging, not only mujoco: the extra the beasts' rows name must
+    install Gymnasium's own mujoco extra (a fresh ``.[train,mujoco]`` install once lacked imageio)."""
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    named = {row.extra for row in polyenvs.registry.REGISTRY if getattr(row, "extra", None)}
+    assert named == {"mujoco"}
+    assert "gymnasium[mujoco]" in [req.replace(" ", "") for req in extras["mujoco"]]
+
+
+def test_a_missing_optional_package_is_one_line_naming_the_extra(monkeypatch, capsys):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_imageio(name, *args, **kwargs):
+        if name == "imageio" or name.startswith("imageio."):
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+        return real_import(name, *args, **kwargs)
+
+    for module in [m for m in sys.modules if m.startswith(("gymnasium.envs.mujoco", "polyenvs.beast", "imageio"))]:
+        monkeypatch.delitem(sys.modules, module)
+    monkeypatch.setattr(builtins, "__import__", no_imageio)
+    code, out, err = run_main(["evaluate", "polyenvs/BeastRoll-v0", "--episodes", "1"], capsys)
+    assert_one_line_error(
+        code, err, "needs the package 'imageio', which is not installed: pip install \"polyenvs[mujoco]\""
+    )
