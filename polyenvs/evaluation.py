@@ -162,8 +162,8 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         from polyenvs.registry import entry
 
         try:
-            extra = getattr(entry(env_id), "extra", None)
-        except KeyError:
+            extra = entry(env_id).extra
+        except KeyError:  # a user's own environment
             extra = None
         hint = f'pip install "polyenvs[{extra}]"' if extra else "see the README's Install section"
         raise InputError(f"{env_id} needs the package {exc.name!r}, which is not installed: {hint}") from exc

@@ -89,6 +89,8 @@ class ParallelEnvEntry:
     kwargs: dict = field(default_factory=dict)
     baselines: tuple[Baseline, ...] = ()
     paper: str | None = None
+    #: As :attr:`EnvEntry.extra`.
+    extra: str | None = None
 
 
 def _buckybot(name: str, cls: str, **kwargs) -> Baseline:

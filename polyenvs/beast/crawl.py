@@ -280,6 +280,14 @@ class _FootholdController:
         self.footholds: dict[int, np.ndarray] = {}  # ground-frame foot centres of the planted legs
         self.reaches = 0
 
+    def _sense(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(encoder angles, feet down) from an observation; the first one's angles are what the robot holds."""
+        sensors = split_observation(obs)
+        q = sensors["joint_pos"].copy()
+        if self.hold_q is None:
+            self.hold_q = q.copy()
+        return q, sensors["foot_contact"] > 0.5
+
     def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
         """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
         return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
@@ -351,11 +359,7 @@ class CrawlController(_FootholdController):
     # ------------------------------------------------------------------------------------------------ the loop
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         p, cfg = self.planner, self.config
-        sensors = split_observation(obs)
-        q = sensors["joint_pos"].copy()
-        contact = sensors["foot_contact"] > 0.5
-        if self.hold_q is None:
-            self.hold_q = q.copy()
+        q, contact = self._sense(obs)
         if self.phase == "settle":
             self.waited += CONTROL_DT
             if self.waited >= cfg.settle:
@@ -564,11 +568,7 @@ class ReorientController(_FootholdController):
         if self.crawl is not None:
             return self.crawl(obs)
         p = self.planner
-        sensors = split_observation(obs)
-        q = sensors["joint_pos"].copy()
-        contact = sensors["foot_contact"] > 0.5
-        if self.hold_q is None:
-            self.hold_q = q.copy()
+        q, contact = self._sense(obs)
         if self.phase == "settle":
             self.waited += CONTROL_DT
             if self.waited >= self.config.settle:

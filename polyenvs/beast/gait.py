@@ -244,6 +244,7 @@ class BeastPlanner:
         self.rate = math.radians(self.config.rate_deg_s)
         self._low = np.tile(self.joint_ranges[:, 0], self.n_limbs)
         self._high = np.tile(self.joint_ranges[:, 1], self.n_limbs)
+        self._sweeps: dict | None = None
 
     # ----------------------------------------------------------------------------------------------- geometry
     def feet(self, q: np.ndarray) -> np.ndarray:
@@ -327,6 +328,8 @@ class BeastPlanner:
         cannot unwind joint 1 (its motion depends only on the feet, not on the turn it started at), and a limb kept
         planted through three tumbles winds it by 360 degrees.
         """
+        if self._sweeps is not None:  # the look-ahead asks many times per decision: skip hashing the key
+            return self._sweeps
         key = ("sweeps", self.polyhedron, self.links, self.config, self.foot_radius)
         if key not in _PLANNABLE:
             wide = np.array(self.joint_ranges)
@@ -350,7 +353,8 @@ class BeastPlanner:
                     landed = float(np.mod(theta1[-1, tumble[3]] + np.pi, 2 * np.pi) - np.pi)
                     table[(tumble, int(landing > 0))] = (*moves, landed)
             _PLANNABLE[key] = table
-        return _PLANNABLE[key]
+        self._sweeps = _PLANNABLE[key]
+        return self._sweeps
 
     def wind_on_paper(self, theta1: dict, tumble) -> list[dict]:
         """The planted limbs' joint 1 (by limb) after ``tumble`` on paper: one dict for each landing solution and
