@@ -81,7 +81,8 @@ def check_int(name: str, value, low: int, high: int | None = None) -> int:
 
 
 def check_choice(name: str, value, choices) -> str:
-    if value not in choices:
+    """One of ``choices`` (a string there; a value of any other type, hashable or not, is refused by name)."""
+    if not isinstance(value, str) or value not in choices:
         raise ValueError(f"{name} must be one of {sorted(choices)}, got {show(value)}")
     return value
 
