@@ -160,7 +160,7 @@ def test_rendering_does_not_change_the_simulation(env_id):
 
 def _bad_actions(space: gym.Space) -> list:
     if isinstance(space, gym.spaces.Discrete):
-        return [space.n, -1, 1.5, "a", None, [0, 1]]
+        return [space.n, -1, 1.5, "a", None, [0, 1], np.complex128(1), True]
     assert isinstance(space, gym.spaces.Box), space
     good = space.sample()
     return [
@@ -170,6 +170,11 @@ def _bad_actions(space: gym.Space) -> list:
         np.concatenate([good, good]),
         "a",
         None,
+        # A wrong dtype is an error, not a cast: numpy would drop the imaginary part and read True as 1.
+        np.full(space.shape, 0.2 + 5j),
+        (good + 0j).tolist(),
+        np.zeros(space.shape, dtype=bool),
+        good.astype(str),
     ]
 
 
@@ -185,6 +190,40 @@ def test_bad_actions_raise_and_change_nothing(env_id):
     for _ in range(5):
         action = env.action_space.sample()
         assert np.array_equal(env.step(action)[0], twin.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_step_and_render_before_reset_raise_reset_needed(env_id):
+    env = gym.make(env_id, render_mode="rgb_array").unwrapped
+    with pytest.raises(gym.error.ResetNeeded, match=r"reset\(\) before step"):
+        env.step(env.action_space.sample())
+    with pytest.raises(gym.error.ResetNeeded, match=r"reset\(\) before render"):
+        env.render()
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    assert env.render().ndim == 3
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_unknown_and_malformed_options_raise_and_change_nothing(env_id):
+    env, twin = gym.make(env_id), gym.make(env_id)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    for options in ({"bogus": 1}, [1], "x", 3, {0: 1}):
+        with pytest.raises(ValueError, match="option"):
+            env.reset(seed=1, options=options)
+    env.action_space.seed(0)
+    for _ in range(5):
+        action = env.action_space.sample()
+        assert np.array_equal(env.step(action)[0], twin.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_unknown_keyword_raises_the_standard_type_error(env_id):
+    """Tools probe constructors for keywords (TorchRL's ``GymEnv`` tries ``frameskip``) and catch Python's own
+    wording: an unknown keyword must raise ``TypeError: ... unexpected keyword argument 'NAME'``."""
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
+        gym.make(env_id, frameskip=4)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -227,3 +266,28 @@ def test_time_limit_truncates_not_terminates(env_id):
     for _ in range(3):
         _, _, terminated, truncated, _ = env.step(env.action_space.sample())
     assert truncated or terminated
+
+
+VECTOR_IDS = [e.id for e in REGISTRY if e.kind == "gymnasium" and e.vector_entry_point]
+
+
+@pytest.mark.parametrize("env_id", VECTOR_IDS)
+def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
+    """The native vector env keeps the single env's rules: step before reset, a wrong dtype or an unknown option
+    raise, and the batch goes on as if the call had not been made."""
+    envs, twin = gym.make_vec(env_id, num_envs=2), gym.make_vec(env_id, num_envs=2)
+    with pytest.raises(gym.error.ResetNeeded):
+        envs.step(envs.action_space.sample())
+    envs.reset(seed=0)
+    twin.reset(seed=0)
+    good = envs.action_space.sample()
+    for bad in (good + 0.5j, good.astype(bool), good.astype(str)):
+        with pytest.raises(ValueError, match="action"):
+            envs.step(bad)
+    for options in ({"bogus": 1}, [1], "x"):
+        with pytest.raises(ValueError, match="option"):
+            envs.reset(seed=1, options=options)
+    envs.action_space.seed(0)
+    for _ in range(5):
+        action = envs.action_space.sample()
+        assert np.array_equal(envs.step(action)[0], twin.step(action)[0])

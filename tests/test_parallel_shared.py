@@ -12,6 +12,7 @@ import importlib
 import inspect
 import pickle
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test
@@ -168,6 +169,8 @@ def test_bad_actions_raise_and_change_nothing(entry):
     bad_values = [None, "a"]
     if hasattr(space, "shape") and space.shape:
         bad_values += [np.full(space.shape, np.nan), np.zeros(space.shape[0] + 1)]
+        # A wrong dtype is an error, not a cast: numpy would drop the imaginary part and read True as 1.
+        bad_values += [np.full(space.shape, 0.2 + 5j), np.zeros(space.shape, bool), np.zeros(space.shape).astype(str)]
     else:
         bad_values += [getattr(space, "n", 0), -1]
     for value in bad_values:
@@ -178,6 +181,52 @@ def test_bad_actions_raise_and_change_nothing(entry):
     for step in range(5):
         if not env.agents:
             break
+        actions = _actions(env, 0, step)
+        assert _same(env.step(actions), twin.step(actions))
+
+
+def test_aec_bad_action_raises_when_given_and_changes_nothing(entry):
+    """An AEC action is checked when its agent gives it; a rejected one leaves the episode as it was."""
+    env, twin = _module(entry).env(max_cycles=entry.max_cycles), _module(entry).env(max_cycles=entry.max_cycles)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    agent = env.agent_selection
+    space = env.action_space(agent)
+    for value in (np.full(space.shape, np.nan), np.full(space.shape, 0.2 + 5j), "x", None):
+        with pytest.raises(ValueError, match=agent):
+            env.step(value)
+    for k in range(3 * len(env.agents)):
+        assert env.agent_selection == twin.agent_selection
+        observation, *_ = env.last()
+        assert _same(observation, twin.last()[0])
+        if env.terminations[env.agent_selection] or env.truncations[env.agent_selection]:
+            break
+        space = env.action_space(env.agent_selection)
+        space.seed(k)
+        action = space.sample()
+        env.step(action)
+        twin.step(action)
+
+
+def test_step_and_render_before_reset_raise(entry):
+    parallel = _make(entry, render_mode="rgb_array")
+    with pytest.raises(gym.error.ResetNeeded, match=r"reset\(\) before step"):
+        parallel.step({})
+    with pytest.raises(gym.error.ResetNeeded, match=r"reset\(\) before render"):
+        parallel.render()
+    aec = _module(entry).env(render_mode="rgb_array")
+    with pytest.raises(gym.error.ResetNeeded, match=r"reset\(\) before step"):
+        aec.step(np.zeros(2, np.float32))
+
+
+def test_unknown_and_malformed_options_raise_and_change_nothing(entry):
+    env, twin = _make(entry), _make(entry)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    for options in ({"bogus": 1}, [1], "x", 3):
+        with pytest.raises(ValueError, match="option"):
+            env.reset(seed=1, options=options)
+    for step in range(5):
         actions = _actions(env, 0, step)
         assert _same(env.step(actions), twin.step(actions))
 

@@ -26,12 +26,13 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.envs.mujoco.mujoco_env import MujocoEnv
 
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
-from polyenvs.core.validation import check_bool, check_choice, check_in_range, show
+from polyenvs.core.validation import check_bool, check_choice, check_in_range, check_options, real_array, show
 
 __all__ = ["CONTROL_DT", "BeastEnv", "TumbleCounter"]
 
@@ -218,6 +219,7 @@ class BeastEnv(MujocoEnv):
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._unstable = False
         self._elapsed = 0
+        self._needs_reset = True
         self._bind()
 
     # --- set-up helpers ---------------------------------------------------------------------------------------
@@ -255,6 +257,8 @@ class BeastEnv(MujocoEnv):
         self._shape = (self.n_joints,)
 
     def render(self):
+        if self._needs_reset:
+            raise ResetNeeded("call reset() before render()")
         _reinitialize_egl_display()
         return super().render()
 
@@ -283,14 +287,10 @@ class BeastEnv(MujocoEnv):
         return np.clip(action, -1, 1).astype(np.float32)
 
     def step(self, action):
+        if self._needs_reset:
+            raise ResetNeeded("call reset() before step()")
         # Float arrays go to the compiled check as they are (no conversion copy); anything else is converted.
-        if type(action) is np.ndarray and action.dtype in _FLOATS:
-            a = action
-        else:
-            try:
-                a = np.asarray(action, np.float64)
-            except (TypeError, ValueError):
-                raise ValueError(f"action must be {self._shape[0]} numbers in [-1, 1], got {show(action)}") from None
+        a = action if type(action) is np.ndarray and action.dtype in _FLOATS else real_array("action", action)
         if a.shape != self._shape:
             raise ValueError(f"action must have shape {self._shape}, got {show(action)}")
         bad = S.actuate(a, self._joints, self._ctrl)
@@ -339,6 +339,7 @@ class BeastEnv(MujocoEnv):
         js[S.READING] = js[S.MOTOR]
         self._unstable = False
         self._elapsed = 0
+        self._needs_reset = False
         x, y = d.qpos[0], d.qpos[1]
         self._misc[S.PREV_X : S.HEAD_Y + 1] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
         S.sense(
@@ -352,19 +353,12 @@ class BeastEnv(MujocoEnv):
         return self._obs.copy(), info
 
     def _check_options(self, options) -> dict:
-        if options is None:
-            return {}
-        if not isinstance(options, dict):
-            raise ValueError(f"options must be a dict or None, got {show(options)}")
-        unknown = sorted(set(options) - set(self.option_names))
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {unknown}; expected some of {list(self.option_names)}")
-        checked = dict(options)
+        checked = dict(check_options(options, self.option_names))
         for name, size in (("qpos", self.model.nq), ("qvel", self.model.nv)):
-            if name in options:
-                value = np.asarray(options[name], dtype=np.float64) if not isinstance(options[name], str) else None
-                if value is None or value.shape != (size,) or not np.isfinite(value).all():
-                    raise ValueError(f"option {name} must be {size} finite numbers, got {show(options[name])}")
+            if name in checked:
+                value = real_array(f"option {name}", checked[name])
+                if value.shape != (size,) or not np.isfinite(value).all():
+                    raise ValueError(f"option {name} must be {size} finite numbers, got {show(checked[name])}")
                 checked[name] = value.copy()
         if "qvel" in checked and "qpos" not in checked:
             raise ValueError("option qvel needs qpos too")

@@ -34,7 +34,7 @@ from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.rows import RowsEnv, vector_convention
-from polyenvs.core.validation import check_action, check_in_range, show
+from polyenvs.core.validation import check_action, check_in_range, check_options, show
 
 __all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
 
@@ -318,16 +318,7 @@ class BuckybotEnv(RowsEnv):
                 self.render()
 
     def _check_options(self, options) -> dict:
-        if options is None:
-            return {}
-        if not isinstance(options, dict):
-            raise ValueError(f"options must be a dict or None, got {show(options)}")
-        allowed = {"pose", "face", *self.task_option_names}
-        if set(options) - allowed:
-            raise ValueError(
-                f"unknown reset option(s) {sorted(set(options) - allowed)}; expected some of {sorted(allowed)}"
-            )
-        return options
+        return check_options(options, ("pose", "face", *self.task_option_names))
 
     def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
         """Draw and validate a new episode for ``row`` on ``rng`` (a new seed's generator if ``reseeded``, else

@@ -41,7 +41,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from polyenvs.core.validation import check_int, show
+from polyenvs.core.validation import check_int, check_options, show
 
 __all__ = ["NO_ACTION", "RowsEnv", "RowsVectorEnv", "copy_generator", "only_rows", "vector_convention"]
 
@@ -83,13 +83,7 @@ class RowsEnv(gym.Env):
 
     # --- the family's part --------------------------------------------------------------------------------------
     def _check_options(self, options) -> dict:
-        if options is None:
-            return {}
-        if not isinstance(options, dict):
-            raise ValueError(f"options must be a dict or None, got {show(options)}")
-        if options:
-            raise ValueError(f"unknown reset option(s) {sorted(options)}; this environment takes none")
-        return options
+        return check_options(options, ())
 
     def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> Any:
         raise NotImplementedError

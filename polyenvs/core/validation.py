@@ -24,7 +24,9 @@ __all__ = [
     "check_finite",
     "check_in_range",
     "check_int",
+    "check_options",
     "check_positive",
+    "real_array",
     "show",
 ]
 
@@ -87,9 +89,35 @@ def check_choice(name: str, value, choices) -> str:
     return value
 
 
+def check_options(options, allowed) -> dict:
+    """Reset options: ``None`` or a dict whose keys are all in ``allowed`` (the names, in the order to list them)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict or None, got {show(options)}")
+    unknown = sorted(set(options) - set(allowed), key=repr)
+    if unknown:
+        expected = f"expected some of {list(allowed)}" if allowed else "this environment takes none"
+        raise ValueError(f"unknown reset option(s) {unknown}; {expected}")
+    return options
+
+
+def real_array(name: str, value, dtype=np.float64) -> np.ndarray:
+    """``value`` as an array of real numbers: complex, bool, string and object input is refused, not cast (numpy
+    would drop an imaginary part with only a warning, and turn ``True`` into 1)."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be real numbers, got {show(value)}") from None
+    if array.dtype.kind not in "fiu":
+        raise ValueError(f"{name} must be real numbers, got {show(value)}")
+    return array.astype(dtype, copy=False)
+
+
 def check_action(action_space, action):
-    """Reject actions outside the action space (and NaN) with a clear message instead of moving the robot."""
-    if isinstance(action, np.ndarray) and action.dtype.kind == "f" and np.isnan(action).any():
+    """Reject actions outside the action space (and NaN, and anything not real numbers: a bool, a complex number)
+    with a clear message instead of moving the robot."""
+    if np.isnan(real_array("action", action)).any():
         raise ValueError(f"action contains NaN: {action!r}")
     if not action_space.contains(action):
         raise ValueError(f"action {show(action)} is outside the action space {action_space}")
