@@ -26,8 +26,8 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
-from gymnasium.error import ResetNeeded
 from gymnasium.envs.mujoco.mujoco_env import MujocoEnv
+from gymnasium.error import ResetNeeded
 
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
