@@ -44,6 +44,12 @@ STANCE_TICKS = 20
 BACKLASH_DEG = 0.5
 TILT_THRESHOLD_DEG = 10.0
 _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
+#: A drawn start state is rounded to 1e-9 (m, rad, m/s, rad/s): numpy's matrix products and transcendental functions
+#: run CPU-specific kernels (OpenBLAS's per-core-type GEMM, AVX-512 or AVX2 SIMD sines) that differ in the last bit,
+#: and a contact simulation grows a last-bit difference in the start into a different episode on another machine.
+#: Rounding removes it (only a value within about 1e-16 of a rounding boundary can still differ); a state passed as
+#: a reset option is used exactly as given.
+START_DECIMALS = 9
 #: Plausible ranges of the sensor and reward parameters.
 SENSOR_RANGES = {"backlash_deg": (0.0, 5.0), "tilt_threshold_deg": (0.0, 45.0), "ctrl_cost_weight": (0.0, 10.0)}
 #: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
@@ -321,7 +327,7 @@ class BeastEnv(MujocoEnv):
             qpos = options["qpos"]
             qvel = options.get("qvel", np.zeros(self.model.nv))
         else:
-            qpos, qvel = self._initial_state(rng)
+            qpos, qvel = (np.round(q, START_DECIMALS) for q in self._initial_state(rng))
         d, m = self.data, self.model
         mujoco.mj_resetData(m, d)
         d.qpos[:] = qpos
