@@ -1,21 +1,27 @@
-"""The swarm's rules for bad input (issue 14): an internal cap ends a single-robot episode as a truncation; step
-and render before a first reset raise ``ResetNeeded``; an AEC action is checked when it is given; actions must be
-real numbers; unknown reset options raise. A refused call changes nothing: the same episode follows as if it had
-not been made."""
+"""The swarm's rules for bad input and for what a user gets by default (issue 14): an internal cap ends a
+single-robot episode as a truncation; step and render before a first reset raise ``ResetNeeded``; an AEC action is
+checked when it is given; derived defaults fit their ranges over every accepted input; actions must be real numbers;
+unknown reset options raise; the modules' defaults are what the commands evaluate. A refused call changes nothing:
+the same episode follows as if it had not been made."""
 
 from __future__ import annotations
+
+import importlib
+import inspect
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 from polyenvs.registry import REGISTRY
+from polyenvs.rollout import make_env
 from polyenvs.swarm import corridor_v0, formation_v0, obstacle_field_v0, single
 from polyenvs.swarm.batched import SwarmVectorEnv
 
 MODULES = [corridor_v0, obstacle_field_v0, formation_v0]
 IDS = [m.__name__.rsplit(".", 1)[1] for m in MODULES]
 SINGLE_IDS = [e.id for e in REGISTRY if e.kind == "gymnasium" and e.family == "swarm"]
+SWARM_ROWS = [e for e in REGISTRY if e.kind == "pettingzoo" and e.family == "swarm"]
 WRONG_DTYPES = [
     np.full(2, 0.2 + 5j),
     [0.2 + 5j, 0.1],
@@ -136,6 +142,35 @@ def test_aec_bad_action_is_refused_when_given_and_changes_nothing(make):
     _aec_cycle(env, twin, 2 * len(env.possible_agents))
 
 
+# --- 6: derived defaults fit their ranges for every accepted input ------------------------------------------------
+def test_formation_builds_over_its_whole_spacing_range_with_default_everything_else():
+    """``goal_radius_m`` (2 R) was refused from R = 1.5 m up (``goal_radius_m must be in [0.1, 3], got 4.0``, a
+    parameter the user did not pass), and ``comm_range_m`` (3 m) from R = 2 m up (the springs reach 1.5 R)."""
+    for spacing_m in (0.5, 1.5, 1.75, 2.0, 3.0):  # the ends, the middle, and where each default used to break
+        env = formation_v0.parallel_env(spacing_m=spacing_m)
+        assert env.goal_radius_m == min(2 * spacing_m, 3.0)
+        assert env.comm_range_m == max(3.0, 1.5 * spacing_m)
+        env.reset(seed=0)
+        for step in range(3):
+            env.step(_actions(env, step))
+        batch = SwarmVectorEnv("formation_v0", num_envs=2, spacing_m=spacing_m)
+        batch.reset(seed=0)
+        batch.step(np.zeros((batch.num_envs, 2)))
+        for n_robots in (1, 1024):  # the lattice, hence the field, grows with both
+            formation_v0.parallel_env(spacing_m=spacing_m, n_robots=n_robots).reset(seed=0)
+
+
+def test_formation_given_values_are_still_checked_and_the_issue_example_builds():
+    env = formation_v0.parallel_env(spacing_m=2.0, comm_range_m=3.0)
+    assert env.goal_radius_m == 3.0 and env.comm_range_m == 3.0
+    with pytest.raises(ValueError, match="goal_radius_m"):
+        formation_v0.parallel_env(spacing_m=2.0, goal_radius_m=4.0)
+    with pytest.raises(ValueError, match="comm_range_m"):
+        formation_v0.parallel_env(spacing_m=3.0, comm_range_m=3.0)
+    with pytest.raises(ValueError, match="spacing_m"):
+        formation_v0.parallel_env(spacing_m=3.5)
+
+
 # --- 7: actions must be real numbers ------------------------------------------------------------------------------
 @pytest.mark.parametrize("module", MODULES, ids=IDS)
 def test_wrong_dtype_actions_raise_and_change_nothing_in_the_parallel_env(module):
@@ -241,3 +276,30 @@ def test_unknown_and_malformed_options_raise_and_change_nothing_in_the_vector_en
         actions = np.random.default_rng(step).uniform(-1, 1, (batch.num_envs, 2))
         assert _same(batch.step(actions)[:4], twin.step(actions)[:4])
     assert _same(batch.reset(seed=4, options={}), twin.reset(seed=4))
+
+
+# --- 11: one source of truth for the defaults ---------------------------------------------------------------------
+@pytest.mark.parametrize("row", SWARM_ROWS, ids=lambda r: r.id)
+def test_module_defaults_are_what_the_commands_evaluate(row):
+    """``corridor_v0.parallel_env()`` built 1 robot while ``polyenvs evaluate polyenvs.swarm.corridor_v0`` built
+    3 (the registry row's kwargs overrode the module's default)."""
+    module = importlib.import_module(row.id)
+    mine, evaluated = module.parallel_env(), make_env(row.id)
+    assert (mine.n_robots, mine.max_cycles) == (evaluated.n_robots, evaluated.max_cycles)
+    assert (
+        (mine.n_robots, mine.max_cycles)
+        == (module.N_ROBOTS, module.MAX_CYCLES)
+        == (
+            {"corridor_v0": 3, "obstacle_field_v0": 3, "formation_v0": 7}[row.id.rsplit(".", 1)[1]],
+            row.max_cycles,
+        )
+    )
+    # The row carries no default of its own that differs from the module's.
+    defaults = {
+        name: p.default
+        for cls in type(mine).__mro__
+        if "__init__" in vars(cls)
+        for name, p in reversed(inspect.signature(cls.__init__).parameters.items())
+        if p.default is not inspect.Parameter.empty
+    }
+    assert all(defaults.get(k, object()) == v for k, v in row.kwargs.items()), row.kwargs

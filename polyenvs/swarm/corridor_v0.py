@@ -1,6 +1,6 @@
 """``corridor_v0``: robots pass a corridor with obstacles to a light (the paper's X80Pro experiment).
 
-``from polyenvs.swarm import corridor_v0; env = corridor_v0.parallel_env(n_robots=3)``.
+``from polyenvs.swarm import corridor_v0; env = corridor_v0.parallel_env()`` (3 robots; ``n_robots=`` for more).
 """
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, start_block
 
-__all__ = ["CorridorEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
+__all__ = ["CorridorEnv", "MAX_CYCLES", "N_ROBOTS", "env", "parallel_env", "raw_env"]
 
+#: Defaults: what ``parallel_env()`` builds and what the commands evaluate (the registry row adds nothing).
+N_ROBOTS = 3
 MAX_CYCLES = 600
 #: Corridor (feasibility study, spec/swarm.md): walls 1.8 m apart, 6.5 m long; four obstacles of radius 0.2 m
 #: reaching 0.55 m from their wall, alternating right and left; the light near the far end on the left.
@@ -84,7 +86,7 @@ class CorridorEnv(SwarmEnv):
     | ``comm_range_m``, ``n_neighbours`` | 3, 6 | trilateration reach (0.5-10 m) and slots (1-32) |
     | ``range_noise_m``, ``bearing_noise_deg`` | 0.02, 2 | trilateration noise (0-0.2 m, 0-20°) |
     | ``light_noise_deg`` | 2 | light bearing noise (0-20°) |
-    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-3 m) |
+    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-1 m; obstacle field 0.1-1.5, formation 0.1-3) |
     | ``sensor_angles_deg`` | (-60, -15, 15, 60) | virtual sensor angles, increasing (-90..90; *ours*) |
     | ``terminate_on_collision`` | False | a contact ends that robot's episode |
     | ``render_mode`` | None | "rgb_array" or "human" |
@@ -97,8 +99,8 @@ class CorridorEnv(SwarmEnv):
     default_platform = "x80pro"
     n_obstacles = len(OBSTACLE_Y_M)
 
-    def __init__(self, *, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
-        super().__init__(max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
+        super().__init__(n_robots=n_robots, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
 
     def _task_init(self) -> None:
         check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.0)

@@ -35,6 +35,7 @@ from polyenvs.swarm import sensors as ir
 from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 
 __all__ = [
+    "DEFAULT_COMM_RANGE_M",
     "Episode",
     "Layout",
     "PARAMETER_RANGES",
@@ -62,6 +63,8 @@ PARAMETER_RANGES = {
     "goal_radius_m": (0.1, 3.0),
     "sensor_angle_deg": (-90.0, 90.0),
 }
+#: Trilateration reach when not given (m).
+DEFAULT_COMM_RANGE_M = 3.0
 #: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
 BEAM_M = ir.IR_MAX_CM / 100.0
 #: Intensity of the goal light is 1 / (1 + (d / LIGHT_REFERENCE_M)^2) (inverse square, *ours*).
@@ -177,7 +180,7 @@ class SwarmEnv(ParallelEnv):
         terrain_noise: float = 0.05,
         ir_noise: float = 0.03,
         ir_raw_sd: float = 2.0,
-        comm_range_m: float = 3.0,
+        comm_range_m: float = DEFAULT_COMM_RANGE_M,
         n_neighbours: int = 6,
         range_noise_m: float = 0.02,
         bearing_noise_deg: float = 2.0,
