@@ -1,8 +1,8 @@
 """The swarm's rules for bad input and for what a user gets by default (issue 14): an internal cap ends a
 single-robot episode as a truncation; step and render before a first reset raise ``ResetNeeded``; an AEC action is
 checked when it is given; derived defaults fit their ranges over every accepted input; actions must be real numbers;
-unknown reset options raise; the modules' defaults are what the commands evaluate. A refused call changes nothing:
-the same episode follows as if it had not been made."""
+unknown reset options raise; the modules' defaults are what the commands evaluate; TorchRL's PettingZooWrapper
+steps every swarm module. A refused call changes nothing: the same episode follows as if it had not been made."""
 
 from __future__ import annotations
 
@@ -303,3 +303,58 @@ def test_module_defaults_are_what_the_commands_evaluate(row):
         if p.default is not inspect.Parameter.empty
     }
     assert all(defaults.get(k, object()) == v for k, v in row.kwargs.items()), row.kwargs
+
+
+# --- TorchRL ------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("module", MODULES, ids=IDS)
+def test_torchrl_pettingzoo_wrapper_steps_every_swarm_module(module):
+    """TorchRL's PettingZooWrapper failed with ``Could not infer dtype of dict`` (every robot's info carried a
+    nested ``episode_metrics`` dict): with ``flat_info=True`` the metrics are flat keys of numbers in every info."""
+    torch = pytest.importorskip("torch", reason="TorchRL needs torch")
+    torchrl_envs = pytest.importorskip("torchrl.envs", reason="torchrl is not installed")
+    # Parallel: robots that hit an obstacle leave (the mask), then the truncation and a reset. AEC: TorchRL steps a
+    # robot that has left with an action, not PettingZoo's None (refused, as PettingZoo's own AECEnv refuses it),
+    # so there no robot leaves before the truncation.
+    cases = [
+        (module.parallel_env(max_cycles=30, flat_info=True, terminate_on_collision=True), 70, True),
+        (module.env(max_cycles=4, flat_info=True), 3 * len(module.env().possible_agents) * 4, False),
+    ]
+    for swarm, steps, robots_leave in cases:
+        robots = list(swarm.possible_agents)
+        env = torchrl_envs.PettingZooWrapper(swarm, group_map={"robot": robots}, use_mask=True, seed=0)
+        shape = env.full_action_spec["robot", "action"].shape
+
+        def forward(td, shape=shape):  # full speed ahead
+            td["robot", "action"] = torch.ones(shape)
+            return td
+
+        rollout = env.rollout(steps, policy=forward, break_when_any_done=False)
+        assert rollout.batch_size == torch.Size([steps])
+        info = rollout["next", "robot", "info"]
+        assert "episode_success_rate" in info.keys() and info["pose"].shape == (steps, len(robots), 3)
+        assert torch.isfinite(info["episode_min_clearance_cm"]).all()
+        assert rollout["next", "robot", "done"].any()  # an episode ended, and the next one began
+        if robots_leave:  # (in AEC the mask marks the one robot that acts)
+            assert (~rollout["next", "robot", "mask"]).any()
+
+
+@pytest.mark.parametrize("module", MODULES, ids=IDS)
+def test_flat_info_carries_the_nested_metrics_and_changes_nothing_else(module):
+    nested, flat = module.parallel_env(max_cycles=20), module.parallel_env(max_cycles=20, flat_info=True)
+    results = [nested.reset(seed=5)], [flat.reset(seed=5)]
+    while nested.agents:
+        actions = _actions(nested, len(results[0]))
+        results[0].append(nested.step(actions))
+        results[1].append(flat.step(actions))
+    assert not flat.agents and len(results[0]) == 21
+    for a, b in zip(*results, strict=True):
+        assert _same(a[:-1], b[:-1])
+        for agent, info in a[-1].items():
+            metrics = info.pop("episode_metrics")
+            assert _same(info, {k: v for k, v in b[-1][agent].items() if not k.startswith("episode_")})
+            assert {f"episode_{k}": v for k, v in metrics.items()} == {
+                k: v for k, v in b[-1][agent].items() if k.startswith("episode_")
+            }
+    assert nested.episode_metrics() == flat.episode_metrics()
+    with pytest.raises(ValueError, match="flat_info"):
+        module.parallel_env(flat_info=1)

@@ -71,12 +71,15 @@ class CorridorEnv(SwarmEnv):
     ``nearest_obstacle_cm`` (true distance along each beam, 80 = nothing within reach), ``motor_powers`` (0..100
     scale), ``turning_angle_deg`` (this step), ``stopped`` (still for 1 s short of the goal: AP-lite's halt),
     the reward terms and ``episode_metrics`` (``success_rate``, ``collisions``, ``time_to_goal_s``,
-    ``min_clearance_cm``, ``stopped``); ``env.episode_metrics()`` aggregates them over the swarm.
+    ``min_clearance_cm``, ``stopped``); ``env.episode_metrics()`` aggregates them over the swarm. With
+    ``flat_info=True`` the metrics are the keys ``episode_success_rate``, ``episode_collisions``, ... of every
+    info instead (from the reset on: fixed keys of numbers only, which TorchRL's ``PettingZooWrapper`` needs; the
+    nested dict, which it cannot take, is the default for the PettingZoo and Stable-Baselines3 paths).
 
     ## Arguments
     | keyword | default | meaning (range) |
     | --- | --- | --- |
-    | ``n_robots`` | 1 | robots (1-1024) |
+    | ``n_robots`` | 3 | robots (1-1024) |
     | ``platform`` | "x80pro" | "x80pro" or "maxelbot" (body size, IR scale) |
     | ``max_cycles`` | 600 | steps before truncation |
     | ``control_period_s`` | 0.1 | one control step (0.02-1; the step must stay shorter than the body radius) |
@@ -89,6 +92,7 @@ class CorridorEnv(SwarmEnv):
     | ``goal_radius_m`` | 0.4 | arrival distance (0.1-1 m; obstacle field 0.1-1.5, formation 0.1-3) |
     | ``sensor_angles_deg`` | (-60, -15, 15, 60) | virtual sensor angles, increasing (-90..90; *ours*) |
     | ``terminate_on_collision`` | False | a contact ends that robot's episode |
+    | ``flat_info`` | False | episode metrics as keys ``episode_<metric>`` of every info, not a nested dict (TorchRL) |
     | ``render_mode`` | None | "rgb_array" or "human" |
 
     ## Version History

@@ -188,6 +188,7 @@ class SwarmEnv(ParallelEnv):
         goal_radius_m: float = 0.4,
         sensor_angles_deg=SENSOR_ANGLES_DEG,
         terminate_on_collision: bool = False,
+        flat_info: bool = False,
         render_mode: str | None = None,
     ):
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
@@ -213,6 +214,7 @@ class SwarmEnv(ParallelEnv):
             )
         self.sensor_angles_deg = tuple(angles)
         self.terminate_on_collision = check_bool("terminate_on_collision", terminate_on_collision)
+        self.flat_info = check_bool("flat_info", flat_info)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
@@ -507,7 +509,8 @@ class SwarmEnv(ParallelEnv):
 
     def _infos(self, index) -> dict:
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
-        terms and the robot's episode metrics. Built from per-step columns (fresh arrays; rows are views of them)."""
+        terms and the robot's episode metrics (a nested ``episode_metrics`` dict, or with ``flat_info`` the keys
+        ``episode_<metric>``). Built from per-step columns (fresh arrays; rows are views of them)."""
         stopped = self._stopped()
         columns = [
             list(self.pose.copy()),
@@ -534,13 +537,18 @@ class SwarmEnv(ParallelEnv):
             columns = [[column[i] for i in index] for column in columns]
             metric_columns = [[column[i] for i in index] for column in metric_columns]
         keys, metric_keys = self._info_keys, self.metric_names
+        names = self.possible_agents
+        if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
+            keys = (*keys, *(f"episode_{name}" for name in metric_keys))
+            rows = zip(*columns, *metric_columns, strict=True)
+            return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
         infos = {}
         for i, row, metric_row in zip(
             index, zip(*columns, strict=True), zip(*metric_columns, strict=True), strict=True
         ):
             info = dict(zip(keys, row, strict=True))
             info["episode_metrics"] = dict(zip(metric_keys, metric_row, strict=True))
-            infos[self.possible_agents[i]] = info
+            infos[names[i]] = info
         return infos
 
     @property
