@@ -225,10 +225,11 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=_FIELD_BASELINES,
         paper="aplite",
     ),
+    # The swarm rows carry no kwargs: what a module's parallel_env() builds (3, 3 and 7 robots) is what the commands
+    # evaluate, and max_cycles is each module's own MAX_CYCLES (tests/test_swarm_hardening.py checks both).
     ParallelEnvEntry(
         id="polyenvs.swarm.corridor_v0",
         max_cycles=600,
-        kwargs={"n_robots": 3},
         family="swarm",
         description="N X80Pro robots pass a corridor with four obstacles to the light",
         baselines=_CORRIDOR_BASELINES,
@@ -237,7 +238,6 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     ParallelEnvEntry(
         id="polyenvs.swarm.obstacle_field_v0",
         max_cycles=1000,
-        kwargs={"n_robots": 3},
         family="swarm",
         description="N Maxelbots cross a seeded obstacle field on rough terrain to a goal light",
         baselines=_FIELD_BASELINES,

@@ -205,7 +205,7 @@ def test_256_robots_run_without_overlap(module):
 def test_aplite_reaches_the_light_in_the_corridor_without_collision():
     """The paper: ten X80Pro runs in the corridor, all reached the light. The faithful AP-lite on the X80Pro's two
     outer sensors reached it without a contact in 9 of 10 seeded runs here (goal-seeking: 10 of 10)."""
-    env = corridor_v0.parallel_env()
+    env = corridor_v0.parallel_env(n_robots=1)
     space, act = env.observation_space("robot_0"), env.action_space("robot_0")
     faithful = APLite(space, act, ir_scale="x80pro", sensors=(0, 3))
     seeking = APLiteGoalSeeking(space, act, ir_scale="x80pro", sensors=(0, 3))
@@ -240,7 +240,7 @@ def test_formation_of_seven_keeps_its_error_bound_while_reaching_the_goal():
 def test_the_halt_rule_traps_the_robot_and_the_stopped_diagnostic_shows_it():
     """An obstacle ahead on both middle sensors stops AP-lite for good (the potential-field trap): the robot
     halts about 19 inches from a wall straight ahead, never touches it, and is reported stopped."""
-    env = obstacle_field_v0.parallel_env(n_obstacles=0, terrain_noise=0.0, ir_noise=0.0, ir_raw_sd=0.0)
+    env = obstacle_field_v0.parallel_env(n_robots=1, n_obstacles=0, terrain_noise=0.0, ir_noise=0.0, ir_raw_sd=0.0)
     policy = APLite(env.observation_space("robot_0"), env.action_space("robot_0"))
     obs, _ = env.reset(seed=0)
     env.pose[0] = (1.5, 3.0, np.pi)  # facing the left wall, 1.5 m away

@@ -22,11 +22,12 @@ from __future__ import annotations
 import importlib
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from polyenvs.core.validation import check_choice, check_int
+from polyenvs.core.validation import check_choice, check_int, check_options, real_array
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
 from polyenvs.swarm.env import (
@@ -104,11 +105,14 @@ class SwarmVectorEnv(VectorEnv):
             self._formation_sum = np.zeros(rows)
             self._swarm_sum = np.zeros(e)
         self._generators: list[np.random.Generator | None] = [None] * e
+        self._started = False  # step() needs a first reset()
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------------------
     def reset(self, *, seed=None, options=None):
         """Reset every environment; environment ``e`` gets seed ``seed + e`` (a list gives one seed per
-        environment, or one per row, of which environment e takes row ``e * n_robots``'s)."""
+        environment, or one per row, of which environment e takes row ``e * n_robots``'s). The swarm takes no
+        reset options: ``options`` must be ``None`` or ``{}`` (anything else raises and changes nothing)."""
+        check_options(options, ())
         e = self.n_envs
         if seed is None:
             seeds = [None] * e
@@ -122,11 +126,14 @@ class SwarmVectorEnv(VectorEnv):
             seeds = [check_int("seed", seed, 0) + i for i in range(e)]
         self._generators = [seeding.np_random(s)[0] for s in seeds]
         self._reset_envs(np.arange(e))
+        self._started = True
         return self._obs.copy(), {}
 
     def step(self, actions):
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
         t, e, n = self.task, self.n_envs, self.n_robots
-        command = np.asarray(actions, dtype=np.float64)
+        command = real_array("actions", actions)  # complex, bool, string and object input refused, not cast
         if command.shape != (self.num_envs, 2) or not (np.abs(command) <= 1.0).all():
             raise ValueError(f"actions must be an array of shape ({self.num_envs}, 2) in [-1, 1] without NaN")
         for g, normals, floor in zip(self._generators, self._normals, self._floor, strict=True):

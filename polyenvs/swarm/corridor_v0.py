@@ -1,6 +1,6 @@
 """``corridor_v0``: robots pass a corridor with obstacles to a light (the paper's X80Pro experiment).
 
-``from polyenvs.swarm import corridor_v0; env = corridor_v0.parallel_env(n_robots=3)``.
+``from polyenvs.swarm import corridor_v0; env = corridor_v0.parallel_env()`` (3 robots; ``n_robots=`` for more).
 """
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, start_block
 
-__all__ = ["CorridorEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
+__all__ = ["CorridorEnv", "MAX_CYCLES", "N_ROBOTS", "env", "parallel_env", "raw_env"]
 
+#: Defaults: what ``parallel_env()`` builds and what the commands evaluate (the registry row adds nothing).
+N_ROBOTS = 3
 MAX_CYCLES = 600
 #: Corridor (feasibility study, spec/swarm.md): walls 1.8 m apart, 6.5 m long; four obstacles of radius 0.2 m
 #: reaching 0.55 m from their wall, alternating right and left; the light near the far end on the left.
@@ -69,12 +71,15 @@ class CorridorEnv(SwarmEnv):
     ``nearest_obstacle_cm`` (true distance along each beam, 80 = nothing within reach), ``motor_powers`` (0..100
     scale), ``turning_angle_deg`` (this step), ``stopped`` (still for 1 s short of the goal: AP-lite's halt),
     the reward terms and ``episode_metrics`` (``success_rate``, ``collisions``, ``time_to_goal_s``,
-    ``min_clearance_cm``, ``stopped``); ``env.episode_metrics()`` aggregates them over the swarm.
+    ``min_clearance_cm``, ``stopped``); ``env.episode_metrics()`` aggregates them over the swarm. With
+    ``flat_info=True`` the metrics are the keys ``episode_success_rate``, ``episode_collisions``, ... of every
+    info instead (from the reset on: fixed keys of numbers only, which TorchRL's ``PettingZooWrapper`` needs; the
+    nested dict, which it cannot take, is the default for the PettingZoo and Stable-Baselines3 paths).
 
     ## Arguments
     | keyword | default | meaning (range) |
     | --- | --- | --- |
-    | ``n_robots`` | 1 | robots (1-1024) |
+    | ``n_robots`` | 3 | robots (1-1024) |
     | ``platform`` | "x80pro" | "x80pro" or "maxelbot" (body size, IR scale) |
     | ``max_cycles`` | 600 | steps before truncation |
     | ``control_period_s`` | 0.1 | one control step (0.02-1; the step must stay shorter than the body radius) |
@@ -84,9 +89,10 @@ class CorridorEnv(SwarmEnv):
     | ``comm_range_m``, ``n_neighbours`` | 3, 6 | trilateration reach (0.5-10 m) and slots (1-32) |
     | ``range_noise_m``, ``bearing_noise_deg`` | 0.02, 2 | trilateration noise (0-0.2 m, 0-20°) |
     | ``light_noise_deg`` | 2 | light bearing noise (0-20°) |
-    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-3 m) |
+    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-1 m; obstacle field 0.1-1.5, formation 0.1-3) |
     | ``sensor_angles_deg`` | (-60, -15, 15, 60) | virtual sensor angles, increasing (-90..90; *ours*) |
     | ``terminate_on_collision`` | False | a contact ends that robot's episode |
+    | ``flat_info`` | False | episode metrics as keys ``episode_<metric>`` of every info, not a nested dict (TorchRL) |
     | ``render_mode`` | None | "rgb_array" or "human" |
 
     ## Version History
@@ -97,8 +103,8 @@ class CorridorEnv(SwarmEnv):
     default_platform = "x80pro"
     n_obstacles = len(OBSTACLE_Y_M)
 
-    def __init__(self, *, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
-        super().__init__(max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
+        super().__init__(n_robots=n_robots, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
 
     def _task_init(self) -> None:
         check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.0)

@@ -14,20 +14,36 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
+from pettingzoo.utils import OrderEnforcingWrapper
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_action, check_bool, check_in_range, check_int, show
+from polyenvs.core.validation import (
+    check_action,
+    check_bool,
+    check_in_range,
+    check_int,
+    check_options,
+    real_array,
+    show,
+)
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
 from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 
 __all__ = [
+    "DEFAULT_COMM_RANGE_M",
     "Episode",
     "Layout",
     "PARAMETER_RANGES",
+    "PETTINGZOO_PROBE_OPTION",
+    "SwarmAECEnv",
     "SwarmEnv",
+    "SwarmOrderEnforcingWrapper",
+    "check_swarm_options",
     "module_constructors",
     "observation_structure",
     "structure_for",
@@ -47,6 +63,8 @@ PARAMETER_RANGES = {
     "goal_radius_m": (0.1, 3.0),
     "sensor_angle_deg": (-90.0, 90.0),
 }
+#: Trilateration reach when not given (m).
+DEFAULT_COMM_RANGE_M = 3.0
 #: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
 BEAM_M = ir.IR_MAX_CM / 100.0
 #: Intensity of the goal light is 1 / (1 + (d / LIGHT_REFERENCE_M)^2) (inverse square, *ours*).
@@ -110,6 +128,20 @@ def account(pose, before, active, blocked, clearance, goals, per, cycles, params
         terminated[i] = 1 if arrived or (contact and stop_on_contact) else 0
 
 
+#: PettingZoo's ``api_test`` and ``parallel_api_test`` check that reset takes options by calling
+#: ``reset(seed=0, options={"options": 1})``: that one key is ignored, so the swarm passes PettingZoo's own tests.
+PETTINGZOO_PROBE_OPTION = "options"
+
+
+def check_swarm_options(options) -> dict:
+    """A PettingZoo swarm's reset options: ``None`` or a dict with no keys but PettingZoo's API-test probe
+    (:data:`PETTINGZOO_PROBE_OPTION`, ignored); else ``ValueError`` ("options must be a dict or None", "unknown
+    reset option(s) [...]"), before anything changes."""
+    if isinstance(options, dict) and PETTINGZOO_PROBE_OPTION in options:
+        options = {k: v for k, v in options.items() if k != PETTINGZOO_PROBE_OPTION}
+    return check_options(options, ())
+
+
 @dataclass
 class Layout:
     """What stays fixed for the life of an instance: the wall segments ``(W, 4)`` and the frame's bounds."""
@@ -148,7 +180,7 @@ class SwarmEnv(ParallelEnv):
         terrain_noise: float = 0.05,
         ir_noise: float = 0.03,
         ir_raw_sd: float = 2.0,
-        comm_range_m: float = 3.0,
+        comm_range_m: float = DEFAULT_COMM_RANGE_M,
         n_neighbours: int = 6,
         range_noise_m: float = 0.02,
         bearing_noise_deg: float = 2.0,
@@ -156,6 +188,7 @@ class SwarmEnv(ParallelEnv):
         goal_radius_m: float = 0.4,
         sensor_angles_deg=SENSOR_ANGLES_DEG,
         terminate_on_collision: bool = False,
+        flat_info: bool = False,
         render_mode: str | None = None,
     ):
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
@@ -181,6 +214,7 @@ class SwarmEnv(ParallelEnv):
             )
         self.sensor_angles_deg = tuple(angles)
         self.terminate_on_collision = check_bool("terminate_on_collision", terminate_on_collision)
+        self.flat_info = check_bool("flat_info", flat_info)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
@@ -254,6 +288,7 @@ class SwarmEnv(ParallelEnv):
         self.circles = np.zeros((0, 3))
         self.goal = np.zeros(2)
         self.num_cycles = 0
+        self._started = False  # step() and render() need a first reset()
 
     # --- task interface ---------------------------------------------------------------------------------------
     def _task_init(self) -> None:
@@ -283,7 +318,10 @@ class SwarmEnv(ParallelEnv):
         return self._rng
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        """Start an episode. ``options`` is accepted for the API and unused."""
+        """Start an episode. The swarm takes no reset options: ``options`` must be ``None`` or ``{}`` (anything else
+        raises ``ValueError`` and changes nothing), save the key PettingZoo's own API tests probe with, ignored
+        (see :func:`check_swarm_options`)."""
+        check_swarm_options(options)
         if seed is not None:
             rng, used = seeding.np_random(seed)
         else:
@@ -311,11 +349,14 @@ class SwarmEnv(ParallelEnv):
         self._track[:, MIN_CLEARANCE] = self._clearance
         self._update_metrics()
         infos = self._infos(range(n))
+        self._started = True
         if self.render_mode == "human":
             self.render()
         return {a: obs[i] for i, a in enumerate(self.agents)}, infos
 
     def step(self, actions):
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
         n = self.n_robots
         command = self._command(actions)
         if not self.agents:
@@ -358,8 +399,12 @@ class SwarmEnv(ParallelEnv):
         return observations, rewards, terminations, truncations, infos
 
     def _command(self, actions) -> np.ndarray:
-        """The ``(N, 2)`` power fractions of a step's actions, all checked before anything changes (one array
-        test for the common case; the per-agent check names the culprit)."""
+        """The ``(N, 2)`` power fractions of a step's actions, all checked before anything changes. Actions must
+        be real numbers: complex, bool, string and object input is refused, not cast. The common case (arrays of
+        a real dtype) is one array test; anything else, or a batch that fails it, is checked agent by agent, which
+        names the culprit."""
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict of agent -> action, got {show(actions)}")
         rows = [self.agent_name_mapping.get(agent) for agent in actions]
         if any(i is None or not self.active[i] for i in rows):
             bad = next(a for a, i in zip(actions, rows, strict=True) if i is None or not self.active[i])
@@ -367,16 +412,29 @@ class SwarmEnv(ParallelEnv):
         command = np.zeros((self.n_robots, 2))
         if not rows:
             return command
-        try:
-            values = np.array(list(actions.values()), dtype=np.float32)
-        except (TypeError, ValueError):
-            values = None
-        if values is None or values.shape != (len(rows), 2) or not (np.abs(values) <= 1.0).all():
-            for agent, action in actions.items():  # NaN fails the test above too; find and name the bad action
-                check_action(self.action_spaces[agent], np.asarray(action, dtype=np.float32))
-            raise ValueError(f"actions must be arrays of shape (2,) in [-1, 1], got {show(actions)}")
+        # Each action's own dtype: numpy would promote a bool action among float ones to float.
+        dtypes = {getattr(action, "dtype", None) for action in actions.values()}  # usually one
+        values = None
+        if all(d is not None and d.kind in "fiu" for d in dtypes):
+            try:
+                values = np.array(list(actions.values()), dtype=np.float32)  # as before: real dtypes only here
+            except ValueError:  # shapes that do not stack
+                values = None
+            if values is not None and (values.shape != (len(rows), 2) or not (np.abs(values) <= 1.0).all()):
+                values = None  # NaN fails the range test too
+        if values is None:
+            values = np.stack([self.check_agent_action(agent, action) for agent, action in actions.items()])
         command[rows] = values
         return command
+
+    def check_agent_action(self, agent, action) -> np.ndarray:
+        """``agent``'s action as a float32 array, or ``ValueError`` naming the agent: it must be real numbers (not
+        complex, bool, string or object), without NaN, in the agent's action space."""
+        try:
+            value = real_array("action", action, np.float32)
+            return check_action(self.action_spaces[agent], value)
+        except ValueError as exc:
+            raise ValueError(f"action for {show(agent)}: {exc}") from None
 
     def state(self) -> np.ndarray:
         """Global state: per robot x, y (m), cos and sin of the heading, and 1 while it is in the episode."""
@@ -390,6 +448,8 @@ class SwarmEnv(ParallelEnv):
 
             gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
         from polyenvs.swarm.rendering import SwarmRenderer
 
         if self._renderer is None:
@@ -449,7 +509,8 @@ class SwarmEnv(ParallelEnv):
 
     def _infos(self, index) -> dict:
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
-        terms and the robot's episode metrics. Built from per-step columns (fresh arrays; rows are views of them)."""
+        terms and the robot's episode metrics (a nested ``episode_metrics`` dict, or with ``flat_info`` the keys
+        ``episode_<metric>``). Built from per-step columns (fresh arrays; rows are views of them)."""
         stopped = self._stopped()
         columns = [
             list(self.pose.copy()),
@@ -476,13 +537,18 @@ class SwarmEnv(ParallelEnv):
             columns = [[column[i] for i in index] for column in columns]
             metric_columns = [[column[i] for i in index] for column in metric_columns]
         keys, metric_keys = self._info_keys, self.metric_names
+        names = self.possible_agents
+        if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
+            keys = (*keys, *(f"episode_{name}" for name in metric_keys))
+            rows = zip(*columns, *metric_columns, strict=True)
+            return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
         infos = {}
         for i, row, metric_row in zip(
             index, zip(*columns, strict=True), zip(*metric_columns, strict=True), strict=True
         ):
             info = dict(zip(keys, row, strict=True))
             info["episode_metrics"] = dict(zip(metric_keys, metric_row, strict=True))
-            infos[self.possible_agents[i]] = info
+            infos[names[i]] = info
         return infos
 
     @property
@@ -518,21 +584,78 @@ def _copy_box(box: spaces.Box) -> spaces.Box:
     return spaces.Box(box.low.copy(), box.high.copy(), dtype=box.dtype)
 
 
+class SwarmAECEnv(parallel_to_aec_wrapper):
+    """The AEC form of a swarm (PettingZoo's ``parallel_to_aec``), checking each action when its agent gives it.
+
+    PettingZoo's conversion stores the actions and checks nothing until the last agent of the cycle has acted,
+    when the parallel step rejects the batch: the error then comes at another agent's turn, and the bad action
+    stays stored, so every later step raises until a reset. Here a live agent's action is checked at once
+    (:meth:`SwarmEnv.check_agent_action`: real numbers in its space, NaN refused, the agent named) and a rejected
+    one changes nothing: the same agent is still to act, as if the call had not been made. ``step`` and
+    ``render`` before the first ``reset`` raise ``gymnasium.error.ResetNeeded``, as the parallel form does.
+    """
+
+    def __init__(self, parallel_env: SwarmEnv):
+        super().__init__(parallel_env)
+        self._started = False
+
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed, options=options)  # the parallel reset checks everything before it changes anything
+        self._started = True
+
+    def step(self, action):
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        agent = self.agent_selection
+        if not (self.terminations[agent] or self.truncations[agent]):
+            action = self.env.check_agent_action(agent, action)
+        elif action is not None:  # PettingZoo's convention, checked by an assert there
+            raise ValueError(f"{show(agent)} has left the episode: its step takes None, got {show(action)}")
+        super().step(action)
+
+
+class SwarmOrderEnforcingWrapper(OrderEnforcingWrapper):
+    """PettingZoo's order-enforcing wrapper with the swarm's errors: ``step`` or ``render`` before the first
+    ``reset`` raise ``gymnasium.error.ResetNeeded`` (PettingZoo's raises ``AssertionError``), and a ``reset`` that
+    raises (unknown options) leaves the wrapper's bookkeeping as it was."""
+
+    def reset(self, seed=None, options=None):
+        flags = self._has_reset, self._has_updated
+        try:
+            super().reset(seed=seed, options=options)
+        except Exception:
+            self._has_reset, self._has_updated = flags
+            raise
+
+    def step(self, action):
+        if not self._has_reset:
+            raise ResetNeeded("call reset() before step()")
+        super().step(action)
+
+    def render(self):
+        if not self._has_reset:
+            raise ResetNeeded("call reset() before render()")
+        return super().render()
+
+    def __str__(self) -> str:
+        return str(self.env)
+
+
 def module_constructors(env_class: type[SwarmEnv]):
     """A task module's PettingZoo constructors, ``parallel_env, raw_env, env = module_constructors(TaskEnv)``:
-    the parallel environment, the AEC form without wrappers, and the AEC form with the order-enforcing wrapper."""
-    from pettingzoo.utils import OrderEnforcingWrapper, parallel_to_aec
+    the parallel environment, the AEC form without wrappers (:class:`SwarmAECEnv`), and the AEC form with the
+    order-enforcing wrapper (:class:`SwarmOrderEnforcingWrapper`)."""
 
     def parallel_env(**kwargs) -> SwarmEnv:
         return env_class(**kwargs)
 
-    def raw_env(**kwargs):
-        return parallel_to_aec(env_class(**kwargs))
+    def raw_env(**kwargs) -> SwarmAECEnv:
+        return SwarmAECEnv(env_class(**kwargs))
 
-    def env(**kwargs):
-        return OrderEnforcingWrapper(raw_env(**kwargs))
+    def env(**kwargs) -> SwarmOrderEnforcingWrapper:
+        return SwarmOrderEnforcingWrapper(raw_env(**kwargs))
 
     parallel_env.__doc__ = f"The PettingZoo parallel environment (keywords: see :class:`{env_class.__name__}`)."
-    raw_env.__doc__ = "The AEC form, without wrappers."
-    env.__doc__ = "The AEC form with PettingZoo's order-enforcing wrapper."
+    raw_env.__doc__ = "The AEC form, without wrappers (actions checked when given)."
+    env.__doc__ = "The AEC form with the order-enforcing wrapper."
     return parallel_env, raw_env, env

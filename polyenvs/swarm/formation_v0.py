@@ -1,6 +1,6 @@
 """``formation_v0``: a leader and followers keep a lattice formation (physicomimetics) across an obstacle field.
 
-``from polyenvs.swarm import formation_v0; env = formation_v0.parallel_env(n_robots=7)``.
+``from polyenvs.swarm import formation_v0; env = formation_v0.parallel_env()`` (7 robots: a hexagon around the leader).
 """
 
 from __future__ import annotations
@@ -11,17 +11,33 @@ import numpy as np
 
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
+from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
 
-__all__ = ["FormationEnv", "MAX_CYCLES", "env", "parallel_env", "raw_env"]
+__all__ = ["FormationEnv", "MAX_CYCLES", "N_ROBOTS", "env", "parallel_env", "raw_env"]
 
+#: Defaults: what ``parallel_env()`` builds and what the commands evaluate (the registry row adds nothing).
+N_ROBOTS = 7
 MAX_CYCLES = 1500
 FIELD_LENGTH_M = 14.0
 FIELD_WIDTH_M = 8.0
 OBSTACLE_RADIUS_M = (0.15, 0.3)
 #: Obstacles keep this gap rim to rim: wide enough for a robot, narrow enough to bend the formation.
 GAP_M = 0.8
+#: The lattice spacing R (m) a formation accepts.
+SPACING_RANGE_M = (0.5, 3.0)
+
+
+def default_goal_radius(spacing_m: float) -> float:
+    """``goal_radius_m`` when not given: 2 R (the feasibility study's "within 2 R of the goal"), at most the 3 m
+    every swarm task accepts (so from R = 1.5 m on it is 3 m)."""
+    return min(2.0 * spacing_m, PARAMETER_RANGES["goal_radius_m"][1])
+
+
+def default_comm_range(spacing_m: float) -> float:
+    """``comm_range_m`` when not given: the swarm's 3 m, or the springs' reach 1.5 R where that is farther
+    (R above 2 m), so every accepted spacing works with the defaults."""
+    return max(DEFAULT_COMM_RANGE_M, 1.5 * spacing_m)
 
 
 class FormationEnv(SwarmEnv):
@@ -54,8 +70,8 @@ class FormationEnv(SwarmEnv):
     uniformly between, at least 0.8 m apart.
 
     ## Episode End
-    A robot terminates (leaving ``env.agents``) within ``goal_radius_m`` (default 2R) of the goal, or on contact
-    if ``terminate_on_collision``; all are truncated after ``max_cycles`` steps.
+    A robot terminates (leaving ``env.agents``) within ``goal_radius_m`` (default 2R, at most 3 m) of the goal, or
+    on contact if ``terminate_on_collision``; all are truncated after ``max_cycles`` steps.
 
     ## Info
     As in ``corridor_v0`` plus ``formation_error`` (the robot's own, now); its ``episode_metrics`` add the
@@ -63,8 +79,9 @@ class FormationEnv(SwarmEnv):
 
     ## Arguments
     ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200),
-    ``goal_radius_m`` (default 2R), then every keyword of ``corridor_v0`` with ``platform="maxelbot"`` and
-    ``max_cycles=1500`` as defaults.
+    ``goal_radius_m`` (default 2R up to 3 m, i.e. 3 m for R >= 1.5 m; 0.1-3 m), ``comm_range_m`` (default 3 m,
+    or 1.5 R for R > 2 m: the springs reach 1.5 R, and a ``comm_range_m`` below 1.5 R is refused), then every
+    keyword of ``corridor_v0`` with ``platform="maxelbot"`` and ``max_cycles=1500`` as defaults.
 
     ## Version History
     - v0: initial version.
@@ -76,12 +93,15 @@ class FormationEnv(SwarmEnv):
     reward_names = ("progress", "collision", "arrival", "formation")
     metric_names = (*SwarmEnv.metric_names, "formation_error")
 
-    def __init__(self, *, n_robots: int = 7, spacing_m: float = 0.9, n_obstacles: int = 5,
-                 goal_radius_m: float | None = None, max_cycles: int = MAX_CYCLES, **kwargs):  # fmt: skip
-        self.spacing_m = check_in_range("spacing_m", spacing_m, 0.5, 3.0)
+    def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = 5,
+                 goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
+                 **kwargs):  # fmt: skip
+        self.spacing_m = check_in_range("spacing_m", spacing_m, *SPACING_RANGE_M)
         self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
-        goal_radius_m = 2.0 * self.spacing_m if goal_radius_m is None else goal_radius_m
-        super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, max_cycles=max_cycles, **kwargs)
+        goal_radius_m = default_goal_radius(self.spacing_m) if goal_radius_m is None else goal_radius_m
+        comm_range_m = default_comm_range(self.spacing_m) if comm_range_m is None else comm_range_m
+        super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, comm_range_m=comm_range_m,
+                         max_cycles=max_cycles, **kwargs)  # fmt: skip
 
     def _task_init(self) -> None:
         if 1.5 * self.spacing_m > self.comm_range_m:

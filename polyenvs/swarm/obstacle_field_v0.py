@@ -1,6 +1,7 @@
 """``obstacle_field_v0``: robots cross an outdoor obstacle field to a goal (the paper's Maxelbot experiment).
 
-``from polyenvs.swarm import obstacle_field_v0; env = obstacle_field_v0.parallel_env(n_robots=8)``.
+``from polyenvs.swarm import obstacle_field_v0; env = obstacle_field_v0.parallel_env()`` (3 robots; ``n_robots=8``
+for eight).
 """
 
 from __future__ import annotations
@@ -13,8 +14,10 @@ from polyenvs.core.validation import check_in_range, check_int
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, random_obstacles, start_block
 
-__all__ = ["MAX_CYCLES", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
+__all__ = ["MAX_CYCLES", "N_ROBOTS", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
 
+#: Defaults: what ``parallel_env()`` builds and what the commands evaluate (the registry row adds nothing).
+N_ROBOTS = 3
 MAX_CYCLES = 1000
 #: The open field of the feasibility study (10 x 6 m); it grows with the start block for large swarms.
 FIELD_LENGTH_M = 10.0
@@ -62,8 +65,9 @@ class ObstacleFieldEnv(SwarmEnv):
     ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
 
     ## Arguments
-    ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then every keyword of
-    ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5`` as defaults.
+    ``n_robots`` (default 3), ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then
+    every keyword of ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5``
+    (0.1-1.5 m) as defaults.
 
     ## Version History
     - v0: initial version.
@@ -72,10 +76,11 @@ class ObstacleFieldEnv(SwarmEnv):
     metadata = {**SwarmEnv.metadata, "name": "obstacle_field_v0"}
     default_platform = "maxelbot"
 
-    def __init__(self, *, n_obstacles: int = 5, terrain_noise: float = 0.1, max_cycles: int = MAX_CYCLES,
-                 goal_radius_m: float = 0.5, **kwargs):  # fmt: skip
+    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = 5, terrain_noise: float = 0.1,
+                 max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.5, **kwargs):  # fmt: skip
         self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
-        super().__init__(terrain_noise=terrain_noise, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+        super().__init__(n_robots=n_robots, terrain_noise=terrain_noise, max_cycles=max_cycles,
+                         goal_radius_m=goal_radius_m, **kwargs)  # fmt: skip
 
     def _task_init(self) -> None:
         check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.5)

@@ -4,14 +4,17 @@
 from __future__ import annotations
 
 import gymnasium as gym
-import numpy as np
+from gymnasium.error import ResetNeeded
 
+from polyenvs.core.validation import check_options
 from polyenvs.swarm.corridor_v0 import CorridorEnv
 from polyenvs.swarm.obstacle_field_v0 import ObstacleFieldEnv
 
 __all__ = ["APLiteCorridorEnv", "APLiteObstacleFieldEnv"]
 
-#: The time limit is the registry's ``max_episode_steps``; the swarm itself never truncates a single robot.
+#: The time limit is the registry's ``max_episode_steps``. The swarm inside has a cap of its own (``max_cycles``
+#: must be a number), far above any time limit; an episode run that long ends as a truncation (``truncated=True``),
+#: and stepping on raises ``ResetNeeded``.
 _NO_LIMIT = 1_000_000
 
 
@@ -31,23 +34,31 @@ class _SingleRobot(gym.Env):
         self.action_space = self.swarm.action_space("robot_0")
         self.observation_structure = self.swarm.observation_structure
         self.reward_names = self.swarm.reward_names
+        self._started = False
         self._done = True
+        self._ended_by = ""
 
     def reset(self, *, seed=None, options=None):
+        check_options(options, ())  # before anything changes, the seeding below included
         super().reset(seed=seed)
         obs, infos = self.swarm.reset(seed=seed, options=options)
-        self._done = False
+        self._started, self._done = True, False
         return obs["robot_0"], infos["robot_0"]
 
     def step(self, action):
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
         if self._done:
-            raise gym.error.ResetNeeded("the robot has arrived: call reset()")
-        obs, rewards, terminations, _, infos = self.swarm.step({"robot_0": np.asarray(action)})
-        self._done = terminations["robot_0"]
-        return obs["robot_0"], rewards["robot_0"], terminations["robot_0"], False, infos["robot_0"]
+            raise ResetNeeded(f"{self._ended_by}: call reset()")
+        obs, rewards, terminations, truncations, infos = self.swarm.step({"robot_0": action})
+        terminated, truncated = terminations["robot_0"], truncations["robot_0"]
+        if terminated or truncated:
+            self._done = True
+            self._ended_by = "the robot has arrived" if terminated else "the episode was truncated"
+        return obs["robot_0"], rewards["robot_0"], terminated, truncated, infos["robot_0"]
 
     def render(self):
-        return self.swarm.render()
+        return self.swarm.render()  # warns without a render_mode; raises ResetNeeded before the first reset
 
     def close(self):
         self.swarm.close()
