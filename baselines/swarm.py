@@ -70,7 +70,6 @@ class APLite(Policy):
     """
 
     memory_size = 1
-    goal_seeking = False
 
     def __init__(self, observation_space, action_space, *, ir_scale: str = "maxelbot", sensors=(0, 1, 2, 3),
                  sensor_angles_deg=SENSOR_ANGLES_DEG):  # fmt: skip
@@ -161,8 +160,6 @@ class APLite(Policy):
 class APLiteGoalSeeking(APLite):
     """AP-lite whose goal force (100) points at the sensed light instead of along the heading (*ours*): a robot
     that has turned away from the goal turns back. Everything else is :class:`APLite`."""
-
-    goal_seeking = True
 
     def goal_force(self, obs):
         a = self.structure["light"][0]

@@ -197,15 +197,7 @@ class BuckybotSimulator:
     # Named views of the packed state (writable where that makes sense).
     position = property(lambda self: self.state[:, X : Y + 1])
     heading = property(lambda self: self.state[:, HEADING])
-    dr_position = property(lambda self: self.state[:, DR_X : DR_Y + 1])
-    dr_heading = property(lambda self: self.state[:, DR_HEADING])
-    face = property(lambda self: self.state[:, FACE].astype(np.int64))
     edge0 = property(lambda self: self.state[:, EDGE0].astype(np.int64))
-    tip_allowed = property(lambda self: self.state[:, ALLOWED : ALLOWED + 3])
-    true_range = property(lambda self: self.state[:, TRUE_RANGE : TRUE_RANGE + 6])
-    reading = property(lambda self: self.state[:, READING : READING + 6])
-    too_close = property(lambda self: self.state[:, TOO_CLOSE : TOO_CLOSE + 6] > 0.5)
-    no_return = property(lambda self: self.state[:, NO_RETURN : NO_RETURN + 6] > 0.5)
 
     # --- state ------------------------------------------------------------------------------------------------
     def set_walls(self, walls: SegmentTable | np.ndarray) -> None:

@@ -166,11 +166,6 @@ class FloorPlan:
         pts = self.segments.reshape(-1, 2)
         return (*pts.min(axis=0), *pts.max(axis=0))
 
-    @property
-    def wall_length(self) -> float:
-        s = self.segments
-        return float(np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]).sum())
-
     @functools.cached_property
     def table(self) -> SegmentTable:
         return SegmentTable(self.segments)
