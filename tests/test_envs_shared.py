@@ -13,9 +13,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from gymnasium.vector import AutoresetMode
 
 import polyenvs
 from polyenvs.registry import REGISTRY
+from tests.vector_helpers import assert_native_matches_sync
 
 ENV_IDS = polyenvs.ENV_IDS
 
@@ -269,6 +271,15 @@ def test_time_limit_truncates_not_terminates(env_id):
 
 
 VECTOR_IDS = [e.id for e in REGISTRY if e.kind == "gymnasium" and e.vector_entry_point]
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+@pytest.mark.parametrize("env_id", VECTOR_IDS)
+def test_native_vector_env_matches_sync_vector_env(env_id, mode):
+    """Sub-env i reset with seed s is gym.make(id) reset with seed s + i, bit for bit (observations, rewards, ends,
+    every info key), through autoresets, in both of Gymnasium's autoreset modes (same-step: with final_obs and
+    final_info)."""
+    assert assert_native_matches_sync(env_id, mode) >= 1
 
 
 @pytest.mark.parametrize("env_id", VECTOR_IDS)
