@@ -302,3 +302,30 @@ def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
     for _ in range(5):
         action = envs.action_space.sample()
         assert np.array_equal(envs.step(action)[0], twin.step(action)[0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("value", [["rgb_array"], {"rgb_array": 1}, 3])
+def test_render_mode_of_any_type_is_refused_by_name(env_id, value):
+    # The class itself: gym.make reads render_mode as a string before the environment sees it.
+    module, name = gym.spec(env_id).entry_point.split(":")
+    cls = getattr(__import__(module, fromlist=[name]), name)
+    with pytest.raises(ValueError, match="render_mode"):
+        cls(render_mode=value)
+
+
+@pytest.mark.parametrize(
+    ("make", "name"),
+    [
+        (lambda v: gym.make("polyenvs/APLiteCorridor-v0", platform=v), "platform"),
+        (lambda v: gym.make("polyenvs/BeastRoll-v0", polyhedron=v), "polyhedron"),
+        (lambda v: gym.make("polyenvs/BeastRoll-v0", control=v), "control"),
+    ],
+    ids=["platform", "polyhedron", "control"],
+)
+@pytest.mark.parametrize("value", [["x80pro"], {"a": 1}, np.array(["cube"]), 1])
+def test_choices_of_any_type_are_refused_by_name(make, name, value):
+    """A choice check names its parameter whatever the value's type: a list used to give ``TypeError: unhashable
+    type: 'list'`` without a name."""
+    with pytest.raises(ValueError, match=name):
+        make(value)
