@@ -50,7 +50,9 @@ BUMP_X, BUMP_Y, BUMP_HEADING = range(13, 16)  # true pose when the drive stage e
 TURN_X, TURN_Y = range(16, 18)  # position after the turn, for rendering paths
 BIG_SLIP = 18  # 1 if the bump made the cart slip (flatten or slide)
 TICKS = 19  # 6 columns: left, right of turn, drive, back-up
-N_STATE = 25
+TURN_HEADING = 25  # heading after the turn (with TURN_X, TURN_Y: the pose the drive stage started from)
+SLIP_X, SLIP_Y, SLIP_HEADING = range(26, 29)  # pose after the bump's slip (the back-up's start; the bump pose if none)
+N_STATE = 29
 
 # Packed parameters.
 (P_TICK, P_BASE, P_FRONT, P_HALF, P_REAR, P_BACKUP, P_DRIVE, P_SLIP, P_SNAP_P, P_SNAP_MAX, P_SLIDE_P,
@@ -326,7 +328,7 @@ def cycle_row(row, turn, draws, params, walls):
     slow, fast = 1.0 - 0.5 * m, 1.0 + 0.5 * m
     spin = 0.5 * turn * params[P_BASE]
     _stage(row, 0, -spin * slow, spin * fast, draws[0], draws[1], params, walls)
-    row[TURN_X], row[TURN_Y] = row[X], row[Y]
+    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = row[X], row[Y], row[HEADING]
     drive = params[P_DRIVE]
     seg = _stage(row, 1, drive * slow, drive * fast, draws[2], draws[3], params, walls)
     row[BUMP] = 1.0 if seg >= 0 else 0.0
@@ -336,12 +338,15 @@ def cycle_row(row, turn, draws, params, walls):
         w = walls[seg]
         row[CONTACT_ALONG] = ((row[CONTACT_X] - w[0]) * w[2] + (row[CONTACT_Y] - w[1]) * w[3]) * w[4]
         row[BIG_SLIP] = _bump_slip(row, seg, _uniform(draws[6]), _uniform(draws[7]), params, walls)
+    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = row[X], row[Y], row[HEADING]
     backup = params[P_BACKUP]
     _stage(row, 2, -backup * slow, -backup * fast, draws[4], draws[5], params, walls)
     # Headings stay in [-pi, pi) so that nothing drifts towards precision loss over long episodes.
     row[HEADING] = (row[HEADING] + math.pi) % (2.0 * math.pi) - math.pi
     row[DR_HEADING] = (row[DR_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
     row[BUMP_HEADING] = (row[BUMP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[TURN_HEADING] = (row[TURN_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[SLIP_HEADING] = (row[SLIP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None:
@@ -350,6 +355,7 @@ def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None
     row[X], row[Y], row[HEADING] = pose
     row[DR_X], row[DR_Y], row[DR_HEADING] = pose
     row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = pose
-    row[TURN_X], row[TURN_Y] = pose[0], pose[1]
+    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = pose
+    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = pose
     row[MISMATCH], row[BASE] = mismatch, wheel_base
     row[CONTACT_SEG] = -1.0
