@@ -7,8 +7,14 @@ the bumper (it covers the whole profile, as in the paper). Every point of the bo
 arc's centre, so the first contact with the walls is the smallest root of a few closed-form equations, not the
 end of a time-stepped search:
 
-- a body corner crossing a wall segment, and
-- a wall vertex crossing a body edge (in the cart's frame the vertex moves on the reverse arc).
+- a body corner crossing a wall segment into the wall, and
+- a wall vertex crossing a body edge into the body (in the cart's frame the vertex moves on the reverse arc).
+
+A crossing's direction is judged against the fixed inner side of what is crossed, never against the side the
+moving point starts on: a point on a circle crosses a line twice, and the first time may be beyond the segment's
+end (round a wall corner that juts into the room, or a body corner), so the second, through the segment itself,
+is the one that enters. The inside of the body is the axle's side of each edge; a wall row carries the side free
+space lies on (column 5 of :attr:`polyenvs.bumper.maps.BumperMap.walls`, +1 left of the segment, -1 right).
 
 A point ``p`` moving through angle ``φ = tθ`` (``θ`` the stage's heading change, ``t`` in [0, 1]) is
 ``p + (sin φ / θ) J w - ((1 - cos φ) / θ) w`` with ``w = θ (p - axle) - s n`` (``s`` the axle's arc length, ``n``
@@ -61,6 +67,8 @@ N_STATE = 29
 DRAWS_PER_CYCLE = 9
 #: A stage stops this many cm (of its fastest-moving body point) short of a contact.
 _BACKOFF_CM = 1e-6
+#: A point this close to a line (cm) is on it: rounding may have put it a hair past the line.
+_ON_LINE_CM = 1e-9
 _INF = math.inf
 
 #: Physical parameters: (low, high) plausible range; outside it a parameter is refused at construction.
@@ -162,15 +170,25 @@ def max_ticks(model: CartModel) -> int:
 
 
 @njit(cache=True)
-def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint):
-    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) crosses the segment from
-    ``q`` to ``q + e`` coming from the side it starts on; ``inf`` if it does not. ``hint``: the sign of the
-    start side when ``p`` starts exactly on the wall's line."""
-    nx, ny = -ey, ex
-    c0 = nx * (px - qx) + ny * (py - qy)
-    a = -nx * wy + ny * wx  # n . J w
+def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, outward):
+    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) enters across the segment
+    from ``q`` to ``q + e`` from its outer side; ``inf`` if it does not. ``outward``: +1 if the outer side (free
+    space for a wall, outside the body for a body edge) is left of ``e``, -1 if right.
+
+    Only the direction of the crossing against that fixed outer side decides, never the side the point starts
+    on: a point that first crosses the segment's line beyond the segment's end (round a wall corner that juts
+    into the room) and then crosses back through the segment itself enters the wall there. A point on the line
+    (within ``_ON_LINE_CM``, a rounding error either way) over the segment enters at ``t = 0`` if it moves in."""
+    nx, ny = -ey * outward, ex * outward  # the normal to the outer side
+    c0 = nx * (px - qx) + ny * (py - qy)  # the signed distance (times |e|): positive outside
+    a = -nx * wy + ny * wx  # n . J w: its rate at t = 0
     b = nx * wx + ny * wy  # n . w
-    side = c0 if c0 != 0.0 else hint
+    length_sq = ex * ex + ey * ey
+    on_line = c0 <= 0.0 and c0 * c0 < _ON_LINE_CM * _ON_LINE_CM * length_sq
+    if on_line and (a < 0.0 or (a == 0.0 and theta * b > 0.0)):
+        along = ((px - qx) * ex + (py - qy) * ey) / length_sq
+        if -1e-12 <= along <= 1.0 + 1e-12:
+            return 0.0  # touching and moving in (the second derivative decides when the first is zero)
     r0, r1 = _INF, _INF
     if theta == 0.0:
         if a != 0.0:
@@ -186,13 +204,12 @@ def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint):
         if qa != 0.0:
             r1 = 2.0 * math.atan(q / qa) / theta
     best = _INF
-    length_sq = ex * ex + ey * ey
     for t in (r0, r1):
         if not (0.0 <= t <= 1.0) or t >= best:
             continue
         phi = t * theta
-        if side * (a * math.cos(phi) - b * math.sin(phi)) >= 0.0:
-            continue  # moving away from the line, or along it
+        if a * math.cos(phi) - b * math.sin(phi) >= 0.0:
+            continue  # leaving towards the outer side, or grazing the line
         if theta == 0.0:
             sa, ka = t, 0.0
         else:
@@ -221,8 +238,7 @@ def _first_contact(x, y, h, a, b, d, params, walls):
             if walls[k, 5] == 0.0:
                 continue
             qx, qy, ex, ey = walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3]
-            hint = -ey * (x - qx) + ex * (y - qy)
-            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint)
+            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, walls[k, 5])  # column 5: free space's side
             if t < best:
                 phi = t * theta
                 sa = t if theta == 0.0 else math.sin(phi) / theta
@@ -241,8 +257,8 @@ def _first_contact(x, y, h, a, b, d, params, walls):
             l1y = half if j == 1 or j == 2 else -half
             rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
             ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
-            hint = ey * (x - rx) - ex * (y - ry)  # outside the body: opposite the axle
-            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, hint)
+            outward = math.copysign(1.0, ey * (x - rx) - ex * (y - ry))  # outside the body: opposite the axle
+            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, outward)
             if t < best:
                 best, seg, cx, cy = t, k, vx, vy
     return best, seg, cx, cy
