@@ -290,3 +290,19 @@ def test_the_checks_here_see_an_overlap():
     ])  # fmt: skip
     assert _overlaps(poses, {}, room).tolist() == [False, False, True, True, True, True]
     assert _in_map(poses[:, :2], room).tolist() == [True, True, True, True, True, False]
+
+
+@pytest.mark.parametrize("past_cm", [0.0, 1e-13, 1e-10])
+def test_a_body_touching_a_wall_is_stopped_at_once_moving_in_and_free_moving_out(past_cm):
+    """Rounding can leave a body point a hair past a wall's line (here the bumper ``past_cm`` beyond the east wall
+    of ``rectangle``): driving on must stop at once (the crossing lies before the stage's start), backing away
+    must not."""
+    from polyenvs.bumper.maps import make_map
+
+    world = make_map("rectangle")
+    params = C.CartModel().packed()
+    x, y, h = 120.0 - 7.0 + past_cm, 45.0, 0.0
+    t, seg, _, _ = C._first_contact(x, y, h, 50.0, 50.0, 6.0, params, world.walls)
+    assert (t, seg) == (0.0, 1)  # segment 1: (120, 0) -> (120, 90)
+    _, seg, _, _ = C._first_contact(x, y, h, -50.0, -50.0, 6.0, params, world.walls)
+    assert seg == -1
