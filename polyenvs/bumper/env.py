@@ -133,7 +133,8 @@ class BumperCartExploreEnv(RowsEnv):
 
     ## Action Space
     ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180° (positive: counter-clockwise).
-    The controller aims it with the nominal wheel base, so the turn done differs a little.
+    The controller aims it with the nominal wheel base, so the turn done differs a little. A turn must be a real
+    number (a float or integer array): complex, boolean, string and object values raise ``ValueError``.
 
     ## Observation Space
     ``Box((7,), float32)``: the signed encoder ticks (left, right) of the turn, the drive and the back-up, and 1.0
