@@ -186,8 +186,10 @@ def _run_single(map_spec, kwargs: dict, seed: int, steps: int, kind: str) -> tup
 
 
 def test_the_issues_drive_into_a_box_stops_at_it():
-    """The issue's case: on ``obstacles`` (seed 26, cycle 63) the drive began 5.40 cm clear of the box
-    [80, 92] x [50, 70] and ended with the front-left corner 0.81 cm inside it, at (91.86, 50.92)."""
+    """The issue's case: on ``obstacles`` (seed 26, cycle 63) the drive ended with the body's front-left corner at
+    (91.86, 50.92), inside the box [80, 92] x [50, 70]. The corner started just above the line y = 50, far west of
+    the box, dipped below it at x = 23.1 and came back up through the box's south face at x = 86.6: the search kept
+    only the first crossing of each line."""
     env = gym.make(ENV_ID, map="obstacles").unwrapped
     env.reset(seed=26)
     rng = np.random.default_rng(26)
@@ -201,9 +203,9 @@ def test_the_issues_drive_into_a_box_stops_at_it():
 
 def test_matched_motors_never_enter_a_wall():
     """With the motors perfectly matched (no mismatch, no wheel-base error, no wheel slip) the drive is a straight
-    line and the turns and slips spin about the axle, yet a spin swung a wide cart's body over a wall's end (the
-    turn is cut into quarter turns, and a wall vertex that had passed a body edge's line beyond the body in one
-    piece entered the body through that edge in the next)."""
+    line and the turns and slips spin about the axle, yet a spin took a wide cart into a box: the box's corner,
+    beside the body and behind its rear, crossed the line of the body's side beyond the body, then crossed it
+    again through the side itself (the search kept only the first crossing of each line)."""
     failures = []
     for seed, (map_name, wide) in enumerate(
         [("obstacles", False), ("maze", False), ("obstacles", True), ("maze", True)]
