@@ -116,6 +116,81 @@ def test_bad_actions_raise_and_change_nothing():
         BumperCartExploreEnv().step(np.zeros(1, dtype=np.float32))
 
 
+def _snapshot(core) -> dict:
+    """Everything that decides what the cart env does next."""
+    arrays = {
+        "state": core.state, "normals": core.streams.normals, "cursor": core.streams.cursor,
+        "observations": core._observations, "out": core._out, "task": core._task, "touched": core._touched,
+        "actions": core._actions,
+    }  # fmt: skip
+    snap = {name: np.array(value, copy=True) for name, value in arrays.items()}
+    snap["rngs"] = [repr(g.bit_generator.state) if g is not None else None for g in core.streams.generators]
+    snap["np_random"] = repr(core.np_random.bit_generator.state)
+    return snap
+
+
+def _assert_same(before: dict, after: dict) -> None:
+    for name in before:
+        if isinstance(before[name], np.ndarray):
+            np.testing.assert_array_equal(before[name], after[name], err_msg=name)
+        else:
+            assert before[name] == after[name], name
+
+
+#: Turns of a type the action space does not hold: each was cast to a number silently (issue 14: the imaginary part
+#: of 0.2+5j was dropped; True became a full half turn; '0.5' and objects passed as numbers).
+WRONG_DTYPES = {
+    "complex": np.full(1, 0.2 + 5j),
+    "complex, no imaginary part": np.full(1, 0.2 + 0j, dtype=np.complex64),
+    "object": np.array([0.5], dtype=object),
+    "string": np.array(["0.5"]),
+    "bytes": np.array([b"0.5"]),
+    "bool": np.array([True]),
+    "list of bools": [True],
+    "list of strings": ["0.5"],
+    "list of complex": [0.2 + 5j],
+    "timedelta": np.array([1], dtype="timedelta64[s]"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(WRONG_DTYPES))
+def test_actions_of_a_wrong_dtype_raise_and_change_nothing(name):
+    action = WRONG_DTYPES[name]
+    env, twin = gym.make(ENV_ID, map="obstacles"), gym.make(ENV_ID, map="obstacles")
+    for e in (env, twin):
+        e.reset(seed=3)
+        e.step(np.array([0.3], dtype=np.float32))
+    before = _snapshot(env.unwrapped)
+    with pytest.raises(ValueError, match="action"):
+        env.step(action)
+    _assert_same(before, _snapshot(env.unwrapped))
+    for turn in (-0.7, 0.2):  # and it goes on as its twin, which never saw the bad action
+        a, b = env.step(np.array([turn], dtype=np.float32)), twin.step(np.array([turn], dtype=np.float32))
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[4]["pose"], b[4]["pose"])
+    # The vector env: the bad turn in one row refuses the whole batch, changing nothing.
+    envs = BumperCartExploreVectorEnv(num_envs=3, map="obstacles")
+    envs.reset(seed=3)
+    envs.step(np.full((3, 1), 0.3, dtype=np.float32))
+    before = _snapshot(envs._core)
+    for batch in ([action] * 3, np.asarray([action] * 3)):  # a list of rows, and one array
+        with pytest.raises(ValueError, match="actions"):
+            envs.step(batch)
+        _assert_same(before, _snapshot(envs._core))
+
+
+def test_real_turns_of_any_float_or_integer_type_are_accepted():
+    env = BumperCartExploreEnv()
+    env.reset(seed=0)
+    for action in (np.array([0.5], dtype=np.float16), np.array([1]), np.array([-1], dtype=np.int8), [0.25], (0,),
+                   np.array([np.uint8(1)])):  # fmt: skip
+        env.step(action)
+    envs = BumperCartExploreVectorEnv(num_envs=2)
+    envs.reset(seed=0)
+    envs.step(np.array([[1], [0]]))
+    envs.step([[0.5], [-0.5]])
+
+
 @pytest.mark.parametrize(
     "kwargs,name",
     [({"map": "atlantis"}, "map"), ({"map": [[(0, 0), (1, 0)]]}, "map"), ({"cell_cm": True}, "cell_cm"),

@@ -7,8 +7,14 @@ the bumper (it covers the whole profile, as in the paper). Every point of the bo
 arc's centre, so the first contact with the walls is the smallest root of a few closed-form equations, not the
 end of a time-stepped search:
 
-- a body corner crossing a wall segment, and
-- a wall vertex crossing a body edge (in the cart's frame the vertex moves on the reverse arc).
+- a body corner crossing a wall segment into the wall, and
+- a wall vertex crossing a body edge into the body (in the cart's frame the vertex moves on the reverse arc).
+
+A crossing's direction is judged against the fixed inner side of what is crossed, never against the side the
+moving point starts on: a point on a circle crosses a line twice, and the first time may be beyond the segment's
+end (round a wall corner that juts into the room, or a body corner), so the second, through the segment itself,
+is the one that enters. The inside of the body is the axle's side of each edge; a wall row carries the side free
+space lies on (column 5 of :attr:`polyenvs.bumper.maps.BumperMap.walls`, +1 left of the segment, -1 right).
 
 A point ``p`` moving through angle ``φ = tθ`` (``θ`` the stage's heading change, ``t`` in [0, 1]) is
 ``p + (sin φ / θ) J w - ((1 - cos φ) / θ) w`` with ``w = θ (p - axle) - s n`` (``s`` the axle's arc length, ``n``
@@ -50,7 +56,9 @@ BUMP_X, BUMP_Y, BUMP_HEADING = range(13, 16)  # true pose when the drive stage e
 TURN_X, TURN_Y = range(16, 18)  # position after the turn, for rendering paths
 BIG_SLIP = 18  # 1 if the bump made the cart slip (flatten or slide)
 TICKS = 19  # 6 columns: left, right of turn, drive, back-up
-N_STATE = 25
+TURN_HEADING = 25  # heading after the turn (with TURN_X, TURN_Y: the pose the drive stage started from)
+SLIP_X, SLIP_Y, SLIP_HEADING = range(26, 29)  # pose after the bump's slip (the back-up's start; the bump pose if none)
+N_STATE = 29
 
 # Packed parameters.
 (P_TICK, P_BASE, P_FRONT, P_HALF, P_REAR, P_BACKUP, P_DRIVE, P_SLIP, P_SNAP_P, P_SNAP_MAX, P_SLIDE_P,
@@ -59,6 +67,8 @@ N_STATE = 25
 DRAWS_PER_CYCLE = 9
 #: A stage stops this many cm (of its fastest-moving body point) short of a contact.
 _BACKOFF_CM = 1e-6
+#: A point this close to a line (cm) is on it: rounding may have put it a hair past the line.
+_ON_LINE_CM = 1e-9
 _INF = math.inf
 
 #: Physical parameters: (low, high) plausible range; outside it a parameter is refused at construction.
@@ -160,15 +170,25 @@ def max_ticks(model: CartModel) -> int:
 
 
 @njit(cache=True)
-def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint):
-    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) crosses the segment from
-    ``q`` to ``q + e`` coming from the side it starts on; ``inf`` if it does not. ``hint``: the sign of the
-    start side when ``p`` starts exactly on the wall's line."""
-    nx, ny = -ey, ex
-    c0 = nx * (px - qx) + ny * (py - qy)
-    a = -nx * wy + ny * wx  # n . J w
+def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, outward):
+    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) enters across the segment
+    from ``q`` to ``q + e`` from its outer side; ``inf`` if it does not. ``outward``: +1 if the outer side (free
+    space for a wall, outside the body for a body edge) is left of ``e``, -1 if right.
+
+    Only the direction of the crossing against that fixed outer side decides, never the side the point starts
+    on: a point that first crosses the segment's line beyond the segment's end (round a wall corner that juts
+    into the room) and then crosses back through the segment itself enters the wall there. A point on the line
+    (within ``_ON_LINE_CM``, a rounding error either way) over the segment enters at ``t = 0`` if it moves in."""
+    nx, ny = -ey * outward, ex * outward  # the normal to the outer side
+    c0 = nx * (px - qx) + ny * (py - qy)  # the signed distance (times |e|): positive outside
+    a = -nx * wy + ny * wx  # n . J w: its rate at t = 0
     b = nx * wx + ny * wy  # n . w
-    side = c0 if c0 != 0.0 else hint
+    length_sq = ex * ex + ey * ey
+    on_line = c0 <= 0.0 and c0 * c0 < _ON_LINE_CM * _ON_LINE_CM * length_sq
+    if on_line and (a < 0.0 or (a == 0.0 and theta * b > 0.0)):
+        along = ((px - qx) * ex + (py - qy) * ey) / length_sq
+        if -1e-12 <= along <= 1.0 + 1e-12:
+            return 0.0  # touching and moving in (the second derivative decides when the first is zero)
     r0, r1 = _INF, _INF
     if theta == 0.0:
         if a != 0.0:
@@ -184,13 +204,12 @@ def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint):
         if qa != 0.0:
             r1 = 2.0 * math.atan(q / qa) / theta
     best = _INF
-    length_sq = ex * ex + ey * ey
     for t in (r0, r1):
         if not (0.0 <= t <= 1.0) or t >= best:
             continue
         phi = t * theta
-        if side * (a * math.cos(phi) - b * math.sin(phi)) >= 0.0:
-            continue  # moving away from the line, or along it
+        if a * math.cos(phi) - b * math.sin(phi) >= 0.0:
+            continue  # leaving towards the outer side, or grazing the line
         if theta == 0.0:
             sa, ka = t, 0.0
         else:
@@ -219,8 +238,7 @@ def _first_contact(x, y, h, a, b, d, params, walls):
             if walls[k, 5] == 0.0:
                 continue
             qx, qy, ex, ey = walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3]
-            hint = -ey * (x - qx) + ex * (y - qy)
-            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, hint)
+            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, walls[k, 5])  # column 5: free space's side
             if t < best:
                 phi = t * theta
                 sa = t if theta == 0.0 else math.sin(phi) / theta
@@ -239,8 +257,8 @@ def _first_contact(x, y, h, a, b, d, params, walls):
             l1y = half if j == 1 or j == 2 else -half
             rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
             ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
-            hint = ey * (x - rx) - ex * (y - ry)  # outside the body: opposite the axle
-            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, hint)
+            outward = math.copysign(1.0, ey * (x - rx) - ex * (y - ry))  # outside the body: opposite the axle
+            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, outward)
             if t < best:
                 best, seg, cx, cy = t, k, vx, vy
     return best, seg, cx, cy
@@ -326,7 +344,7 @@ def cycle_row(row, turn, draws, params, walls):
     slow, fast = 1.0 - 0.5 * m, 1.0 + 0.5 * m
     spin = 0.5 * turn * params[P_BASE]
     _stage(row, 0, -spin * slow, spin * fast, draws[0], draws[1], params, walls)
-    row[TURN_X], row[TURN_Y] = row[X], row[Y]
+    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = row[X], row[Y], row[HEADING]
     drive = params[P_DRIVE]
     seg = _stage(row, 1, drive * slow, drive * fast, draws[2], draws[3], params, walls)
     row[BUMP] = 1.0 if seg >= 0 else 0.0
@@ -336,12 +354,15 @@ def cycle_row(row, turn, draws, params, walls):
         w = walls[seg]
         row[CONTACT_ALONG] = ((row[CONTACT_X] - w[0]) * w[2] + (row[CONTACT_Y] - w[1]) * w[3]) * w[4]
         row[BIG_SLIP] = _bump_slip(row, seg, _uniform(draws[6]), _uniform(draws[7]), params, walls)
+    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = row[X], row[Y], row[HEADING]
     backup = params[P_BACKUP]
     _stage(row, 2, -backup * slow, -backup * fast, draws[4], draws[5], params, walls)
     # Headings stay in [-pi, pi) so that nothing drifts towards precision loss over long episodes.
     row[HEADING] = (row[HEADING] + math.pi) % (2.0 * math.pi) - math.pi
     row[DR_HEADING] = (row[DR_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
     row[BUMP_HEADING] = (row[BUMP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[TURN_HEADING] = (row[TURN_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
+    row[SLIP_HEADING] = (row[SLIP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None:
@@ -350,6 +371,7 @@ def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None
     row[X], row[Y], row[HEADING] = pose
     row[DR_X], row[DR_Y], row[DR_HEADING] = pose
     row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = pose
-    row[TURN_X], row[TURN_Y] = pose[0], pose[1]
+    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = pose
+    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = pose
     row[MISMATCH], row[BASE] = mismatch, wheel_base
     row[CONTACT_SEG] = -1.0

@@ -43,6 +43,17 @@ _TOUCHED, _BUMPS, _SLIPS, _STEPS = range(4)
 _POSE_COLUMNS = [C.X, C.Y, C.HEADING, C.DR_X, C.DR_Y, C.DR_HEADING, C.BUMP_X, C.BUMP_Y, C.BUMP_HEADING]
 
 
+def _real_array(value) -> np.ndarray | None:
+    """``value`` as an array if it holds real numbers (a float or integer dtype), else ``None``: a complex turn
+    would lose its imaginary part, and booleans, strings and objects would be cast to numbers silently."""
+    if not isinstance(value, np.ndarray):
+        try:
+            value = np.asarray(value)
+        except (TypeError, ValueError):  # ragged nesting
+            return None
+    return value if value.dtype.kind in "fiu" else None
+
+
 @dataclass
 class _RowReset:
     """Everything a row's reset decided, drawn and validated before any state changes."""
@@ -122,7 +133,8 @@ class BumperCartExploreEnv(RowsEnv):
 
     ## Action Space
     ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180° (positive: counter-clockwise).
-    The controller aims it with the nominal wheel base, so the turn done differs a little.
+    The controller aims it with the nominal wheel base, so the turn done differs a little. A turn must be a real
+    number (a float or integer array): complex, boolean, string and object values raise ``ValueError``.
 
     ## Observation Space
     ``Box((7,), float32)``: the signed encoder ticks (left, right) of the turn, the drive and the back-up, and 1.0
@@ -277,23 +289,39 @@ class BumperCartExploreEnv(RowsEnv):
         return self._task[:, _STEPS]
 
     def _check_action(self, action) -> np.ndarray:
-        if isinstance(action, np.ndarray) and action.shape == (1,) and -1.0 <= action[0] <= 1.0:
+        if (
+            isinstance(action, np.ndarray)
+            and action.shape == (1,)
+            and action.dtype.kind == "f"
+            and -1.0 <= action[0] <= 1.0
+        ):
             turn = float(action[0])  # the common case, checked without the space's slower generic test
         else:
-            try:
-                array = np.asarray(action, dtype=np.float32)
-            except (TypeError, ValueError):
+            array = _real_array(action)
+            if array is None:
                 raise ValueError(
-                    f"action {show(action)} is not a turn in the action space {self.action_space}"
-                ) from None
+                    f"action {show(action)} is not a turn in the action space {self.action_space} (a real number: "
+                    "complex, boolean, string and object values are refused)"
+                )
+            array = array.astype(np.float32)
             check_action(self.action_space, array)
             turn = float(array[0])
         return np.array([math.pi * turn, 1.0])
 
     def _check_actions(self, actions: np.ndarray) -> np.ndarray:
-        array = np.asarray(actions, dtype=np.float32)
-        if array.shape != (self._batch_size, 1) or np.isnan(array).any() or (np.abs(array) > 1.0).any():
-            raise ValueError(f"actions must be ({self._batch_size}, 1) turns in [-1, 1], got {show(actions)}")
+        array = _real_array(actions)
+        if array is not None:
+            array = array.astype(np.float32)
+        if (
+            array is None
+            or array.shape != (self._batch_size, 1)
+            or np.isnan(array).any()
+            or (np.abs(array) > 1.0).any()
+        ):
+            raise ValueError(
+                f"actions must be ({self._batch_size}, 1) turns in [-1, 1] (real numbers: complex, boolean, string "
+                f"and object values are refused), got {show(actions)}"
+            )
         return np.stack([math.pi * array[:, 0].astype(np.float64), np.ones(self._batch_size)], axis=1)
 
     def _on_row0_step(self) -> None:

@@ -107,6 +107,14 @@ def _free_clearance(points, walls, out):
         out[i] = _clearance(x, y, walls) if free_at(x, y, walls) else -_clearance(x, y, walls)
 
 
+def _free_side(polygon: np.ndarray, outline: bool) -> float:
+    """+1 if free space lies left of the polygon's edges (inside a counter-clockwise outline, outside a clockwise
+    obstacle), else -1."""
+    x, y = polygon[:, 0], polygon[:, 1]
+    counter_clockwise = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) > 0.0
+    return 1.0 if counter_clockwise == outline else -1.0
+
+
 def _segments_cross(p, q):
     """``(n, m)``: whether segment i of ``p`` and segment j of ``q`` (``(n, 4)``, ``(m, 4)``) share any point."""
     a, b = p[:, None, 0:2], p[:, None, 2:4]
@@ -139,7 +147,8 @@ class BumperMap:
     Attributes:
         polygons: list of ``(n, 2)`` float64 vertex arrays.
         segments: ``(S, 4)`` wall segments ``(x1, y1, x2, y2)``, polygon by polygon.
-        walls: ``(S, 6)`` the same, packed for the kernels (:func:`polyenvs.core.geometry2d.pack_segments`).
+        walls: ``(S, 6)`` the same, packed for the kernels (:func:`polyenvs.core.geometry2d.pack_segments`), with
+            column 5 (nonzero: a real segment) the side of free space, +1 left of the segment, -1 right.
         bounds: ``(x_min, y_min, x_max, y_max)``.
         wall_length_cm: total length of the segments.
     """
@@ -150,7 +159,10 @@ class BumperMap:
         segs = [np.concatenate([p, np.roll(p, -1, axis=0)], axis=1) for p in self.polygons]
         self.segments = np.concatenate(segs)
         self._check_simple()
+        # Column 5 of the packed walls, nonzero for a real segment, is the side free space lies on: +1 left of the
+        # segment's direction, -1 right (the cart's contact search needs it; every kernel tests it against 0 only).
         self.walls = pack_segments(self.segments)
+        self.walls[:, 5] = np.concatenate([np.full(len(p), _free_side(p, i == 0)) for i, p in enumerate(self.polygons)])
         every = np.concatenate(self.polygons)
         self.bounds = (*every.min(axis=0).tolist(), *every.max(axis=0).tolist())
         lengths = np.hypot(self.segments[:, 2] - self.segments[:, 0], self.segments[:, 3] - self.segments[:, 1])
