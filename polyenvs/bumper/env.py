@@ -187,9 +187,9 @@ class BumperCartExploreEnv(RowsEnv):
     metric_names = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
 
     def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
-        unknown = set(cart) - set(C.CART_PARAMETER_RANGES)
-        if unknown:
-            raise TypeError(f"unexpected keyword argument(s) {sorted(unknown)}")
+        unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
+        if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
+            raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
         self.model = CartModel(**cart)
         self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
         self.start_clearance_cm = self.model.circumradius_cm + 0.5
