@@ -35,9 +35,9 @@ from __future__ import annotations
 import numpy as np
 
 from baselines.base import Policy
-from polyenvs.core.validation import check_choice, check_in_range
+from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import structure_for
-from polyenvs.swarm.platforms import IR_SCALES, SENSOR_ANGLES_DEG
+from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 from polyenvs.swarm.sensors import inches_from_raw, raw_from_observation
 
 __all__ = ["APLite", "APLiteGoalSeeking", "FormationController"]
@@ -60,8 +60,10 @@ class APLite(Policy):
     """AP-lite, the paper's appendix (the reading in the module docstring), with the heading-fixed goal force.
 
     Args:
-        ir_scale: the platform's IR scale ("maxelbot" or "x80pro"), to read the observation's ``ir`` part.
-        sensors: the sensors AP-lite reads (all four on the Maxelbot, (0, 3) on the X80Pro).
+        platform: the robot (:data:`polyenvs.swarm.platforms.PLATFORMS`), which the observation space cannot tell:
+            its IR scale reads the observation's ``ir`` part, and its ``controller_sensors`` are the sensors the
+            paper's AP-lite reads on it (all four on the Maxelbot, the two outer-most on the X80Pro).
+        sensors: read these sensors instead of the platform's (indices 0..3).
         sensor_angles_deg: the virtual sensor angles S0..S3.
 
     Attributes:
@@ -71,10 +73,13 @@ class APLite(Policy):
 
     memory_size = 1
 
-    def __init__(self, observation_space, action_space, *, ir_scale: str = "maxelbot", sensors=(0, 1, 2, 3),
+    def __init__(self, observation_space, action_space, *, platform: str = "maxelbot", sensors=None,
                  sensor_angles_deg=SENSOR_ANGLES_DEG):  # fmt: skip
         super().__init__(observation_space, action_space)
-        self.ir_scale = check_choice("ir_scale", ir_scale, IR_SCALES)
+        robot = get_platform(platform)
+        self.ir_scale = robot.ir_scale
+        if sensors is None:
+            sensors = robot.controller_sensors
         self.sensors = tuple(int(s) for s in sensors)
         if not self.sensors or any(s not in range(4) for s in self.sensors):
             raise ValueError(f"sensors must be indices 0..3, got {sensors!r}")

@@ -101,9 +101,9 @@ def _swarm(name: str, cls: str, **kwargs) -> Baseline:
     return Baseline(name, f"baselines.swarm:{cls}", kwargs)
 
 
-# A policy cannot tell the IR scale from the observation space: the corridor's X80Pro reads the inverted 0..80
-# scale, and the paper used only its two outer sensors there.
-_X80PRO = {"ir_scale": "x80pro", "sensors": (0, 3)}
+# A policy cannot tell the platform from the observation space: the corridor's X80Pro reads the inverted 0..80
+# IR scale, and the paper's AP-lite reads only its two outer sensors there (the platform's controller_sensors).
+_X80PRO = {"platform": "x80pro"}
 _CORRIDOR_BASELINES = (
     _swarm("aplite", "APLite", **_X80PRO),
     _swarm("aplite_goal_seeking", "APLiteGoalSeeking", **_X80PRO),

@@ -24,7 +24,7 @@ def test_each_batched_environment_is_the_single_environment_bit_for_bit(task):
     singles = [MODULES[task].parallel_env(**kwargs) for _ in range(n_envs)]
     policy_cls = FormationController if task == "formation_v0" else APLiteGoalSeeking
     space = batch.single_observation_space
-    policy = policy_cls(space, batch.single_action_space, ir_scale=batch.task.platform.ir_scale)
+    policy = policy_cls(space, batch.single_action_space, platform=batch.task.platform.name, sensors=(0, 1, 2, 3))
     obs, _ = batch.reset(seed=seed)
     single_obs = [env.reset(seed=seed + e)[0] for e, env in enumerate(singles)]
     rng = np.random.default_rng(0)

@@ -126,8 +126,8 @@ def test_formation_springs_pull_towards_a_far_neighbour_and_push_from_a_near_one
 
 
 def test_bad_policy_parameters_name_the_parameter():
-    with pytest.raises(ValueError, match="ir_scale"):
-        APLite(OBS, ACT, ir_scale="sonar")
+    with pytest.raises(ValueError, match="platform"):
+        APLite(OBS, ACT, platform="sonar")
     with pytest.raises(ValueError, match="sensors"):
         APLite(OBS, ACT, sensors=(0, 4))
     with pytest.raises(ValueError, match="spring_k"):
@@ -242,3 +242,27 @@ def test_environments_of_a_batch_never_meet():
     core.build_grid(pose, active, *grid.arrays)
     core.move(pose, active, wheels, np.array([0.1, 0.22, radius]), walls, circles, *grid.arrays, proposal, blocked)
     assert blocked.tolist() == [0, 0, 0, 0]
+
+
+def test_the_corridor_baseline_reads_only_the_x80pros_two_outer_sensors():
+    """The paper's AP-lite on the X80Pro reads its outer-most sensors only (the platform's controller_sensors, which
+    the registry's baseline takes from the platform): an obstacle seen by a middle sensor changes nothing, one seen
+    by an outer sensor turns the robot; the Maxelbot's AP-lite reads all four."""
+    from baselines import make_policy
+    from polyenvs.swarm import corridor_v0, obstacle_field_v0
+
+    for module, read in ((corridor_v0, {0, 3}), (obstacle_field_v0, {0, 1, 2, 3})):
+        env = module.parallel_env()
+        obs, _ = env.reset(seed=0)
+        policy = make_policy("paper", module.__name__, env.observation_space("robot_0"), env.action_space("robot_0"))
+        a, _ = policy.structure["ir"]
+        clear = obs["robot_0"].copy()[None]
+        clear[0, a : a + 4] = 1.0 if module is corridor_v0 else -1.0  # nothing in range (X80Pro: 80 = nothing)
+        base = policy.predict(clear, state=None, episode_start=[True])[0]
+        changed = set()
+        for k in range(4):
+            near = clear.copy()
+            near[0, a + k] = 0.2 if module is corridor_v0 else 0.6  # an obstacle a few inches away
+            if not np.array_equal(policy.predict(near, state=None, episode_start=[True])[0], base):
+                changed.add(k)
+        assert changed == read, (module.__name__, changed)

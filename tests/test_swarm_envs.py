@@ -99,7 +99,7 @@ def test_spaces_observations_rewards_and_info(module):
 
 def test_arriving_robots_leave_the_episode_and_stop_being_simulated():
     env = corridor_v0.parallel_env(n_robots=3)
-    policy = APLiteGoalSeeking(env.observation_space("robot_0"), env.action_space("robot_0"), ir_scale="x80pro")
+    policy = APLiteGoalSeeking(env.observation_space("robot_0"), env.action_space("robot_0"), platform="x80pro")
     obs, _ = env.reset(seed=0)
     state = np.full((3, 1), 70.0)
     left_at = {}
@@ -188,7 +188,7 @@ def test_256_robots_run_without_overlap(module):
     obs, _ = env.reset(seed=0)
     space = env.observation_space("robot_0")
     policy = FormationController if module is formation_v0 else APLiteGoalSeeking
-    pol = policy(space, env.action_space("robot_0"), ir_scale=env.platform.ir_scale)
+    pol = policy(space, env.action_space("robot_0"), platform=env.platform.name, sensors=(0, 1, 2, 3))
     while env.agents:
         agents = env.agents
         actions, _ = pol.predict(np.stack([obs[a] for a in agents]))
@@ -207,8 +207,8 @@ def test_aplite_reaches_the_light_in_the_corridor_without_collision():
     outer sensors reached it without a contact in 9 of 10 seeded runs here (goal-seeking: 10 of 10)."""
     env = corridor_v0.parallel_env(n_robots=1)
     space, act = env.observation_space("robot_0"), env.action_space("robot_0")
-    faithful = APLite(space, act, ir_scale="x80pro", sensors=(0, 3))
-    seeking = APLiteGoalSeeking(space, act, ir_scale="x80pro", sensors=(0, 3))
+    faithful = APLite(space, act, platform="x80pro")
+    seeking = APLiteGoalSeeking(space, act, platform="x80pro")
     random = RandomPolicy(space, act, seed=0)
     clean = {"faithful": 0, "seeking": 0, "random": 0}
     for seed in range(10):
@@ -262,7 +262,9 @@ def test_single_robot_gymnasium_envs(cls):
 
     check_env(cls(render_mode="rgb_array"), skip_render_check=True)
     env = gym.wrappers.TimeLimit(cls(), max_episode_steps=600)
-    policy = APLiteGoalSeeking(env.observation_space, env.action_space, ir_scale=env.unwrapped.swarm.platform.ir_scale)
+    policy = APLiteGoalSeeking(
+        env.observation_space, env.action_space, platform=env.unwrapped.swarm.platform.name, sensors=(0, 1, 2, 3)
+    )
     obs, info = env.reset(seed=2)
     state, total, terminated, truncated = None, 0.0, False, False
     while not (terminated or truncated):

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from polyenvs.core.validation import check_choice
 
 __all__ = ["IR_SCALES", "PLATFORMS", "Platform", "SENSOR_ANGLES_DEG", "get_platform"]
@@ -42,12 +40,6 @@ class Platform:
     wheel_base_m: float
     ir_scale: str
     controller_sensors: tuple[int, ...]
-
-    @property
-    def controller_mask(self) -> np.ndarray:
-        mask = np.zeros(4, dtype=bool)
-        mask[list(self.controller_sensors)] = True
-        return mask
 
 
 PLATFORMS = {
