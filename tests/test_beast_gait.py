@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
-from polyenvs.beast import kinematics as K
-from polyenvs.beast.gait import (
+from baselines.beast.gait import (
     TUCKED,
     BeastPlanner,
     JointTrajectory,
@@ -19,6 +18,7 @@ from polyenvs.beast.gait import (
     rotation_log,
     split_observation,
 )
+from polyenvs.beast import kinematics as K
 
 DEG = math.pi / 180
 #: The working tumble's K0 and K1 joint angles (spec beast.md, appendix), limbs 1-4, degrees.

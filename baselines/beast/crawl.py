@@ -56,8 +56,7 @@ import math
 
 import numpy as np
 
-from polyenvs.beast import kinematics as K
-from polyenvs.beast.gait import (
+from baselines.beast.gait import (
     CONTROL_DT,
     TUCKED,
     BeastPlanner,
@@ -66,6 +65,7 @@ from polyenvs.beast.gait import (
     rotation_log,
     split_observation,
 )
+from polyenvs.beast import kinematics as K
 
 __all__ = [
     "FOLDED",
