@@ -27,6 +27,7 @@ from polyenvs.beast import kinematics as K
 from polyenvs.core.validation import check_choice, check_in_range, check_int, show
 
 __all__ = [
+    "CONTROL_DT",
     "PARAMETER_RANGES",
     "START_STANCE",
     "BeastModelParams",
@@ -65,6 +66,9 @@ PARAMETER_RANGES = {
     "joint3_high_deg": (0.0, 180.0),
 }
 CONTROLS = ("position", "torque")
+#: Control tick (s): one action every 10 ms, i.e. frame_skip 5 at the default 2 ms physics step (``timestep``). The
+#: environments step at it and the gaits' controllers count time by it.
+CONTROL_DT = 0.01
 
 #: Capsule radii of the links (m): the shoulder stub and the thigh / shank tubes of the link modules (*ours*).
 _LINK1_RADIUS = 0.02

@@ -12,7 +12,8 @@ import mujoco
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import CONTROL_DT, STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.beast.env import STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", "STRIP_OFFSET_DEG"]
