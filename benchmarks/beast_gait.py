@@ -276,7 +276,7 @@ def _stance_without(env, limb: int) -> np.ndarray:
     broken limb points up (the paper's reorientation), first tumble along world +x."""
     import itertools
 
-    from baselines.beast.gait import TUCKED, BeastPlanner
+    from baselines.beast.planner import TUCKED, BeastPlanner
 
     planner = BeastPlanner("octahedron")
     dirs = planner.dirs

@@ -9,7 +9,7 @@ import pytest
 
 from baselines.beast import Crawl
 from baselines.beast.crawl import CrawlConfig, CrawlController, centre_of_mass, crawl_frame, crawl_stance_qpos
-from baselines.beast.gait import BeastPlanner
+from baselines.beast.planner import BeastPlanner
 from polyenvs.beast import kinematics as K
 
 DIRS = K.limb_directions("octahedron")

@@ -8,16 +8,10 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
-from baselines.beast.gait import (
-    TUCKED,
-    BeastPlanner,
-    JointTrajectory,
-    RollingGaitController,
-    n_limbs_of,
-    rotation_exp,
-    rotation_log,
-    split_observation,
-)
+from baselines.beast.gait import RollingGaitController
+from baselines.beast.geometry import rotation_exp, rotation_log
+from baselines.beast.observation import n_limbs_of, split_observation
+from baselines.beast.planner import TUCKED, BeastPlanner, JointTrajectory
 from polyenvs.beast import kinematics as K
 
 DEG = math.pi / 180

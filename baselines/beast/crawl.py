@@ -56,16 +56,11 @@ import math
 
 import numpy as np
 
-from baselines.beast.gait import (
-    CONTROL_DT,
-    TUCKED,
-    BeastPlanner,
-    JointTrajectory,
-    rotation_exp,
-    rotation_log,
-    split_observation,
-)
+from baselines.beast.geometry import kabsch, rotation_exp, rotation_log
+from baselines.beast.observation import split_observation
+from baselines.beast.planner import TUCKED, BeastPlanner, JointTrajectory
 from polyenvs.beast import kinematics as K
+from polyenvs.beast.model import CONTROL_DT
 
 __all__ = [
     "FOLDED",
@@ -228,15 +223,6 @@ def _legs(planner: BeastPlanner, disabled: int) -> list[int]:
     return [i for i in range(planner.n_limbs) if abs(float(planner.dirs[i] @ planner.dirs[disabled])) < 0.5]
 
 
-def _kabsch(p_body: np.ndarray, p_ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(rot, centre) with rot @ p_body + centre ~ p_ground, least squares (rot body -> ground)."""
-    mb, mg = p_body.mean(axis=0), p_ground.mean(axis=0)
-    u, _, vt = np.linalg.svd((p_body - mb).T @ (p_ground - mg))
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return rot, mg - rot @ mb
-
-
 def _cross2(a: np.ndarray, b: np.ndarray) -> float:
     return float(a[0] * b[1] - a[1] * b[0])
 
@@ -290,7 +276,7 @@ class _FootholdController:
 
     def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
         """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
-        return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
+        return kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
 
     def _feet_array(self) -> np.ndarray:
         out = np.zeros((self.planner.n_limbs, 3))
@@ -544,6 +530,7 @@ class ReorientController(_FootholdController):
         planner: BeastPlanner,
         disabled_limb: int,
         start_forward: np.ndarray,
+        *,
         config: CrawlConfig | None = None,
         heading_rad: float = 0.0,
         max_cycles: int | None = None,

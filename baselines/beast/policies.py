@@ -1,7 +1,8 @@
-"""Hand baselines for the Platonic beasts: the paper's rolling gait, its sharp turn, and a righting routine.
+"""The beasts' hand baselines as policies: the paper's rolling gait, its sharp turn, a righting routine, the crawl.
 
 They read only the sensor part of the observation (encoder angles, tilt switches, foot contacts; a privileged tail,
-when the environment has one, is ignored) and plan with :mod:`baselines.beast.gait`. Each keeps its plan (the current
+when the environment has one, is ignored) and run the controllers of :mod:`baselines.beast.gait` and
+:mod:`baselines.beast.crawl`, which plan with :mod:`baselines.beast.planner`. Each keeps its plan (the current
 joint trajectory and the tumble it is in) in a controller per environment, held in the policy object; the memory
 row that ``predict`` carries is that controller's handle, so batches and episode restarts work as for every policy.
 """
@@ -16,16 +17,9 @@ import numpy as np
 
 from baselines.base import Policy
 from baselines.beast.crawl import CrawlConfig, CrawlController, ReorientController
-from baselines.beast.gait import (
-    DEFAULT_CONFIGS,
-    BeastPlanner,
-    RightingController,
-    RollingGaitController,
-    joint_ranges_of,
-    n_limbs_of,
-    polyhedron_of,
-    split_observation,
-)
+from baselines.beast.gait import RightingController, RollingGaitController
+from baselines.beast.observation import joint_ranges_of, n_limbs_of, polyhedron_of, split_observation
+from baselines.beast.planner import DEFAULT_CONFIGS, BeastPlanner
 from polyenvs.beast.model import stance_orientation
 from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
@@ -226,6 +220,7 @@ class Crawl(_ControllerPolicy):
         observation_space,
         action_space,
         disabled_limbs=(1,),
+        *,
         heading_deg: float = 0.0,
         rate_deg_s: float = 20.0,
         stride: float = CrawlConfig.stride,

@@ -19,8 +19,8 @@ Conventions
   ``flip=True`` turns theta1 by pi and reaches over the shoulder (rho < 0: theta2 past 90 degrees).
 - **Limb numbers** are 1-based in names and tumbles, 0-based as array indices.
 
-Public names (the gait imports them)
-------------------------------------
+Public names (the environments and the baselines' gaits import them)
+--------------------------------------------------------------------
 | name | what |
 | --- | --- |
 | ``Links``, ``PROTOTYPE_LINKS`` | (d1, a2, a3) of Table 1 in metres |
