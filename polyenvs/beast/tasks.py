@@ -295,7 +295,7 @@ class BeastRecoverEnv(BeastEnv):
             if attempt < 20:
                 joints = rng.uniform(ranges[:, 0], ranges[:, 1])
             else:
-                joints = np.tile([0.0, math.pi / 2, 0.0], self.n_limbs)
+                joints = np.tile(K.STRAIGHT_OUT, self.n_limbs)
             data.qpos[:] = np.concatenate([[0.0, 0.0, 2.0], quat, joints])
             mujoco.mj_forward(m, data)
             clash = any(c.geom1 != floor and c.geom2 != floor for c in data.contact[: data.ncon])
