@@ -26,7 +26,7 @@ _MODEL = BeastModelParams()
 #: Per-geometry planning caches (BeastPlanner.plannable, BeastPlanner.sweeps), shared by every planner of that geometry.
 _PLANNABLE: dict = {}
 #: The free limb's pose on top: straight out along its face normal, clear of the ground and the other limbs.
-TUCKED = np.array([0.0, math.pi / 2, 0.0])
+TUCKED = K.STRAIGHT_OUT
 
 
 class JointTrajectory:
