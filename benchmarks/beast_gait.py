@@ -15,7 +15,7 @@ Every run goes through the policies' SB3-style ``predict`` (:mod:`baselines.beas
 - ``faults``: the 6-beast with each limb disabled in turn (paper section 5), the rolling gait for 60 s: distance
   along the heading and straight-line displacement.
 - ``crawl``: the 6-beast with each limb disabled in turn, walking the quadruped crawl (``Crawl``) with that limb on
-  top: from the crawl stance (``polyenvs.beast.crawl.crawl_stance_qpos``, forward along world +x) for 60 s, and from
+  top: from the crawl stance (``baselines.beast.crawl.crawl_stance_qpos``, forward along world +x) for 60 s, and from
   the task's own rolling stance (reorienting first) for 120 s (and at 60 s): whether and when it reoriented,
   distance along the heading, displacement, crawl steps, and whether anything but a foot touched the floor or the
   simulation went unstable.
@@ -205,7 +205,7 @@ def floor_touches(env) -> set:
 
 def bench_crawl(seeds):
     from baselines.beast import Crawl
-    from polyenvs.beast.crawl import crawl_stance_qpos
+    from baselines.beast.crawl import crawl_stance_qpos
     from polyenvs.beast.tasks import BeastRollEnv
 
     out = {}
@@ -276,7 +276,7 @@ def _stance_without(env, limb: int) -> np.ndarray:
     broken limb points up (the paper's reorientation), first tumble along world +x."""
     import itertools
 
-    from polyenvs.beast.gait import TUCKED, BeastPlanner
+    from baselines.beast.planner import TUCKED, BeastPlanner
 
     planner = BeastPlanner("octahedron")
     dirs = planner.dirs

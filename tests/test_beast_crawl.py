@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from baselines.beast import Crawl
+from baselines.beast.crawl import CrawlConfig, CrawlController, centre_of_mass, crawl_frame, crawl_stance_qpos
+from baselines.beast.planner import BeastPlanner
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.crawl import CrawlConfig, CrawlController, centre_of_mass, crawl_frame, crawl_stance_qpos
-from polyenvs.beast.gait import BeastPlanner
 
 DIRS = K.limb_directions("octahedron")
 
@@ -182,7 +182,7 @@ def test_from_the_task_start_the_beast_reorients_with_the_broken_limb_on_top_and
     # Limb 1 is free (up) in the task's three-foot rolling stance: a partial roll puts it on top within 30 s, with
     # only feet ever on the floor, then the crawl walks along the task's heading (+x).
     from baselines.beast import Crawl
-    from polyenvs.beast.crawl import ReorientController
+    from baselines.beast.crawl import ReorientController
 
     env = _env(1)
     policy = Crawl(env.observation_space, env.action_space, disabled_limbs=(1,))

@@ -8,17 +8,11 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
+from baselines.beast.gait import RollingGaitController
+from baselines.beast.geometry import rotation_exp, rotation_log
+from baselines.beast.observation import n_limbs_of, split_observation
+from baselines.beast.planner import TUCKED, BeastPlanner, JointTrajectory
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.gait import (
-    TUCKED,
-    BeastPlanner,
-    JointTrajectory,
-    RollingGaitController,
-    n_limbs_of,
-    rotation_exp,
-    rotation_log,
-    split_observation,
-)
 
 DEG = math.pi / 180
 #: The working tumble's K0 and K1 joint angles (spec beast.md, appendix), limbs 1-4, degrees.

@@ -32,12 +32,11 @@ from gymnasium.error import ResetNeeded
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
+from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.validation import check_bool, check_choice, check_in_range, check_options, real_array, show
 
-__all__ = ["CONTROL_DT", "BeastEnv", "TumbleCounter"]
+__all__ = ["BeastEnv", "TumbleCounter"]
 
-#: Control tick (s): one action every 10 ms, i.e. frame_skip 5 at the default 2 ms physics step.
-CONTROL_DT = 0.01
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
 STANCE_TICKS = 20
 #: Defaults of the sensor model (*ours*): encoder backlash band (deg) and tilt-switch threshold below horizontal (deg).

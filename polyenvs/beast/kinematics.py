@@ -19,8 +19,8 @@ Conventions
   ``flip=True`` turns theta1 by pi and reaches over the shoulder (rho < 0: theta2 past 90 degrees).
 - **Limb numbers** are 1-based in names and tumbles, 0-based as array indices.
 
-Public names (the gait imports them)
-------------------------------------
+Public names (the environments and the baselines' gaits import them)
+--------------------------------------------------------------------
 | name | what |
 | --- | --- |
 | ``Links``, ``PROTOTYPE_LINKS`` | (d1, a2, a3) of Table 1 in metres |
@@ -36,6 +36,7 @@ Public names (the gait imports them)
 | ``reachable(p, links)`` | whether a limb-frame point is inside the workspace shell |
 | ``limb_jacobian(theta, links)`` | d foot / d theta, (..., 3, 3) |
 | ``ground_frame(p1, p2, p3)`` | the paper's ground frame (origin p1, y to p2, z = y x (p3 - p1)) |
+| ``STRAIGHT_OUT`` | the joint angles of a limb straight out along its face normal |
 | ``tumbles(n)`` | the 12 tumbles of the 4-beast: even permutations of (1 2 3 4), 1-based |
 | ``rot_x``, ``rot_y``, ``rot_z`` | 3x3 rotations (vectorised over the angle) |
 """
@@ -53,6 +54,7 @@ __all__ = [
     "N_LIMBS",
     "POLYHEDRA",
     "PROTOTYPE_LINKS",
+    "STRAIGHT_OUT",
     "Links",
     "body_to_limb",
     "dh_frames",
@@ -87,6 +89,9 @@ PROTOTYPE_LINKS = Links(0.112, 0.0983, 0.140)
 BODY_SIDE = 0.170
 POLYHEDRA = ("tetrahedron", "octahedron", "cube")
 N_LIMBS = {"tetrahedron": 4, "octahedron": 6, "cube": 8}
+#: Joint angles (rad) that put a limb straight out along its face normal: theta2 = 90 degrees, the rest zero.
+STRAIGHT_OUT = np.array([0.0, math.pi / 2, 0.0])
+STRAIGHT_OUT.flags.writeable = False
 
 _TILT = math.acos(1.0 / math.sqrt(3.0))  # 54.74 deg: a tetrahedron face normal from the body's 2-fold z axis
 

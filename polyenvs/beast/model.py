@@ -27,6 +27,7 @@ from polyenvs.beast import kinematics as K
 from polyenvs.core.validation import check_choice, check_in_range, check_int, show
 
 __all__ = [
+    "CONTROL_DT",
     "PARAMETER_RANGES",
     "START_STANCE",
     "BeastModelParams",
@@ -65,6 +66,9 @@ PARAMETER_RANGES = {
     "joint3_high_deg": (0.0, 180.0),
 }
 CONTROLS = ("position", "torque")
+#: Control tick (s): one action every 10 ms, i.e. frame_skip 5 at the default 2 ms physics step (``timestep``). The
+#: environments step at it and the gaits' controllers count time by it.
+CONTROL_DT = 0.01
 
 #: Capsule radii of the links (m): the shoulder stub and the thigh / shank tubes of the link modules (*ours*).
 _LINK1_RADIUS = 0.02
@@ -140,6 +144,12 @@ class BeastModelParams:
         return K.N_LIMBS[self.polyhedron]
 
     @property
+    def inradius(self) -> float:
+        """The body's inradius (m): each limb's face lies this far from the centre, where link 1 starts (the 6-beast's
+        cube body has the octahedron's inradius, so its shoulders sit at the same depth)."""
+        return self.body_side / math.sqrt(6)
+
+    @property
     def joint_ranges(self) -> np.ndarray:
         """(3, 2) joint limits in radians, rows joint 1, 2, 3."""
         deg = [[getattr(self, f"joint{k}_{side}_deg") for side in ("low", "high")] for k in (1, 2, 3)]
@@ -164,7 +174,7 @@ def check_limbs(name: str, value, n_limbs: int) -> tuple[int, ...]:
 def _body_vertices(params: BeastModelParams) -> np.ndarray:
     if params.polyhedron == "octahedron":
         # A cube with the octahedron's inradius: the 6-beast's limbs sit on its faces at the same depth.
-        half = params.body_side / math.sqrt(6)
+        half = params.inradius
         return half * np.array(list(np.ndindex(2, 2, 2)), dtype=float) * 2 - half
     # The octahedron of Table 2's body frame: z is a 2-fold axis through two vertices, the others at 45 degrees.
     r = params.body_side / math.sqrt(2)
@@ -176,25 +186,14 @@ def _f(values) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
-def beast_xml(params: BeastModelParams) -> str:
-    """The MJCF of a beast with these parameters, standing at the origin (the tasks place it)."""
-    p = params
-    inradius = p.body_side / math.sqrt(6)
+def _limb_xml(p: BeastModelParams, i: int, frame: np.ndarray) -> str:
+    """The MJCF bodies of limb ``i`` (1-based) on its face, with base frame ``frame`` (4, 4)."""
     rad = p.joint_ranges
-    if p.control == "position":
-        actuator = "position"
-        gains = f'kp="{p.kp:.9g}" forcerange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
-    else:
-        actuator = "motor"
-        gains = f'ctrlrange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
-    limbs, actuators = [], []
-    for i, frame in enumerate(K.limb_base_frames(p.polyhedron), start=1):
-        limbs.append(
-            f"""
+    return f"""
       <body name="limb{i}_link1" quat="{_f(K.rotation_quat(frame[:3, :3]))}">
         <joint name="limb{i}_joint1" range="{_f(rad[0])}"/>
         <geom name="limb{i}_link1" type="capsule" size="{_LINK1_RADIUS}"
-              fromto="0 0 {inradius:.9g} 0 0 {p.d1:.9g}" mass="{p.link1_mass:.9g}"/>
+              fromto="0 0 {p.inradius:.9g} 0 0 {p.d1:.9g}" mass="{p.link1_mass:.9g}"/>
         <body name="limb{i}_link2" pos="0 0 {p.d1:.9g}" quat="{_f(K.rotation_quat(K.rot_x(math.pi / 2)))}">
           <joint name="limb{i}_joint2" range="{_f(rad[1])}"/>
           <geom name="limb{i}_link2" type="capsule" size="{_LINK_RADIUS}" fromto="0 0 0 {p.a2:.9g} 0 0"
@@ -208,10 +207,31 @@ def beast_xml(params: BeastModelParams) -> str:
           </body>
         </body>
       </body>"""
-        )
-        for k in (1, 2, 3):
-            ctrl = f'ctrlrange="{_f(rad[k - 1])}" ' if p.control == "position" else ""
-            actuators.append(f'    <{actuator} name="limb{i}_joint{k}" joint="limb{i}_joint{k}" {ctrl}{gains}/>')
+
+
+def _actuator_xml(p: BeastModelParams, i: int) -> list[str]:
+    """The three actuators of limb ``i`` (1-based): position servos, or plain motors for ``control="torque"``."""
+    rad = p.joint_ranges
+    if p.control == "position":
+        actuator = "position"
+        gains = f'kp="{p.kp:.9g}" forcerange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
+    else:
+        actuator = "motor"
+        gains = f'ctrlrange="{-p.torque_limit:.9g} {p.torque_limit:.9g}"'
+    lines = []
+    for k in (1, 2, 3):
+        ctrl = f'ctrlrange="{_f(rad[k - 1])}" ' if p.control == "position" else ""
+        lines.append(f'    <{actuator} name="limb{i}_joint{k}" joint="limb{i}_joint{k}" {ctrl}{gains}/>')
+    return lines
+
+
+def beast_xml(params: BeastModelParams) -> str:
+    """The MJCF of a beast with these parameters, standing at the origin (the tasks place it)."""
+    p = params
+    limbs, actuators = [], []
+    for i, frame in enumerate(K.limb_base_frames(p.polyhedron), start=1):
+        limbs.append(_limb_xml(p, i, frame))
+        actuators.extend(_actuator_xml(p, i))
     standing = p.d1 + p.a2 + p.a3
     # Evaluated inside mj_step (so the raw step cost includes them): contacts of each foot with the floor, all
     # contacts of the robot with the floor, and the world's up direction in the body frame (for the tilt switches).
@@ -316,7 +336,7 @@ def stance_qpos(params: BeastModelParams, feet_radius: float, height: float, yaw
         ],
         axis=1,
     )
-    theta = np.tile([0.0, math.pi / 2, 0.0], (params.n_limbs, 1))
+    theta = np.tile(K.STRAIGHT_OUT, (params.n_limbs, 1))
     base = K.limb_base_frames(params.polyhedron)[stance, :3, :3]
     solutions = K.ik_solutions(np.einsum("lji,lj->li", base, feet @ rot), params.links)  # (stance, 4, 3)
     # Of the four solutions, the one with the knee highest above the floor: clear of the ground and the body

@@ -12,7 +12,8 @@ import mujoco
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import CONTROL_DT, STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.beast.env import STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", "STRIP_OFFSET_DEG"]
@@ -294,7 +295,7 @@ class BeastRecoverEnv(BeastEnv):
             if attempt < 20:
                 joints = rng.uniform(ranges[:, 0], ranges[:, 1])
             else:
-                joints = np.tile([0.0, math.pi / 2, 0.0], self.n_limbs)
+                joints = np.tile(K.STRAIGHT_OUT, self.n_limbs)
             data.qpos[:] = np.concatenate([[0.0, 0.0, 2.0], quat, joints])
             mujoco.mj_forward(m, data)
             clash = any(c.geom1 != floor and c.geom2 != floor for c in data.contact[: data.ncon])

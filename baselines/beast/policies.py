@@ -1,7 +1,8 @@
-"""Hand baselines for the Platonic beasts: the paper's rolling gait, its sharp turn, and a righting routine.
+"""The beasts' hand baselines as policies: the paper's rolling gait, its sharp turn, a righting routine, the crawl.
 
 They read only the sensor part of the observation (encoder angles, tilt switches, foot contacts; a privileged tail,
-when the environment has one, is ignored) and plan with :mod:`polyenvs.beast.gait`. Each keeps its plan (the current
+when the environment has one, is ignored) and run the controllers of :mod:`baselines.beast.gait` and
+:mod:`baselines.beast.crawl`, which plan with :mod:`baselines.beast.planner`. Each keeps its plan (the current
 joint trajectory and the tumble it is in) in a controller per environment, held in the policy object; the memory
 row that ``predict`` carries is that controller's handle, so batches and episode restarts work as for every policy.
 """
@@ -15,17 +16,10 @@ import math
 import numpy as np
 
 from baselines.base import Policy
-from polyenvs.beast.crawl import CrawlConfig, CrawlController, ReorientController
-from polyenvs.beast.gait import (
-    DEFAULT_CONFIGS,
-    BeastPlanner,
-    RightingController,
-    RollingGaitController,
-    joint_ranges_of,
-    n_limbs_of,
-    polyhedron_of,
-    split_observation,
-)
+from baselines.beast.crawl import CrawlConfig, CrawlController, ReorientController
+from baselines.beast.gait import RightingController, RollingGaitController
+from baselines.beast.observation import joint_ranges_of, n_limbs_of, polyhedron_of, split_observation
+from baselines.beast.planner import DEFAULT_CONFIGS, BeastPlanner
 from polyenvs.beast.model import stance_orientation
 from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
@@ -89,7 +83,7 @@ class RollingGait(_ControllerPolicy):
 
     Each tumble is planned from the feet measured by forward kinematics of the encoders (the contact switches say
     which are planted): tip keyframe, free limb over the top to its next foothold, dynamic tip, stance over the new
-    support triangle (:mod:`polyenvs.beast.gait`). The 4-beast starts with the canonical tumble (1234) and rolls
+    support triangle (:mod:`baselines.beast.gait`). The 4-beast starts with the canonical tumble (1234) and rolls
     along the straight strip (1234)(4213)(4321)(1342), 30 degrees left of the first tip; the 6-beast picks the edge
     of its support face best aligned with the same heading.
 
@@ -201,10 +195,10 @@ class Crawl(_ControllerPolicy):
     walk a statically stable crawl (one leg at a time, lateral sequence left-hind, left-front, right-hind,
     right-front; before each lift the body shifts the centre of mass into the other three feet's triangle with a
     margin), each shift and swing planned from the encoder angles (feet by forward kinematics) and the contact
-    switches (:mod:`polyenvs.beast.crawl`). From the crawl stance (:func:`polyenvs.beast.crawl.crawl_stance_qpos`;
+    switches (:mod:`baselines.beast.crawl`). From the crawl stance (:func:`baselines.beast.crawl.crawl_stance_qpos`;
     the tilt switches say the broken limb points up) it crawls at once, the heading fixed to the body. From the
     task's three-foot rolling stance with the broken limb free it first reorients
-    (:class:`polyenvs.beast.crawl.ReorientController`: a partial roll of about 55 degrees that lands two upper limbs
+    (:class:`baselines.beast.crawl.ReorientController`: a partial roll of about 55 degrees that lands two upper limbs
     as legs and folds the broken limb's opposite, about 25 s), then crawls along the start stance's forward
     direction (the task's heading) turned by ``heading_deg``. A broken limb that stands in the start support cannot
     be reoriented (the controller holds; see the module's notes).
@@ -226,6 +220,7 @@ class Crawl(_ControllerPolicy):
         observation_space,
         action_space,
         disabled_limbs=(1,),
+        *,
         heading_deg: float = 0.0,
         rate_deg_s: float = 20.0,
         stride: float = CrawlConfig.stride,

@@ -56,16 +56,11 @@ import math
 
 import numpy as np
 
+from baselines.beast.geometry import kabsch, rotation_exp, rotation_log
+from baselines.beast.observation import split_observation
+from baselines.beast.planner import TUCKED, BeastPlanner, JointTrajectory
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.gait import (
-    CONTROL_DT,
-    TUCKED,
-    BeastPlanner,
-    JointTrajectory,
-    rotation_exp,
-    rotation_log,
-    split_observation,
-)
+from polyenvs.beast.model import CONTROL_DT, BeastModelParams
 
 __all__ = [
     "FOLDED",
@@ -83,10 +78,12 @@ __all__ = [
 #: centre; the shank's axis passes 16 mm outside the cube body's lower corner (4 mm clear of its 12 mm capsule), and
 #: nothing of the limb hangs lower than its shoulder capsule (132 mm below the body centre).
 FOLDED = np.radians([0.0, -70.0])
-#: Mass model of the default 6-beast (kg): body, link 1, link 2, link 3, foot (``polyenvs.beast.model`` defaults).
-MASSES = (3.0, 0.15, 0.15, 0.12, 0.03)
-#: Inradius of the body (m): where link 1 starts along its limb axis (body of side 170 mm: 170 / sqrt(6)).
-INRADIUS = K.BODY_SIDE / math.sqrt(6)
+#: The default 6-beast's model parameters, whose mass model and body the crawl's centre of mass assumes.
+_MODEL = BeastModelParams("octahedron")
+#: Mass model of the default 6-beast (kg): body, link 1, link 2, link 3, foot.
+MASSES = (_MODEL.body_mass, _MODEL.link1_mass, _MODEL.link2_mass, _MODEL.link3_mass, _MODEL.foot_mass)
+#: Inradius of the body (m): where link 1 starts along its limb axis.
+INRADIUS = _MODEL.inradius
 
 
 @dataclasses.dataclass(frozen=True)
@@ -228,15 +225,6 @@ def _legs(planner: BeastPlanner, disabled: int) -> list[int]:
     return [i for i in range(planner.n_limbs) if abs(float(planner.dirs[i] @ planner.dirs[disabled])) < 0.5]
 
 
-def _kabsch(p_body: np.ndarray, p_ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(rot, centre) with rot @ p_body + centre ~ p_ground, least squares (rot body -> ground)."""
-    mb, mg = p_body.mean(axis=0), p_ground.mean(axis=0)
-    u, _, vt = np.linalg.svd((p_body - mb).T @ (p_ground - mg))
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return rot, mg - rot @ mb
-
-
 def _cross2(a: np.ndarray, b: np.ndarray) -> float:
     return float(a[0] * b[1] - a[1] * b[0])
 
@@ -290,7 +278,7 @@ class _FootholdController:
 
     def _pose(self, q: np.ndarray, legs) -> tuple[np.ndarray, np.ndarray]:
         """Body pose (rot body -> ground, centre) fitted to the measured feet of ``legs`` and their footholds."""
-        return _kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
+        return kabsch(self.planner.feet(q)[list(legs)], np.stack([self.footholds[leg] for leg in legs]))
 
     def _feet_array(self) -> np.ndarray:
         out = np.zeros((self.planner.n_limbs, 3))
@@ -544,6 +532,7 @@ class ReorientController(_FootholdController):
         planner: BeastPlanner,
         disabled_limb: int,
         start_forward: np.ndarray,
+        *,
         config: CrawlConfig | None = None,
         heading_rad: float = 0.0,
         max_cycles: int | None = None,
@@ -683,7 +672,7 @@ class ReorientController(_FootholdController):
             p_limb = p.base[leg].T @ (rot.T @ (above - centre))
             if not K.reachable(p_limb[None], p.links, tol=-1e-3)[0]:
                 return None
-            free[leg] = p.ik_nearest_any(p_limb[None], np.array([[0.0, math.pi / 2, 0.0]]))[0]
+            free[leg] = p.ik_nearest_any(p_limb[None], TUCKED[None])[0]
         traj = body_motion(p, q, self.support, self._feet_array(), pose0, (rot, centre), free, cfg.knots)
         if traj is None:
             return None
