@@ -17,6 +17,7 @@ termination, running metrics). Everything else lives here:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import sys
@@ -33,15 +34,13 @@ from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
 from polyenvs.beast.model import CONTROL_DT
-from polyenvs.core.validation import check_bool, check_choice, check_in_range, check_options, real_array, show
+from polyenvs.core.parameters import check_parameters, parameter
+from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
-__all__ = ["BeastEnv", "TumbleCounter"]
+__all__ = ["BeastEnv", "SensorParams", "TumbleCounter"]
 
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
 STANCE_TICKS = 20
-#: Defaults of the sensor model (*ours*): encoder backlash band (deg) and tilt-switch threshold below horizontal (deg).
-BACKLASH_DEG = 0.5
-TILT_THRESHOLD_DEG = 10.0
 _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 #: A drawn start state is rounded to 1e-9 (m, rad, m/s, rad/s): numpy's matrix products and transcendental functions
 #: run CPU-specific kernels (OpenBLAS's per-core-type GEMM, AVX-512 or AVX2 SIMD sines) that differ in the last bit,
@@ -49,8 +48,22 @@ _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 #: Rounding removes it (only a value within about 1e-16 of a rounding boundary can still differ); a state passed as
 #: a reset option is used exactly as given.
 START_DECIMALS = 9
-#: Plausible ranges of the sensor and reward parameters.
-SENSOR_RANGES = {"backlash_deg": (0.0, 5.0), "tilt_threshold_deg": (0.0, 45.0), "ctrl_cost_weight": (0.0, 10.0)}
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorParams:
+    """The sensor model's and the reward's parameters (constructor keywords of every beast id)."""
+
+    backlash_deg: float = parameter(0.5, 0.0, 5.0, "deg", "ours: encoder dead band")
+    tilt_threshold_deg: float = parameter(10.0, 0.0, 45.0, "deg", "ours: tilt-switch threshold below horizontal")
+    ctrl_cost_weight: float = parameter(
+        0.01, 0.0, 10.0, "", "weight of the control cost, mean squared torque / limit^2"
+    )
+
+    def __post_init__(self):
+        check_parameters(self)
+
+
 #: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
 PHYSICS_KEYS = tuple(
     f.name
@@ -141,9 +154,9 @@ class BeastEnv(MujocoEnv):
         privileged: bool = False,
         disabled_limbs=(),
         control: str = "position",
-        backlash_deg: float = BACKLASH_DEG,
-        tilt_threshold_deg: float = TILT_THRESHOLD_DEG,
-        ctrl_cost_weight: float = 0.01,
+        backlash_deg: float = SensorParams.backlash_deg,
+        tilt_threshold_deg: float = SensorParams.tilt_threshold_deg,
+        ctrl_cost_weight: float = SensorParams.ctrl_cost_weight,
         physics: dict | None = None,
         render_mode: str | None = None,
         width: int = 480,
@@ -152,11 +165,9 @@ class BeastEnv(MujocoEnv):
         # Everything is checked before anything is built.
         check_choice("polyhedron", polyhedron, K.POLYHEDRA)
         self.privileged = check_bool("privileged", privileged)
-        self.backlash_deg = check_in_range("backlash_deg", backlash_deg, *SENSOR_RANGES["backlash_deg"])
-        self.tilt_threshold_deg = check_in_range(
-            "tilt_threshold_deg", tilt_threshold_deg, *SENSOR_RANGES["tilt_threshold_deg"]
-        )
-        self.ctrl_cost_weight = check_in_range("ctrl_cost_weight", ctrl_cost_weight, *SENSOR_RANGES["ctrl_cost_weight"])
+        sensing = SensorParams(backlash_deg, tilt_threshold_deg, ctrl_cost_weight)
+        self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
+        self.ctrl_cost_weight = sensing.ctrl_cost_weight
         if physics is None:
             physics = {}
         if not isinstance(physics, dict):

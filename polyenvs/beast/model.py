@@ -24,7 +24,8 @@ import math
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.core.validation import check_choice, check_in_range, check_int, show
+from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
+from polyenvs.core.validation import check_choice, check_int, show
 
 __all__ = [
     "CONTROL_DT",
@@ -38,33 +39,6 @@ __all__ = [
     "stance_qpos",
 ]
 
-#: Plausible ranges of every physical parameter (SI units; joint limits in degrees). Outside: ValueError.
-PARAMETER_RANGES = {
-    "d1": (0.10, 0.20),  # shoulder offset: beyond the face (inradius <= 90 mm for the largest body) up to 2x Table 1
-    "a2": (0.05, 0.25),
-    "a3": (0.05, 0.30),
-    "body_side": (0.12, 0.22),
-    "body_mass": (0.5, 10.0),
-    "link1_mass": (0.01, 1.0),
-    "link2_mass": (0.01, 1.0),
-    "link3_mass": (0.01, 1.0),
-    "foot_mass": (0.005, 0.5),
-    "foot_radius": (0.005, 0.04),
-    "kp": (10.0, 2000.0),
-    "torque_limit": (0.5, 50.0),
-    "damping": (0.0, 50.0),
-    "armature": (0.0, 1.0),
-    "friction": (0.1, 2.0),
-    "timestep": (0.0005, 0.005),
-    # Joint 1 turns the whole limb about its face normal; a cable wrap lets it wind past a half-turn (the 4-beast's
-    # sharp turn needs about +-250 degrees), the bent joints 2 and 3 stop at their links.
-    "joint1_low_deg": (-270.0, 0.0),
-    "joint1_high_deg": (0.0, 270.0),
-    "joint2_low_deg": (-180.0, 0.0),
-    "joint2_high_deg": (0.0, 180.0),
-    "joint3_low_deg": (-180.0, 0.0),
-    "joint3_high_deg": (0.0, 180.0),
-}
 CONTROLS = ("position", "torque")
 #: Control tick (s): one action every 10 ms, i.e. frame_skip 5 at the default 2 ms physics step (``timestep``). The
 #: environments step at it and the gaits' controllers count time by it.
@@ -75,51 +49,53 @@ _LINK1_RADIUS = 0.02
 _LINK_RADIUS = 0.012
 
 
+_FEASIBILITY = "feasibility study"
+_GAITS = "ours: the range the gaits need"
+_WRAP = "ours: a cable wrap lets joint 1 wind past a half-turn (the 4-beast's sharp turn needs about +-250)"
+_LINK = "the bent joints stop at their links"
+
+
+@documented
 @dataclasses.dataclass(frozen=True)
 class BeastModelParams:
-    """Physical parameters of a beast; every number is checked against ``PARAMETER_RANGES`` on construction.
+    """Physical parameters of a beast (SI units; joint limits in degrees); every number is checked against its
+    plausible range on construction (``ValueError`` naming it outside).
 
-    | parameter | default | unit | source |
-    | --- | --- | --- | --- |
-    | polyhedron | "tetrahedron" | | 4-beast; "octahedron" = 6-beast, "cube" = 8-beast |
-    | d1, a2, a3 | 0.112, 0.0983, 0.140 | m | Table 1 (a3 depends on the foot module) |
-    | body_side | 0.170 | m | paper section 2 |
-    | body_mass | 3.0 | kg | feasibility study (4.8 kg in all, paper: under 5 kg) |
-    | link1_mass, link2_mass, link3_mass | 0.15, 0.15, 0.12 | kg | feasibility study |
-    | foot_mass, foot_radius | 0.03, 0.018 | kg, m | feasibility study |
-    | kp | 300 | N m/rad | position servo gain, feasibility study |
-    | torque_limit | 6.0 | N m | motor limit, feasibility study (lifts from limbs straight out) |
-    | damping, armature | 5.0, 0.02 | N m s/rad, kg m^2 | worm drive, feasibility study |
-    | friction | 1.0 | | sliding friction of every contact |
-    | timestep | 0.002 | s | implicitfast integrator |
-    | joint{k}_low_deg, joint{k}_high_deg | -180/180, -120/160, -150/150 | deg | ours: the ranges the gaits need (joint 1 up to +-270, joints 2 and 3 up to +-180) |
-    | control | "position" | | "torque" makes the actuators plain motors limited to +-torque_limit |
-    | locked_limbs | () | | 1-based limbs whose joints are locked (a failed worm drive does not backdrive) |
+    {parameters}
+
+    and the choices
+
+    | parameter | default | meaning |
+    | --- | --- | --- |
+    | polyhedron | "tetrahedron" | 4-beast; "octahedron" = 6-beast, "cube" = 8-beast |
+    | control | "position" | "torque" makes the actuators plain motors limited to +-torque_limit |
+    | locked_limbs | () | 1-based limbs whose joints are locked (a failed worm drive does not backdrive) |
     """
 
     polyhedron: str = "tetrahedron"
-    d1: float = K.PROTOTYPE_LINKS.d1
-    a2: float = K.PROTOTYPE_LINKS.a2
-    a3: float = K.PROTOTYPE_LINKS.a3
-    body_side: float = K.BODY_SIDE
-    body_mass: float = 3.0
-    link1_mass: float = 0.15
-    link2_mass: float = 0.15
-    link3_mass: float = 0.12
-    foot_mass: float = 0.03
-    foot_radius: float = 0.018
-    kp: float = 300.0
-    torque_limit: float = 6.0
-    damping: float = 5.0
-    armature: float = 0.02
-    friction: float = 1.0
-    timestep: float = 0.002
-    joint1_low_deg: float = -180.0
-    joint1_high_deg: float = 180.0
-    joint2_low_deg: float = -120.0
-    joint2_high_deg: float = 160.0
-    joint3_low_deg: float = -150.0
-    joint3_high_deg: float = 150.0
+    # d1 runs from beyond the face (the largest body's inradius is under 90 mm) up to twice Table 1's.
+    d1: float = parameter(K.PROTOTYPE_LINKS.d1, 0.10, 0.20, "m", "Table 1")
+    a2: float = parameter(K.PROTOTYPE_LINKS.a2, 0.05, 0.25, "m", "Table 1")
+    a3: float = parameter(K.PROTOTYPE_LINKS.a3, 0.05, 0.30, "m", "Table 1 (it depends on the foot module)")
+    body_side: float = parameter(K.BODY_SIDE, 0.12, 0.22, "m", "paper section 2")
+    body_mass: float = parameter(3.0, 0.5, 10.0, "kg", f"{_FEASIBILITY} (4.8 kg in all; paper: under 5 kg)")
+    link1_mass: float = parameter(0.15, 0.01, 1.0, "kg", _FEASIBILITY)
+    link2_mass: float = parameter(0.15, 0.01, 1.0, "kg", _FEASIBILITY)
+    link3_mass: float = parameter(0.12, 0.01, 1.0, "kg", _FEASIBILITY)
+    foot_mass: float = parameter(0.03, 0.005, 0.5, "kg", _FEASIBILITY)
+    foot_radius: float = parameter(0.018, 0.005, 0.04, "m", _FEASIBILITY)
+    kp: float = parameter(300.0, 10.0, 2000.0, "N m/rad", f"position servo gain, {_FEASIBILITY}")
+    torque_limit: float = parameter(6.0, 0.5, 50.0, "N m", f"{_FEASIBILITY}: lifts from limbs straight out")
+    damping: float = parameter(5.0, 0.0, 50.0, "N m s/rad", f"worm drive, {_FEASIBILITY}")
+    armature: float = parameter(0.02, 0.0, 1.0, "kg m^2", f"worm drive's reflected inertia, {_FEASIBILITY}")
+    friction: float = parameter(1.0, 0.1, 2.0, "", f"sliding friction of every contact, {_FEASIBILITY}")
+    timestep: float = parameter(0.002, 0.0005, 0.005, "s", f"implicitfast integrator, {_FEASIBILITY}")
+    joint1_low_deg: float = parameter(-180.0, -270.0, 0.0, "deg", _WRAP)
+    joint1_high_deg: float = parameter(180.0, 0.0, 270.0, "deg", _WRAP)
+    joint2_low_deg: float = parameter(-120.0, -180.0, 0.0, "deg", f"{_GAITS}; {_LINK}")
+    joint2_high_deg: float = parameter(160.0, 0.0, 180.0, "deg", f"{_GAITS}; {_LINK}")
+    joint3_low_deg: float = parameter(-150.0, -180.0, 0.0, "deg", f"{_GAITS}; {_LINK}")
+    joint3_high_deg: float = parameter(150.0, 0.0, 180.0, "deg", f"{_GAITS}; {_LINK}")
     control: str = "position"
     locked_limbs: tuple = ()
 
@@ -127,8 +103,7 @@ class BeastModelParams:
         check_choice("polyhedron", self.polyhedron, K.POLYHEDRA)
         check_choice("control", self.control, CONTROLS)
         object.__setattr__(self, "locked_limbs", check_limbs("locked_limbs", self.locked_limbs, self.n_limbs))
-        for name, (low, high) in PARAMETER_RANGES.items():
-            object.__setattr__(self, name, check_in_range(name, getattr(self, name), low, high))
+        check_parameters(self)
         if self.foot_radius >= self.a3 / 2:
             raise ValueError(f"foot_radius must be under a3 / 2 = {self.a3 / 2:g} m, got {self.foot_radius!r}")
         for k in (1, 2, 3):
@@ -159,6 +134,10 @@ class BeastModelParams:
     def total_mass(self) -> float:
         per_limb = self.link1_mass + self.link2_mass + self.link3_mass + self.foot_mass
         return self.body_mass + self.n_limbs * per_limb
+
+
+#: Plausible range of every physical parameter (from the declarations above). Outside it: ValueError.
+PARAMETER_RANGES = parameter_ranges(BeastModelParams)
 
 
 def check_limbs(name: str, value, n_limbs: int) -> tuple[int, ...]:

@@ -12,8 +12,9 @@ import mujoco
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import STANCE_TICKS, BeastEnv, TumbleCounter
+from polyenvs.beast.env import STANCE_TICKS, BeastEnv, SensorParams, TumbleCounter
 from polyenvs.beast.model import CONTROL_DT
+from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", "STRIP_OFFSET_DEG"]
@@ -55,14 +56,12 @@ _SHARED = """
     The encoder angles are clipped to the joint limits, which are their bounds in the observation space.
 """
 
-_ARGS = """
+_ARGS = f"""
     | polyhedron | "tetrahedron" | the 4-beast; "octahedron" (6-beast, limbs on +-x, +-y, +-z), "cube" (8-beast) |
     | privileged | False | append the true body pose and velocity to the observation |
     | disabled_limbs | () | 1-based limb numbers whose joints are locked (paper section 5's faults) |
     | control | "position" | "position" servos or "torque" motors |
-    | backlash_deg | 0.5 | encoder dead band, [0, 5] deg (*ours*) |
-    | tilt_threshold_deg | 10 | tilt-switch threshold below horizontal, [0, 45] deg (*ours*) |
-    | ctrl_cost_weight | 0.01 | weight of the control cost, mean squared torque / limit^2, [0, 10] |
+{argument_rows(SensorParams)}
     | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded |
     | render_mode | None | "rgb_array" or "depth_array" through MuJoCo's renderer, camera ``track`` following the torso |
     | width, height | 480, 480 | frame size, fixed per instance |

@@ -1,0 +1,85 @@
+"""One idiom for physical parameters: each is declared once, as a field of a frozen dataclass, with its default,
+plausible range, unit and source; the validation and the documentation's table are made from that declaration.
+
+```python
+@documented
+@dataclass(frozen=True)
+class CartModel:
+    '''The cart.
+
+    {parameters}
+    '''
+
+    backup_cm: float = parameter(6.0, 1.0, 30.0, "cm", "ours: 35 ticks")
+
+    def __post_init__(self):
+        check_parameters(self)
+```
+
+:func:`check_parameters` refuses a value outside its range (or a bool, a string, NaN) with ``ValueError`` naming the
+field, as :func:`polyenvs.core.validation.check_in_range` does; :func:`parameter_table` writes the Markdown table a
+docstring's Arguments section shows; :func:`parameter_ranges` gives ``{name: (low, high)}`` to code that draws or
+sweeps parameters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from polyenvs.core.validation import check_in_range
+
+__all__ = ["argument_rows", "check_parameters", "documented", "parameter", "parameter_ranges", "parameter_table"]
+
+
+def parameter(default: float, low: float, high: float, unit: str = "", source: str = "ours") -> dataclasses.Field:
+    """A dataclass field for a physical parameter: ``default`` in ``[low, high]`` (``unit``), from ``source``."""
+    if not low <= default <= high:
+        raise ValueError(f"default {default!r} is outside its own range [{low:g}, {high:g}]")
+    return dataclasses.field(default=default, metadata={"range": (low, high), "unit": unit, "source": source})
+
+
+def _declared(cls_or_instance) -> list[dataclasses.Field]:
+    return [f for f in dataclasses.fields(cls_or_instance) if "range" in f.metadata]
+
+
+def check_parameters(instance) -> None:
+    """Check every declared parameter of a (frozen) dataclass instance and store it as a ``float``."""
+    for f in _declared(instance):
+        low, high = f.metadata["range"]
+        object.__setattr__(instance, f.name, check_in_range(f.name, getattr(instance, f.name), low, high))
+
+
+def parameter_ranges(cls) -> dict[str, tuple[float, float]]:
+    """``{name: (low, high)}`` of every declared parameter, in declaration order."""
+    return {f.name: f.metadata["range"] for f in _declared(cls)}
+
+
+def parameter_table(cls) -> str:
+    """The Markdown table of every declared parameter: name, default, range, unit, source."""
+    rows = ["| parameter | default | range | unit | source |", "| --- | --- | --- | --- | --- |"]
+    for f in _declared(cls):
+        low, high = f.metadata["range"]
+        rows.append(
+            f"| {f.name} | {f.default:g} | [{low:g}, {high:g}] | {f.metadata['unit']} | {f.metadata['source']} |"
+        )
+    return "\n".join(rows)
+
+
+def documented(cls):
+    """Class decorator (outside ``@dataclass``): put :func:`parameter_table` where the docstring says ``{parameters}``."""
+    doc = cls.__doc__
+    line_start = doc.rindex("\n", 0, doc.index("{parameters}")) + 1
+    indent = doc[line_start : doc.index("{parameters}")]
+    cls.__doc__ = doc.replace("{parameters}", parameter_table(cls).replace("\n", "\n" + indent))
+    return cls
+
+
+def argument_rows(cls, indent: str = "    ") -> str:
+    """Rows ``| name | default | source, in [low, high] unit |`` of every declared parameter, for an environment
+    docstring's Arguments table (columns argument, default, meaning)."""
+    rows = []
+    for f in _declared(cls):
+        low, high = f.metadata["range"]
+        unit = f" {f.metadata['unit']}" if f.metadata["unit"] else ""
+        rows.append(f"{indent}| {f.name} | {f.default:g} | {f.metadata['source']}, in [{low:g}, {high:g}]{unit} |")
+    return "\n".join(rows)
