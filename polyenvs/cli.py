@@ -10,12 +10,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import check_writable_directory, is_terminal, parse_json_object
+from polyenvs.evaluation import (
+    MAX_EPISODES,
+    MAX_FRAMES,
+    MAX_SEED,
+    MAX_STEPS,
+    check_writable_directory,
+    float_flag,
+    int_flag,
+    is_terminal,
+    parse_json_object,
+)
 
 __all__ = ["main"]
 
@@ -28,6 +37,9 @@ REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
 AGENTS_DIR = Path("benchmarks/agents")
 #: Output formats of ``polyenvs record``: suffix -> what writing it needs.
 RECORD_FORMATS = {".gif": "imageio", ".mp4": "imageio-ffmpeg"}
+#: ``polyenvs record --fps`` bounds: a GIF frame lasts at most 655.35 s (a 16-bit count of 10 ms), and no player
+#: shows more than a few hundred frames a second.
+MIN_FPS, MAX_FPS = 0.01, 1000.0
 
 
 class CliError(Exception):
@@ -41,31 +53,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-# ---------------------------------------------------------------------------------------------- argument types
-
-
-def _int_at_least(minimum: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
-        return value
-
-    parse.__name__ = f"integer >= {minimum}"
-    return parse
-
-
-def _positive_finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
+# ------------------------------------------------------------------------------------------------------ checks
 
 
 def _check_output_file(path: Path, flag: str) -> None:
@@ -208,16 +196,18 @@ def _cmd_list(args) -> int:
 def _cmd_evaluate(args) -> int:
     from polyenvs.evaluation import evaluate
 
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
     bar = ProgressBar("episodes")
-    bar.start(args.episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
+    bar.start(episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
     try:
         doc = evaluate(
             args.env_id,
             args.policy,
-            episodes=args.episodes,
-            seed=args.seed,
+            episodes=episodes,
+            seed=seed,
             env_kwargs=env_kwargs,
             policy_kwargs=policy_kwargs,
             on_episode=lambda _: bar.advance(),
@@ -256,7 +246,9 @@ def _cmd_leaderboard(args) -> int:
     from polyenvs.registry import ALL_IDS
 
     # Everything the user could get wrong is checked here, before the first evaluation.
-    episodes = args.episodes if args.episodes is not None else (5 if args.quick else PROTOCOL_EPISODES)
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    if episodes is None:
+        episodes = 5 if args.quick else PROTOCOL_EPISODES
     if args.update_reference:
         if args.quick or episodes != PROTOCOL_EPISODES:
             raise CliError(
@@ -332,6 +324,16 @@ def _cmd_record(args) -> int:
     from polyenvs.evaluation import atomic_path, make_agent, make_env
     from polyenvs.rollout import episode_frames
 
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
+    max_steps = int_flag("--max-steps", args.max_steps, 1, MAX_STEPS)
+    every = int_flag("--every", args.every, 1, MAX_STEPS)
+    fps = float_flag("--fps", args.fps, MIN_FPS, MAX_FPS)
+    frames = max_steps // every + 2  # the first, one every `every` steps, the last
+    if frames > MAX_FRAMES:
+        raise CliError(
+            f"--max-steps {max_steps} with --every {every} keeps up to {frames} frames in memory, more than "
+            f"{MAX_FRAMES}: raise --every to {-(-max_steps // (MAX_FRAMES - 2))} or lower --max-steps"
+        )
     output = Path(args.output)
     suffix = output.suffix.lower()
     if suffix not in RECORD_FORMATS:
@@ -356,9 +358,9 @@ def _cmd_record(args) -> int:
     env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
     try:
         env_id = args.env_id.split(":", 1)[-1]
-        policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
-        frames = episode_frames(env, policy, args.seed, args.max_steps, every=args.every)
-        fps = args.fps or env.metadata.get("render_fps", 10) / args.every
+        policy = make_agent(args.policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
+        frames = episode_frames(env, policy, seed, max_steps, every=every)
+        fps = fps or min(max(env.metadata.get("render_fps", 10) / every, MIN_FPS), MAX_FPS)
     finally:
         env.close()
     video = np.stack(frames)
@@ -390,8 +392,6 @@ def build_parser() -> argparse.ArgumentParser:
     from polyenvs.localization.command import add_parser as add_localize_parser  # imports nothing heavy either
 
     add_localize_parser(sub)
-    episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
-
     p = sub.add_parser(
         "list", help="every environment (Gymnasium id or PettingZoo module) with its spaces (one robot's) and a line"
     )
@@ -408,8 +408,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="'random', a hand baseline's name, 'paper' (default), or a trained model: a training directory "
         "(model.zip, vecnormalize.pkl, run.json) or a .zip",
     )
-    p.add_argument("--episodes", type=episodes_type, default=10, help="number of episodes, >= 1 (default 10)")
-    p.add_argument("--seed", type=seed_type, default=0, help="first seed, >= 0; episodes use seed, seed+1, ...")
+    p.add_argument("--episodes", default="10", help=f"number of episodes, 1 to {MAX_EPISODES} (default 10)")
+    p.add_argument(
+        "--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; episodes use seed, seed+1, ... (default 0)"
+    )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     p.add_argument("--json", action="store_true", help="print one JSON document (progress, if any, goes to stderr)")
@@ -424,7 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
     p.add_argument(
-        "--episodes", type=episodes_type, default=None, help="episodes per policy (default 50, 5 with --quick)"
+        "--episodes", default=None, help=f"episodes per policy, 1 to {MAX_EPISODES} (default 50, 5 with --quick)"
     )
     p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
     p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
@@ -461,13 +463,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--policy", default="paper", help="a baseline's name, 'paper' (default), or a trained model's path")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
-    p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")
-    p.add_argument("--max-steps", type=steps_type, default=300, help="at most this many steps, >= 1 (default 300)")
+    p.add_argument("--seed", default="0", help=f"episode seed, 0 to {MAX_SEED} (default 0)")
+    p.add_argument("--max-steps", default="300", help=f"at most this many steps, 1 to {MAX_STEPS} (default 300)")
     p.add_argument(
-        "--every", type=steps_type, default=1, help="keep one frame every this many steps, >= 1 (default 1: all)"
+        "--every",
+        default="1",
+        help=f"keep one frame every this many steps, >= 1 (default 1: all); at most {MAX_FRAMES} frames in all",
     )
     p.add_argument(
-        "--fps", type=_positive_finite, default=None, help="frames per second, > 0 (default: the env's render_fps)"
+        "--fps",
+        default=None,
+        help=f"frames per second, {MIN_FPS:g} to {MAX_FPS:g} (default: the env's render_fps / --every)",
     )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--output", default="episode.gif", help="a .gif, or a .mp4 (needs imageio-ffmpeg)")
@@ -489,6 +495,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("polyenvs: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (polyenvs list | head): stop quietly, as other tools do
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes
+        return 141
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import InputError
+from polyenvs.evaluation import MAX_N_ENVS, MAX_TIMESTEPS, InputError
 
 __all__ = [
     "META_KEYS",
@@ -200,12 +200,12 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         path=path,
         env_id=env_id,
         algo=algo,
-        n_timesteps=_count(entry["n_timesteps"], 1, where("n_timesteps")),
+        n_timesteps=_count(entry["n_timesteps"], 1, where("n_timesteps"), MAX_TIMESTEPS),
         policy=_policy(entry.get("policy", "MlpPolicy"), cls, where("policy")),
         raw=entry,
     )
     if "n_envs" in entry:
-        config.n_envs = _count(entry["n_envs"], 1, where("n_envs"))
+        config.n_envs = _count(entry["n_envs"], 1, where("n_envs"), MAX_N_ENVS)
     if "frame_stack" in entry:
         config.frame_stack = _count(entry["frame_stack"], 1, where("frame_stack"))
     if "env_wrapper" in entry:
@@ -253,7 +253,7 @@ def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
     return dict(value)
 
 
-def _count(value: Any, minimum: int, where: str) -> int:
+def _count(value: Any, minimum: int, where: str, maximum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, Real):
         raise InputError(f"{where}: expected an integer >= {minimum}, got {_show(value)}{_yaml_hint(value)}")
     if not isinstance(value, Integral):
@@ -262,6 +262,8 @@ def _count(value: Any, minimum: int, where: str) -> int:
     value = int(value)
     if value < minimum:
         raise InputError(f"{where}: expected an integer >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{where}: expected an integer <= {maximum}, got {value}")
     return value
 
 
