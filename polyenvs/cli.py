@@ -33,7 +33,8 @@ DEFAULT_LEADERBOARD_DIR = Path("runs/leaderboard")
 #: The committed reference results, rewritten only by ``polyenvs leaderboard --update-reference``.
 REFERENCE_RESULTS_DIR = Path("benchmarks/results")
 REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
-#: Committed trained agents (``<env id with / as __>/<algo>/seed<N>/``), evaluated by the leaderboard.
+#: Committed trained agents (``<env id with / as __>/<algo>/seed<N>/``), evaluated by the leaderboard: here, or in
+#: the checkout polyenvs runs from (polyenvs.leaderboard.default_agents_dirs).
 AGENTS_DIR = Path("benchmarks/agents")
 #: Output formats of ``polyenvs record``: suffix -> what writing it needs.
 RECORD_FORMATS = {".gif": "imageio", ".mp4": "imageio-ffmpeg"}
@@ -238,6 +239,8 @@ def _cmd_evaluate(args) -> int:
 def _cmd_leaderboard(args) -> int:
     from polyenvs.leaderboard import (
         PROTOCOL_EPISODES,
+        agents_line,
+        default_agents_dirs,
         plot_path,
         run_leaderboard,
         stored_results,
@@ -273,12 +276,19 @@ def _cmd_leaderboard(args) -> int:
     else:
         results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
         output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
-    agents_dir = Path(args.agents_dir) if args.agents_dir is not None else AGENTS_DIR
-    if args.agents_dir is not None and not agents_dir.is_dir():
-        raise CliError(f"--agents-dir {agents_dir}: no such directory")
+    if args.agents_dir is not None:
+        agents_dir, looked = Path(args.agents_dir), [Path(args.agents_dir)]
+        if not agents_dir.is_dir():
+            raise CliError(f"--agents-dir {agents_dir}: no such directory")
+    elif args.update_reference:
+        agents_dir, looked = AGENTS_DIR, [AGENTS_DIR]
+    else:
+        looked = default_agents_dirs()
+        agents_dir = next((d for d in looked if d.is_dir()), None)
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
+    agents_found = agents_line(agents_dir, env_ids, looked)  # a malformed agent directory: one line, here
     check_writable_directory(results_dir, "--results-dir")
     _check_output_file(output, "--output")
     if results_dir.absolute() == output.absolute():
@@ -287,6 +297,11 @@ def _cmd_leaderboard(args) -> int:
         _check_output_file(plot_path(output, env_id), "--output")
 
     bar = ProgressBar("episodes")
+
+    def plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
+        bar.message(agents_found)
+        bar.start(total)
+
     try:
         selected = run_leaderboard(
             env_ids,
@@ -294,7 +309,7 @@ def _cmd_leaderboard(args) -> int:
             results_dir,
             redo=args.redo or args.update_reference,
             progress=bar.message,
-            on_plan=bar.start,
+            on_plan=plan,
             on_episode=lambda _: bar.advance(),
             agents_dir=agents_dir,
             extra_agents=args.policy or (),
@@ -421,7 +436,8 @@ def build_parser() -> argparse.ArgumentParser:
         "leaderboard",
         help="evaluate every baseline and trained agent on every environment; write the table and plots",
         description=f"Evaluate random, every hand baseline and every committed trained agent "
-        f"({AGENTS_DIR}/<env>/<algo>/seed<N>/) on every environment and write the table, with one PNG per "
+        f"({AGENTS_DIR}/<env>/<algo>/seed<N>/, in the current directory or else in the checkout polyenvs runs "
+        f"from; a line says which and what it holds) on every environment and write the table, with one PNG per "
         f"environment beside it. By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
@@ -440,7 +456,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--agents-dir",
         default=None,
-        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {AGENTS_DIR})",
+        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {AGENTS_DIR} here, "
+        "else in the checkout polyenvs runs from)",
     )
     p.add_argument(
         "--policy",

@@ -199,7 +199,13 @@ def plan_jobs(
         raise InputError(f"--config-dir {config_dir}: no such directory")
     configs = {}
     for algo in dict.fromkeys(algos):
-        path = Path(config_dir) / f"{algo}.yml" if config_dir is not None else default_config_path(algo)
+        if config_dir is None:
+            try:
+                configs[algo] = default_config_path(algo).absolute()
+            except InputError as exc:
+                raise InputError(f"--algos {algo}: {exc}".replace("--config FILE", "--config-dir DIR")) from None
+            continue
+        path = Path(config_dir) / f"{algo}.yml"
         if not path.is_file():
             raise InputError(f"--config-dir: config file {path} does not exist (one <algo>.yml per algorithm)")
         configs[algo] = path.absolute()
@@ -405,9 +411,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids (polyenvs list)")
     p.add_argument("--algos", nargs="+", required=True, metavar="ALGO", help="algorithms (ppo, maskable_ppo, ...)")
-    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help="training seeds, >= 0")
-    p.add_argument("--timesteps", default=None, help="training steps per job, >= 1 (default: the config's)")
-    p.add_argument("--config-dir", default=None, help="directory of <algo>.yml configs (default configs/)")
+    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help=f"training seeds, 0 to {MAX_SEED}")
+    p.add_argument(
+        "--timesteps", default=None, help=f"training steps per job, 1 to {MAX_TIMESTEPS:,} (default: the config's)"
+    )
+    p.add_argument(
+        "--config-dir",
+        default=None,
+        help="directory of <algo>.yml configs (default: the configs shipped with polyenvs)",
+    )
     p.add_argument("--backend", default="local", help="local (a process pool, default) or ray")
     p.add_argument(
         "--address", default=None, help="with --backend ray: a running cluster's address (ray://... or auto)"

@@ -39,6 +39,7 @@ from polyenvs.evaluation import MAX_N_ENVS, MAX_TIMESTEPS, InputError
 __all__ = [
     "META_KEYS",
     "TrainConfig",
+    "config_dirs",
     "default_config_path",
     "jsonable",
     "load_config",
@@ -120,12 +121,22 @@ class TrainConfig:
 # ------------------------------------------------------------------------------------------------ file loading
 
 
+def config_dirs() -> list[Path]:
+    """Where the shipped configs are, in the order they are looked for: the package's own ``polyenvs/configs``
+    (what a wheel installs: pyproject.toml maps the repository's top-level ``configs/`` there), then the
+    ``configs/`` beside the package (a checkout, or an editable install of one)."""
+    package = Path(__file__).resolve().parents[1]
+    return [package / "configs", package.parent / "configs"]
+
+
 def default_config_path(algo: str) -> Path:
-    """``configs/<algo>.yml`` of the repository polyenvs runs from, else of the current directory."""
-    repo = Path(__file__).resolve().parents[2] / "configs" / f"{algo}.yml"
-    if repo.is_file():
-        return repo
-    return Path("configs") / f"{algo}.yml"
+    """The shipped ``<algo>.yml`` (see :func:`config_dirs`), wherever polyenvs runs from; InputError if none."""
+    for directory in config_dirs():
+        path = directory / f"{algo}.yml"
+        if path.is_file():
+            return path
+    looked = " and ".join(str(d) for d in config_dirs())
+    raise InputError(f"polyenvs ships no {algo}.yml config (looked in {looked}); give one with --config FILE")
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:
