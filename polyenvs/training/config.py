@@ -12,13 +12,18 @@ One YAML mapping per file, keyed by environment id; each entry holds RL Zoo's ke
       env_wrapper: module.Wrapper       # per-env gym.Wrapper: an import path, a list of them, or a list of
                                         #   {path: {kwargs}} mappings (as RL Zoo)
       frame_stack: 4                    # VecFrameStack (optional)
+      env_kwargs:                       # the environment's keyword arguments: a YAML mapping
+        ctrl_cost_weight: 0.001
       policy_kwargs: "dict(net_arch=[64, 64], activation_fn=nn.Tanh)"
       learning_rate: lin_3e-4           # RL Zoo's linear schedule (also clip_range, clip_range_vf), or a number
       ...                               # every other key: a constructor argument of the algorithm
 
-The Python-like strings (``policy_kwargs``, ``normalize``, other ``*_kwargs``) are parsed from their syntax tree:
-literals, lists, tuples, dicts, ``dict(...)`` and activation or optimizer classes by name (``nn.Tanh``,
-``th.nn.ReLU``, ``torch.optim.Adam``), nothing else. Every problem raises
+Every file reads the same here and in RL Zoo (``python -m rl_zoo3.train --conf-file``; tests/test_rl_zoo.py runs
+it), so this reader takes exactly the forms RL Zoo takes: a Python-like string only where RL Zoo evaluates one
+(``normalize``, ``policy_kwargs``, ``replay_buffer_kwargs``), a YAML mapping everywhere else (``env_kwargs``, a
+wrapper's keyword arguments, other ``*_kwargs``: RL Zoo passes them on as they are). The strings are parsed from
+their syntax tree: literals, lists, tuples, dicts, ``dict(...)`` and activation or optimizer classes by name
+(``nn.Tanh``, ``th.nn.ReLU``, ``torch.optim.Adam``), nothing else. Every problem raises
 :class:`~polyenvs.evaluation.InputError` with a one-line message naming the file, the id and the key.
 """
 
@@ -62,6 +67,9 @@ RESERVED_KEYS = {"self", "policy", "env", "tensorboard_log", "verbose", "seed", 
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 #: Integer-defaulted arguments that take any number.
 FLOAT_KEYS = {"max_grad_norm"}
+#: The ``*_kwargs`` keys whose strings RL Zoo evaluates (ExperimentManager._preprocess_hyperparams); every other
+#: one it passes to the algorithm as it is, so a string there would reach the constructor as a string.
+EVALUATED_KWARGS = ("policy_kwargs", "replay_buffer_kwargs")
 
 _MODULE_ALIASES = {"nn": "torch.nn", "th": "torch", "torch": "torch"}
 #: Dotted names a config may use, by prefix: activation functions and optimizers.
@@ -255,10 +263,17 @@ def _yaml_hint(value: Any) -> str:
     return ""
 
 
-def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
-    """A mapping written in YAML, or a string of one (``"dict(n_robots=5)"``, as RL Zoo writes it)."""
+def _mapping_only(value: Any, where: str, what: str) -> None:
     if isinstance(value, str):
-        value = parse_python_value(value, where)
+        raise InputError(
+            f"{where}: write {what} as a YAML mapping (one 'name: value' per indented line), not the string "
+            f"{_show(value)}: RL Zoo passes it on as it is, without evaluating it"
+        )
+
+
+def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
+    """A YAML mapping, as RL Zoo needs it (it hands ``env_kwargs`` to ``gym.make`` as they are)."""
+    _mapping_only(value, where, "env_kwargs")
     if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
         raise InputError(f"{where}: expected a mapping of keyword arguments, got {_show(value)}")
     return dict(value)
@@ -295,7 +310,7 @@ def _schedule(value: Any, where: str):
     from stable_baselines3.common.utils import LinearSchedule
 
     if isinstance(value, str):
-        if value.startswith("lin_"):
+        if value.startswith("lin_") and value.count("_") == 1:  # RL Zoo splits it at its one "_"
             try:
                 start = float(value[4:])
             except ValueError:
@@ -313,8 +328,9 @@ def _algo_value(key: str, value: Any, default: Any, where: str) -> Any:
             return None
         return _schedule(value, where)
     if key.endswith("_kwargs"):
-        if isinstance(value, str):
+        if isinstance(value, str) and key in EVALUATED_KWARGS:
             value = parse_python_value(value, where)
+        _mapping_only(value, where, key)
         if value is not None and not isinstance(value, dict):
             raise InputError(f"{where}: expected a dict, got {_show(value)}")
         return value
@@ -367,9 +383,7 @@ def _env_wrappers(value: Any, where: str) -> list[tuple[str, dict[str, Any]]]:
             path, kwargs = item, {}
         elif isinstance(item, dict) and len(item) == 1:
             ((path, kwargs),) = item.items()
-            kwargs = {} if kwargs is None else kwargs
-            if isinstance(kwargs, str):
-                kwargs = parse_python_value(kwargs, where)
+            _mapping_only(kwargs, where, f"the keyword arguments of {path}")
             if not isinstance(path, str) or not isinstance(kwargs, dict):
                 raise InputError(f"{where}: expected {{'module.Wrapper': {{kwargs}}}}, got {_show(item)}")
         else:
