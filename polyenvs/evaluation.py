@@ -66,7 +66,9 @@ def parse_json_object(text: str, name: str) -> dict:
     try:
         value = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(f"{name} is not valid JSON: {exc.msg} (got {text!r})") from None
+        raise InputError(f"{name} is not valid JSON: {exc.msg} (got {_shown(text)!r})") from None
+    except ValueError as exc:  # an integer past Python's 4300-digit limit for reading one
+        raise InputError(f"{name}: {str(exc).split(';')[0]}") from None
     if not isinstance(value, dict):
         raise InputError(f"{name} must be a JSON object, got {text!r}")
     return value
@@ -114,6 +116,7 @@ MAX_FRAMES = 3_000  # frames a recording holds in memory (up to 2 MB each)
 MAX_RUNS = 10_000
 MAX_BUMPS = 1_000
 MAX_PARTICLES = 1_000_000
+MAX_EPISODE_STEPS = 1_000_000  # an ``--env-kwargs`` max_episode_steps (what gym.make's TimeLimit takes)
 
 
 #: What a number flag may look like: Python's decimal literals (``1000``, ``1_000``, ``1e3``, ``2.5e3``, ``.5``).
@@ -206,6 +209,13 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     from polyenvs.rollout import make_env as build
 
     env_kwargs = dict(env_kwargs or {})
+    steps = env_kwargs.get("max_episode_steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, Integral)
+                              or not 1 <= steps <= MAX_EPISODE_STEPS):  # fmt: skip
+        raise InputError(
+            f"bad environment keyword arguments for {env_id}: max_episode_steps must be an integer from 1 to "
+            f"{MAX_EPISODE_STEPS}, got {_shown(repr(steps))}"
+        )
     try:
         return build(env_id, env_kwargs, **extra)
     except UnknownEnvironment:

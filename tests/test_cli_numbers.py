@@ -137,6 +137,31 @@ def test_evaluate_and_record_read_1e3_like_train_and_localize(capsys, tmp_path):
     assert code == 0 and gif.stat().st_size > 0, err
 
 
+BIG = "9" * 5000  # past Python's 4300-digit limit for reading an integer
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["evaluate", GOAL, "--env-kwargs", '{"max_episode_steps": 99999999999999999999}'],
+         "max_episode_steps must be an integer from 1 to 1000000, got 99999999999999999999"),
+        (["evaluate", GOAL, "--env-kwargs", '{"max_episode_steps": true}'], "max_episode_steps must be an integer"),
+        (["evaluate", GOAL, "--env-kwargs", '{"max_episode_steps": -1}'], "max_episode_steps must be an integer"),
+        (["record", GOAL, "--env-kwargs", '{"max_episode_steps": 1e400}'], "max_episode_steps must be an integer"),
+        (["evaluate", GOAL, "--env-kwargs", f'{{"max_episode_steps": {BIG}}}'],
+         "--env-kwargs: Exceeds the limit (4300 digits) for integer string conversion"),
+        (["evaluate", GOAL, "--policy-kwargs", f'{{"clearance_cm": {BIG}}}'], "--policy-kwargs: Exceeds the limit"),
+    ],
+)  # fmt: skip
+def test_json_keyword_arguments_are_checked_against_what_they_feed(args, fragment, capsys, tmp_path, monkeypatch,
+                                                                   no_work):  # fmt: skip
+    """An episode limit in --env-kwargs is a count like the flags' (gym.make took 1e20, -1 and true)."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_main(args, capsys)
+    _one_line(code, err, fragment)
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
