@@ -288,6 +288,11 @@ def _cmd_leaderboard(args) -> int:
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
+    missing = _missing_extras(env_ids)  # found now, not after the environments before them were evaluated
+    if missing and (args.update_reference or len(missing) == len(env_ids)):
+        why = "--update-reference evaluates every environment: " if args.update_reference else ""
+        raise CliError(f"{why}{_missing_line(missing)}")
+    env_ids = [e for e in env_ids if e not in missing]
     agents_found = agents_line(agents_dir, env_ids, looked)  # a malformed agent directory: one line, here
     check_writable_directory(results_dir, "--results-dir")
     _check_output_file(output, "--output")
@@ -299,6 +304,8 @@ def _cmd_leaderboard(args) -> int:
     bar = ProgressBar("episodes")
 
     def plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
+        if missing:
+            bar.message(f"left out: {_missing_line(missing)}")
         bar.message(agents_found)
         bar.start(total)
 
@@ -331,6 +338,33 @@ def _cmd_leaderboard(args) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+def _missing_extras(env_ids: list[str]) -> dict[str, str]:
+    """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
+    from polyenvs.evaluation import InputError, make_env
+    from polyenvs.registry import entry
+
+    missing = {}
+    for env_id in env_ids:
+        extra = entry(env_id).extra
+        if extra is None:
+            continue
+        try:
+            make_env(env_id).close()
+        except InputError as exc:
+            if not isinstance(exc.__cause__, ModuleNotFoundError):
+                raise
+            missing[env_id] = extra
+    return missing
+
+
+def _missing_line(missing: dict[str, str]) -> str:
+    extras = " ".join(f'"polyenvs[{e}]"' for e in dict.fromkeys(missing.values()))
+    return (
+        f"{', '.join(missing)} need{'s' if len(missing) == 1 else ''} packages that are not installed: "
+        f"pip install {extras}"
+    )
 
 
 def _cmd_record(args) -> int:

@@ -384,3 +384,35 @@ def test_the_leaderboard_says_why_it_found_no_agents(tmp_path, monkeypatch, caps
         "polyenvs repository's benchmarks/agents/, which an installed package does not include" in err
     )
     assert "| ppo |" not in out
+
+
+def _without_mujoco(monkeypatch):
+    """As in a ``pip install ".[train]"`` without the mujoco extra: importing mujoco fails."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_mujoco(name, *args, **kwargs):
+        if name == "mujoco" or name.startswith("mujoco."):
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+        return real_import(name, *args, **kwargs)
+
+    for module in [m for m in sys.modules if m.startswith(("gymnasium.envs.mujoco", "polyenvs.beast", "mujoco"))]:
+        monkeypatch.delitem(sys.modules, module)
+    monkeypatch.setattr(builtins, "__import__", no_mujoco)
+
+
+def test_environments_whose_packages_are_missing_are_left_out_before_any_evaluation(tmp_path, monkeypatch, capsys):
+    """``polyenvs leaderboard --quick`` after ``pip install ".[train]"`` evaluated the Buckybot ids, then stopped at
+    BeastTumble-v0 with "needs the package 'mujoco'" (exit 2, after minutes of work)."""
+    _without_mujoco(monkeypatch)
+    code, out, err = run_main(leaderboard(tmp_path, "--only", "ll", "--episodes", "1"), capsys)  # WallFollow, Roll
+    assert code == 0, err
+    assert (
+        'left out: polyenvs/BeastRoll-v0 needs packages that are not installed: pip install "polyenvs[mujoco]"'
+        in err.splitlines()
+    )
+    assert "## polyenvs/BuckybotWallFollow-v0" in out and "BeastRoll" not in out
+    code, out, err = run_main(leaderboard(tmp_path, "--only", "Beast", "--episodes", "1", "--redo"), capsys)
+    assert_one_line_error(code, err, "polyenvs/BeastTumble-v0, polyenvs/BeastRoll-v0, polyenvs/BeastTurn-v0, ")
+    assert 'need packages that are not installed: pip install "polyenvs[mujoco]"' in err
