@@ -10,12 +10,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import check_writable_directory, is_terminal, parse_json_object
+from polyenvs.evaluation import (
+    MAX_EPISODES,
+    MAX_FRAMES,
+    MAX_SEED,
+    MAX_STEPS,
+    check_writable_directory,
+    float_flag,
+    int_flag,
+    is_terminal,
+    parse_json_object,
+)
 
 __all__ = ["main"]
 
@@ -24,10 +33,14 @@ DEFAULT_LEADERBOARD_DIR = Path("runs/leaderboard")
 #: The committed reference results, rewritten only by ``polyenvs leaderboard --update-reference``.
 REFERENCE_RESULTS_DIR = Path("benchmarks/results")
 REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
-#: Committed trained agents (``<env id with / as __>/<algo>/seed<N>/``), evaluated by the leaderboard.
+#: Committed trained agents (``<env id with / as __>/<algo>/seed<N>/``), evaluated by the leaderboard: here, or in
+#: the checkout polyenvs runs from (polyenvs.leaderboard.default_agents_dirs).
 AGENTS_DIR = Path("benchmarks/agents")
 #: Output formats of ``polyenvs record``: suffix -> what writing it needs.
 RECORD_FORMATS = {".gif": "imageio", ".mp4": "imageio-ffmpeg"}
+#: ``polyenvs record --fps`` bounds: a GIF frame lasts at most 655.35 s (a 16-bit count of 10 ms), and no player
+#: shows more than a few hundred frames a second.
+MIN_FPS, MAX_FPS = 0.01, 1000.0
 
 
 class CliError(Exception):
@@ -41,31 +54,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-# ---------------------------------------------------------------------------------------------- argument types
-
-
-def _int_at_least(minimum: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
-        return value
-
-    parse.__name__ = f"integer >= {minimum}"
-    return parse
-
-
-def _positive_finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
+# ------------------------------------------------------------------------------------------------------ checks
 
 
 def _check_output_file(path: Path, flag: str) -> None:
@@ -208,16 +197,18 @@ def _cmd_list(args) -> int:
 def _cmd_evaluate(args) -> int:
     from polyenvs.evaluation import evaluate
 
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
     bar = ProgressBar("episodes")
-    bar.start(args.episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
+    bar.start(episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
     try:
         doc = evaluate(
             args.env_id,
             args.policy,
-            episodes=args.episodes,
-            seed=args.seed,
+            episodes=episodes,
+            seed=seed,
             env_kwargs=env_kwargs,
             policy_kwargs=policy_kwargs,
             on_episode=lambda _: bar.advance(),
@@ -248,6 +239,8 @@ def _cmd_evaluate(args) -> int:
 def _cmd_leaderboard(args) -> int:
     from polyenvs.leaderboard import (
         PROTOCOL_EPISODES,
+        agents_line,
+        default_agents_dirs,
         plot_path,
         run_leaderboard,
         stored_results,
@@ -256,7 +249,9 @@ def _cmd_leaderboard(args) -> int:
     from polyenvs.registry import ALL_IDS
 
     # Everything the user could get wrong is checked here, before the first evaluation.
-    episodes = args.episodes if args.episodes is not None else (5 if args.quick else PROTOCOL_EPISODES)
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    if episodes is None:
+        episodes = 5 if args.quick else PROTOCOL_EPISODES
     if args.update_reference:
         if args.quick or episodes != PROTOCOL_EPISODES:
             raise CliError(
@@ -281,12 +276,24 @@ def _cmd_leaderboard(args) -> int:
     else:
         results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
         output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
-    agents_dir = Path(args.agents_dir) if args.agents_dir is not None else AGENTS_DIR
-    if args.agents_dir is not None and not agents_dir.is_dir():
-        raise CliError(f"--agents-dir {agents_dir}: no such directory")
+    if args.agents_dir is not None:
+        agents_dir, looked = Path(args.agents_dir), [Path(args.agents_dir)]
+        if not agents_dir.is_dir():
+            raise CliError(f"--agents-dir {agents_dir}: no such directory")
+    elif args.update_reference:
+        agents_dir, looked = AGENTS_DIR, [AGENTS_DIR]
+    else:
+        looked = default_agents_dirs()
+        agents_dir = next((d for d in looked if d.is_dir()), None)
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
+    missing = _missing_extras(env_ids)  # found now, not after the environments before them were evaluated
+    if missing and (args.update_reference or len(missing) == len(env_ids)):
+        why = "--update-reference evaluates every environment: " if args.update_reference else ""
+        raise CliError(f"{why}{_missing_line(missing)}")
+    env_ids = [e for e in env_ids if e not in missing]
+    agents_found = agents_line(agents_dir, env_ids, looked)  # a malformed agent directory: one line, here
     check_writable_directory(results_dir, "--results-dir")
     _check_output_file(output, "--output")
     if results_dir.absolute() == output.absolute():
@@ -295,6 +302,13 @@ def _cmd_leaderboard(args) -> int:
         _check_output_file(plot_path(output, env_id), "--output")
 
     bar = ProgressBar("episodes")
+
+    def plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
+        if missing:
+            bar.message(f"left out: {_missing_line(missing)}")
+        bar.message(agents_found)
+        bar.start(total)
+
     try:
         selected = run_leaderboard(
             env_ids,
@@ -302,7 +316,7 @@ def _cmd_leaderboard(args) -> int:
             results_dir,
             redo=args.redo or args.update_reference,
             progress=bar.message,
-            on_plan=bar.start,
+            on_plan=plan,
             on_episode=lambda _: bar.advance(),
             agents_dir=agents_dir,
             extra_agents=args.policy or (),
@@ -326,12 +340,49 @@ def _cmd_leaderboard(args) -> int:
     return 0
 
 
+def _missing_extras(env_ids: list[str]) -> dict[str, str]:
+    """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
+    from polyenvs.evaluation import InputError, make_env
+    from polyenvs.registry import entry
+
+    missing = {}
+    for env_id in env_ids:
+        extra = entry(env_id).extra
+        if extra is None:
+            continue
+        try:
+            make_env(env_id).close()
+        except InputError as exc:
+            if not isinstance(exc.__cause__, ModuleNotFoundError):
+                raise
+            missing[env_id] = extra
+    return missing
+
+
+def _missing_line(missing: dict[str, str]) -> str:
+    extras = " ".join(f'"polyenvs[{e}]"' for e in dict.fromkeys(missing.values()))
+    return (
+        f"{', '.join(missing)} need{'s' if len(missing) == 1 else ''} packages that are not installed: "
+        f"pip install {extras}"
+    )
+
+
 def _cmd_record(args) -> int:
     import numpy as np
 
     from polyenvs.evaluation import atomic_path, make_agent, make_env
     from polyenvs.rollout import episode_frames
 
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
+    max_steps = int_flag("--max-steps", args.max_steps, 1, MAX_STEPS)
+    every = int_flag("--every", args.every, 1, MAX_STEPS)
+    fps = float_flag("--fps", args.fps, MIN_FPS, MAX_FPS)
+    frames = max_steps // every + 2  # the first, one every `every` steps, the last
+    if frames > MAX_FRAMES:
+        raise CliError(
+            f"--max-steps {max_steps} with --every {every} keeps up to {frames} frames in memory, more than "
+            f"{MAX_FRAMES}: raise --every to {-(-max_steps // (MAX_FRAMES - 2))} or lower --max-steps"
+        )
     output = Path(args.output)
     suffix = output.suffix.lower()
     if suffix not in RECORD_FORMATS:
@@ -356,9 +407,9 @@ def _cmd_record(args) -> int:
     env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
     try:
         env_id = args.env_id.split(":", 1)[-1]
-        policy = make_agent(args.policy, env_id, env, seed=args.seed, policy_kwargs=policy_kwargs)
-        frames = episode_frames(env, policy, args.seed, args.max_steps, every=args.every)
-        fps = args.fps or env.metadata.get("render_fps", 10) / args.every
+        policy = make_agent(args.policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
+        frames = episode_frames(env, policy, seed, max_steps, every=every)
+        fps = fps or min(max(env.metadata.get("render_fps", 10) / every, MIN_FPS), MAX_FPS)
     finally:
         env.close()
     video = np.stack(frames)
@@ -390,8 +441,6 @@ def build_parser() -> argparse.ArgumentParser:
     from polyenvs.localization.command import add_parser as add_localize_parser  # imports nothing heavy either
 
     add_localize_parser(sub)
-    episodes_type, seed_type, steps_type = _int_at_least(1), _int_at_least(0), _int_at_least(1)
-
     p = sub.add_parser(
         "list", help="every environment (Gymnasium id or PettingZoo module) with its spaces (one robot's) and a line"
     )
@@ -408,8 +457,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="'random', a hand baseline's name, 'paper' (default), or a trained model: a training directory "
         "(model.zip, vecnormalize.pkl, run.json) or a .zip",
     )
-    p.add_argument("--episodes", type=episodes_type, default=10, help="number of episodes, >= 1 (default 10)")
-    p.add_argument("--seed", type=seed_type, default=0, help="first seed, >= 0; episodes use seed, seed+1, ...")
+    p.add_argument("--episodes", default="10", help=f"number of episodes, 1 to {MAX_EPISODES} (default 10)")
+    p.add_argument(
+        "--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; episodes use seed, seed+1, ... (default 0)"
+    )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     p.add_argument("--json", action="store_true", help="print one JSON document (progress, if any, goes to stderr)")
@@ -419,12 +470,13 @@ def build_parser() -> argparse.ArgumentParser:
         "leaderboard",
         help="evaluate every baseline and trained agent on every environment; write the table and plots",
         description=f"Evaluate random, every hand baseline and every committed trained agent "
-        f"({AGENTS_DIR}/<env>/<algo>/seed<N>/) on every environment and write the table, with one PNG per "
+        f"({AGENTS_DIR}/<env>/<algo>/seed<N>/, in the current directory or else in the checkout polyenvs runs "
+        f"from; a line says which and what it holds) on every environment and write the table, with one PNG per "
         f"environment beside it. By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
     p.add_argument(
-        "--episodes", type=episodes_type, default=None, help="episodes per policy (default 50, 5 with --quick)"
+        "--episodes", default=None, help=f"episodes per policy, 1 to {MAX_EPISODES} (default 50, 5 with --quick)"
     )
     p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
     p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
@@ -438,7 +490,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--agents-dir",
         default=None,
-        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {AGENTS_DIR})",
+        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {AGENTS_DIR} here, "
+        "else in the checkout polyenvs runs from)",
     )
     p.add_argument(
         "--policy",
@@ -461,13 +514,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--policy", default="paper", help="a baseline's name, 'paper' (default), or a trained model's path")
     p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
-    p.add_argument("--seed", type=seed_type, default=0, help="episode seed, >= 0")
-    p.add_argument("--max-steps", type=steps_type, default=300, help="at most this many steps, >= 1 (default 300)")
+    p.add_argument("--seed", default="0", help=f"episode seed, 0 to {MAX_SEED} (default 0)")
+    p.add_argument("--max-steps", default="300", help=f"at most this many steps, 1 to {MAX_STEPS} (default 300)")
     p.add_argument(
-        "--every", type=steps_type, default=1, help="keep one frame every this many steps, >= 1 (default 1: all)"
+        "--every",
+        default="1",
+        help=f"keep one frame every this many steps, >= 1 (default 1: all); at most {MAX_FRAMES} frames in all",
     )
     p.add_argument(
-        "--fps", type=_positive_finite, default=None, help="frames per second, > 0 (default: the env's render_fps)"
+        "--fps",
+        default=None,
+        help=f"frames per second, {MIN_FPS:g} to {MAX_FPS:g} (default: the env's render_fps / --every)",
     )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--output", default="episode.gif", help="a .gif, or a .mp4 (needs imageio-ffmpeg)")
@@ -489,6 +546,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("polyenvs: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (polyenvs list | head): stop quietly, as other tools do
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes
+        return 141
 
 
 if __name__ == "__main__":

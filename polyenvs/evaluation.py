@@ -16,9 +16,11 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import secrets
 import tempfile
 from collections.abc import Callable, Iterator
+from decimal import Decimal, InvalidOperation
 from numbers import Integral
 from pathlib import Path
 from typing import Any
@@ -35,6 +37,7 @@ __all__ = [
     "check_count",
     "check_writable_directory",
     "evaluate",
+    "float_flag",
     "int_flag",
     "interquartile_mean",
     "iqm_with_ci",
@@ -63,7 +66,9 @@ def parse_json_object(text: str, name: str) -> dict:
     try:
         value = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(f"{name} is not valid JSON: {exc.msg} (got {text!r})") from None
+        raise InputError(f"{name} is not valid JSON: {exc.msg} (got {_shown(text)!r})") from None
+    except ValueError as exc:  # an integer past Python's 4300-digit limit for reading one
+        raise InputError(f"{name}: {str(exc).split(';')[0]}") from None
     if not isinstance(value, dict):
         raise InputError(f"{name} must be a JSON object, got {text!r}")
     return value
@@ -99,24 +104,73 @@ def is_terminal(stream) -> bool:
         return False
 
 
-def int_flag(flag: str, text: str | None, minimum: int) -> int | None:
-    """A command-line flag's integer (``1e6`` and ``1_000`` accepted), at least ``minimum``; ``None`` stays ``None``;
-    anything else raises :class:`InputError` naming the flag."""
+#: Upper limits of the command line's numbers: far above any real use, low enough that a slip of the keyboard
+#: (``--episodes 99999999999``) is refused at once instead of running for ever or filling the memory.
+MAX_SEED = 2**32 - 1  # numpy's legacy seeding, which Stable-Baselines3 uses, takes no more
+MAX_EPISODES = 100_000
+MAX_TIMESTEPS = 10**10
+MAX_N_ENVS = 1024
+MAX_JOBS = 1024
+MAX_STEPS = 100_000  # steps of one recorded episode (the longest registered episode is 8000 steps)
+MAX_FRAMES = 3_000  # frames a recording holds in memory (up to 2 MB each)
+MAX_RUNS = 10_000
+MAX_BUMPS = 1_000
+MAX_PARTICLES = 1_000_000
+MAX_EPISODE_STEPS = 1_000_000  # an ``--env-kwargs`` max_episode_steps (what gym.make's TimeLimit takes)
+
+
+#: What a number flag may look like: Python's decimal literals (``1000``, ``1_000``, ``1e3``, ``2.5e3``, ``.5``).
+_NUMBER = re.compile(r"[+-]?(?:\d(?:_?\d)*(?:\.(?:\d(?:_?\d)*)?)?|\.\d(?:_?\d)*)(?:[eE][+-]?\d(?:_?\d)*)?", re.ASCII)
+
+
+def _shown(text) -> str:
+    text = str(text).strip()
+    return text if len(text) <= 40 else f"{text[:12]}...{text[-12:]} ({len(text)} characters)"
+
+
+def _flag_number(flag: str, text, kind: str) -> Decimal:
+    stripped = str(text).strip()
+    if stripped.lower().lstrip("+-") in ("inf", "infinity", "nan"):
+        raise InputError(f"{flag} must be a finite number, got {_shown(text)!r}")
+    if not _NUMBER.fullmatch(stripped):
+        raise InputError(f"{flag} must be {kind}, got {_shown(text)!r}")
+    literal = stripped.replace("_", "")
+    try:
+        return Decimal(literal)  # exact, however long
+    except InvalidOperation:  # an exponent beyond Decimal's own (1e99999999999999999999): as large or small
+        mantissa, _, exponent = literal.lower().partition("e")
+        if Decimal(mantissa) == 0:
+            return Decimal(0)
+        sign = "-" if mantissa.startswith("-") else ""
+        return Decimal(f"{sign}1e{'-' if exponent.startswith('-') else ''}999999")
+
+
+def int_flag(flag: str, text: str | None, minimum: int, maximum: int) -> int | None:
+    """The integer of a command-line flag, ``minimum <= value <= maximum``; ``None`` stays ``None``.
+
+    The one parser of every command's integer flags: ``1000``, ``1_000``, ``1e3`` and ``1000.0`` all read as
+    1000 (exactly: no float rounding); anything else raises :class:`InputError` naming the flag.
+    """
     if text is None:
         return None
-    try:
-        value = int(str(text).replace("_", ""))
-    except ValueError:
-        try:  # 1e6, as configs write it
-            number = float(text)
-        except ValueError:
-            raise InputError(f"{flag} must be an integer, got {text!r}") from None
-        if not number.is_integer():
-            raise InputError(f"{flag} must be an integer, got {text!r}") from None
-        value = int(number)
-    if value < minimum:
-        raise InputError(f"{flag} must be >= {minimum}, got {value}")
-    return value
+    number = _flag_number(flag, text, "an integer")
+    if number < minimum:
+        raise InputError(f"{flag} must be >= {minimum}, got {_shown(text)}")
+    if number > maximum:
+        raise InputError(f"{flag} must be <= {maximum}, got {_shown(text)}")
+    if number != number.to_integral_value():
+        raise InputError(f"{flag} must be an integer, got {_shown(text)!r}")
+    return int(number)
+
+
+def float_flag(flag: str, text: str | None, minimum: float, maximum: float) -> float | None:
+    """The number of a command-line flag, ``minimum <= value <= maximum`` (same formats as :func:`int_flag`)."""
+    if text is None:
+        return None
+    number = _flag_number(flag, text, "a number")
+    if not Decimal(str(minimum)) <= number <= Decimal(str(maximum)):
+        raise InputError(f"{flag} must be between {minimum:g} and {maximum:g}, got {_shown(text)}")
+    return float(number)
 
 
 def add_progress_flag(parser) -> None:
@@ -131,12 +185,16 @@ def add_progress_flag(parser) -> None:
     )
 
 
-def check_count(name: str, value, minimum: int) -> int:
-    """An integer (not a bool, float or string) that is at least ``minimum``; raises :class:`InputError`."""
+def check_count(name: str, value, minimum: int, maximum: int | None = None) -> int:
+    """An integer (not a bool, float or string) in ``[minimum, maximum]``; raises :class:`InputError`.
+
+    For values given in Python; the command line's flags go through :func:`int_flag`."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, Integral):
         raise InputError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise InputError(f"{name} must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{name} must be <= {maximum}, got {value}")
     return int(value)
 
 
@@ -151,6 +209,13 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     from polyenvs.rollout import make_env as build
 
     env_kwargs = dict(env_kwargs or {})
+    steps = env_kwargs.get("max_episode_steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, Integral)
+                              or not 1 <= steps <= MAX_EPISODE_STEPS):  # fmt: skip
+        raise InputError(
+            f"bad environment keyword arguments for {env_id}: max_episode_steps must be an integer from 1 to "
+            f"{MAX_EPISODE_STEPS}, got {_shown(repr(steps))}"
+        )
     try:
         return build(env_id, env_kwargs, **extra)
     except UnknownEnvironment:

@@ -39,6 +39,8 @@ from polyenvs.evaluation import (
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
+    "agents_line",
+    "default_agents_dirs",
     "EVAL_SEED",
     "PROTOCOL_EPISODES",
     "Agent",
@@ -193,6 +195,45 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
                     raise InputError(f"{run_file}: {what} is {found!r}, but the directory says {expected!r}")
             agents.append(Agent(env_id, algo, str(seed_dir), algo, f"agent__{algo}__seed{seed}", seed, run))
     return agents
+
+
+def default_agents_dirs() -> list[Path]:
+    """Where the leaderboard looks for the committed agents, in order: ``benchmarks/agents`` in the current
+    directory, then in the checkout polyenvs runs from (a clone, or an editable install of one). An installed
+    package does not ship them (7 MB of models): from anywhere else there are none."""
+    candidates = [DEFAULT_AGENTS_DIR]
+    root = Path(__file__).resolve().parents[1]
+    if (root / "pyproject.toml").is_file() and (root / "polyenvs" / "__init__.py").is_file():
+        candidates.append(root / DEFAULT_AGENTS_DIR)
+    return candidates
+
+
+def agents_line(agents_dir: Path | None, env_ids: list[str], looked: list[Path] | None = None) -> str:
+    """One line saying where the trained agents come from and what is there for ``env_ids`` (for the output).
+
+    ``agents_dir`` None: none of ``looked`` exists. Raises :class:`InputError` for a malformed agent directory.
+    """
+    if agents_dir is None:
+        where = " and ".join(str(Path(p).absolute()) for p in dict.fromkeys(looked or [DEFAULT_AGENTS_DIR]))
+        return (
+            f"trained agents: none found (no {where}; the committed agents are in the polyenvs repository's "
+            f"{DEFAULT_AGENTS_DIR}/, which an installed package does not include: run from a checkout or pass "
+            "--agents-dir DIR)"
+        )
+    found = {env_id: find_agents(agents_dir, env_id) for env_id in env_ids}
+    agents = [a for group in found.values() for a in group]
+    where = Path(agents_dir).absolute()
+    if not agents:
+        return (
+            f"trained agents: none in {where} for the {len(env_ids)} environment{'s' if len(env_ids) != 1 else ''} "
+            "run (it has no <env id with / as __>/<algo>/seed<N>/ directory for them)"
+        )
+    algos = ", ".join(dict.fromkeys(a.algo for a in agents))
+    envs = sum(1 for group in found.values() if group)
+    return (
+        f"trained agents: {len(agents)} ({algos}) for {envs} of {len(env_ids)} environment"
+        f"{'s' if len(env_ids) != 1 else ''}, from {where}"
+    )
 
 
 def agent_from_path(path: str) -> Agent:

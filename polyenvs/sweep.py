@@ -10,11 +10,15 @@ leaderboard's result file for that agent). The jobs run on a local process pool 
 each) or, with ``--backend ray``, as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a
 running cluster; the pool or Ray schedules them. Jobs are reproducible from their seeds, and a re-run skips what is
 done: ``train`` returns a finished run without training, and a readable result file for the same number of episodes
-is kept.
+is kept. A job that was interrupted (Ctrl-C, or the sweep killed outright: its run.json says completed false) is
+resumed from its last saved model (``train(resume=True)``: the checkpoint every ``DEFAULT_CHECKPOINT_EVERY``
+timesteps, or what Ctrl-C saved), or trained again from the start if it saved none; its run.json lists the
+timesteps it resumed at (``resumed_at``).
 
 Every flag is checked before any job starts (one-line :class:`~polyenvs.evaluation.InputError`, exit 2). A failing
 job is reported with its error in one line and the command exits 1 once the others finish; Ctrl-C stops the jobs
-(a run interrupted mid-training keeps its partial model, ``run.json``: completed false) and exits 130.
+(a run interrupted mid-training keeps its partial model, ``run.json``: completed false, which a re-run resumes) and
+exits 130.
 """
 
 from __future__ import annotations
@@ -28,7 +32,15 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import InputError, check_writable_directory
+from polyenvs.evaluation import (
+    MAX_EPISODES,
+    MAX_JOBS,
+    MAX_SEED,
+    MAX_TIMESTEPS,
+    InputError,
+    check_writable_directory,
+)
+from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = ["DEFAULT_SWEEP_DIR", "Job", "add_parser", "done_before", "plan_jobs", "run", "run_job", "run_sweep"]
 
@@ -50,6 +62,7 @@ class Job:
     episodes: int
     out_dir: str
     result_file: str
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY
 
     @property
     def name(self) -> str:
@@ -60,6 +73,8 @@ class Job:
         argv = ["polyenvs", "train", self.env_id, "--algo", self.algo, "--config", self.config]
         if self.timesteps is not None:
             argv += ["--timesteps", str(self.timesteps)]
+        if self.checkpoint_every != DEFAULT_CHECKPOINT_EVERY:
+            argv += ["--checkpoint-every", str(self.checkpoint_every)]
         return shlex.join([*argv, "--seed", str(self.seed), "--out", self.out_dir, "--no-progress"])
 
 
@@ -93,6 +108,7 @@ def run_job(job: Job) -> dict[str, Any]:
     out_dir, result_file = Path(job.out_dir), Path(job.result_file)
     try:
         trained = finished_run(out_dir, job.env_id, job.algo, job.seed) is None
+        before = read_run(out_dir) or {}
         train(
             job.env_id,
             job.algo,
@@ -102,8 +118,12 @@ def run_job(job: Job) -> dict[str, Any]:
             out_dir=out_dir,
             tensorboard=False,
             command=job.command(),
+            checkpoint_every=job.checkpoint_every,
+            resume=True,  # an interrupted run (Ctrl-C, or the sweep killed) continues from its saved model
         )
         run_doc = read_run(out_dir) or {}
+        resumed = run_doc.get("resumed_at", [])
+        resumed_from = resumed[-1] if trained and len(resumed) > len(before.get("resumed_at", [])) else None
         doc, _ = load_result(result_file, job.env_id, str(out_dir), job.episodes)
         evaluated = doc is None
         if doc is None:
@@ -125,6 +145,7 @@ def run_job(job: Job) -> dict[str, Any]:
     return {
         "job": asdict(job),
         "trained": trained,
+        "resumed_from": resumed_from,
         "train_s": float(run_doc.get("wall_clock_s", 0.0)),
         "evaluated": evaluated,
         "iqm": interquartile_mean(returns),
@@ -149,6 +170,7 @@ def plan_jobs(
     config_dir: Path | None = None,
     timesteps: int | None = None,
     episodes: int = 10,
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
 ) -> list[Job]:
     """Check everything about a sweep (ids, algorithms, configs, output directories) and list its jobs.
 
@@ -177,7 +199,13 @@ def plan_jobs(
         raise InputError(f"--config-dir {config_dir}: no such directory")
     configs = {}
     for algo in dict.fromkeys(algos):
-        path = Path(config_dir) / f"{algo}.yml" if config_dir is not None else default_config_path(algo)
+        if config_dir is None:
+            try:
+                configs[algo] = default_config_path(algo).absolute()
+            except InputError as exc:
+                raise InputError(f"--algos {algo}: {exc}".replace("--config FILE", "--config-dir DIR")) from None
+            continue
+        path = Path(config_dir) / f"{algo}.yml"
         if not path.is_file():
             raise InputError(f"--config-dir: config file {path} does not exist (one <algo>.yml per algorithm)")
         configs[algo] = path.absolute()
@@ -196,12 +224,17 @@ def plan_jobs(
         for algo in dict.fromkeys(algos):
             for seed in dict.fromkeys(seeds):
                 out_dir = out / "agents" / _slug(env_id) / algo / f"seed{seed}"
-                try:
-                    check_out_dir(out_dir, env_id, algo, seed)
+                try:  # an interrupted run is resumed; a directory the sweep cannot use stops it before any job
+                    check_out_dir(out_dir, env_id, algo, seed, resume=True)
                 except InputError as exc:
-                    raise InputError(str(exc).replace("choose another --out or remove it", "remove it")) from None
+                    message = str(exc).replace("; choose another --out or remove it", "; remove it")
+                    message = message.replace("; choose another --out, or --overwrite to replace it", "; remove it")
+                    raise InputError(message) from None
                 result = out / "results" / f"{_slug(env_id)}__agent__{algo}__seed{seed}.json"
-                jobs.append(Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result)))
+                jobs.append(
+                    Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result),
+                        checkpoint_every)
+                )  # fmt: skip
     return jobs
 
 
@@ -286,6 +319,8 @@ def _describe(result: dict) -> str:
     if "error" in result:
         return f"{name}: FAILED: {result['error']}"
     trained = f"trained in {result['train_s']:.1f} s" if result["trained"] else "trained before"
+    if result.get("resumed_from") is not None:
+        trained = f"resumed at {result['resumed_from']} timesteps, {trained}"
     evaluated = "evaluated" if result["evaluated"] else "evaluated before"
     return (
         f"{name}: {trained}; {evaluated}: IQM return {result['iqm']:.4g}, mean {result['mean']:.4g} "
@@ -308,6 +343,7 @@ def done_before(job: Job) -> dict[str, Any] | None:
     return {
         "job": asdict(job),
         "trained": False,
+        "resumed_from": None,
         "train_s": 0.0,
         "evaluated": False,
         "iqm": interquartile_mean(returns),
@@ -351,7 +387,7 @@ def summary_table(results: list[dict]) -> list[str]:
         if "error" in r:
             status, train_s, iqm, mean = "FAILED", "-", "-", "-"
         else:
-            status = "trained" if r["trained"] else "done before"
+            status = ("resumed" if r.get("resumed_from") is not None else "trained") if r["trained"] else "done before"
             train_s = f"{r['train_s']:.1f}" if r["trained"] else "-"
             iqm, mean = f"{r['iqm']:.4g}", f"{r['mean']:.4g}"
         rows.append([job["env_id"], job["algo"], str(job["seed"]), status, train_s, iqm, mean])
@@ -369,21 +405,36 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Train every (environment, algorithm, seed) and evaluate it on the leaderboard's seeds, as "
         "independent jobs on a local process pool (--jobs workers) or on Ray (--backend ray; needs "
         "polyenvs[distributed]). Writes OUT/agents/<env>/<algo>/seed<N>/ (as benchmarks/agents) and "
-        "OUT/results/<env>__agent__<algo>__seed<N>.json; a re-run skips finished jobs. On a Ray cluster OUT must "
-        "be on a file system every node shares.",
+        "OUT/results/<env>__agent__<algo>__seed<N>.json; a re-run skips finished jobs and resumes interrupted ones "
+        "(from their last checkpoint, or from the start if they saved none). On a Ray cluster OUT must be on a "
+        "file system every node shares.",
     )
     p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids (polyenvs list)")
     p.add_argument("--algos", nargs="+", required=True, metavar="ALGO", help="algorithms (ppo, maskable_ppo, ...)")
-    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help="training seeds, >= 0")
-    p.add_argument("--timesteps", default=None, help="training steps per job, >= 1 (default: the config's)")
-    p.add_argument("--config-dir", default=None, help="directory of <algo>.yml configs (default configs/)")
+    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help=f"training seeds, 0 to {MAX_SEED}")
+    p.add_argument(
+        "--timesteps", default=None, help=f"training steps per job, 1 to {MAX_TIMESTEPS:,} (default: the config's)"
+    )
+    p.add_argument(
+        "--config-dir",
+        default=None,
+        help="directory of <algo>.yml configs (default: the configs shipped with polyenvs)",
+    )
     p.add_argument("--backend", default="local", help="local (a process pool, default) or ray")
     p.add_argument(
         "--address", default=None, help="with --backend ray: a running cluster's address (ray://... or auto)"
     )
-    p.add_argument("--jobs", default=None, help="parallel jobs, >= 1 (default: the CPU count; a local Ray's CPUs)")
+    p.add_argument(
+        "--jobs", default=None, help=f"parallel jobs, 1 to {MAX_JOBS} (default: the CPU count; a local Ray's CPUs)"
+    )
     p.add_argument("--out", default=str(DEFAULT_SWEEP_DIR), help=f"output directory (default {DEFAULT_SWEEP_DIR})")
-    p.add_argument("--episodes", default="10", help="evaluation episodes per job, >= 1 (default 10)")
+    p.add_argument(
+        "--checkpoint-every",
+        default=str(DEFAULT_CHECKPOINT_EVERY),
+        help="save each job's model every this many timesteps, so that a re-run after a kill resumes from there; "
+        f"0: only at the end and on Ctrl-C (default {DEFAULT_CHECKPOINT_EVERY})",
+    )
+    p.add_argument("--episodes", default="10", help=f"evaluation episodes per job, 1 to {MAX_EPISODES} (default 10)")
     p.set_defaults(func=run)
     return p
 
@@ -392,10 +443,13 @@ def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs sweep`` for parsed ``args``: 0 when every job finished, 1 if any failed, 130 after Ctrl-C."""
     from polyenvs.evaluation import int_flag
 
-    seeds = [int_flag("--seeds", s, 0) for s in args.seeds]
-    timesteps = int_flag("--timesteps", args.timesteps, 1)
-    episodes = int_flag("--episodes", args.episodes, 1)
-    workers = int_flag("--jobs", args.jobs, 1) if args.jobs is not None else (os.cpu_count() or 1)
+    seeds = [int_flag("--seeds", s, 0, MAX_SEED) for s in args.seeds]
+    timesteps = int_flag("--timesteps", args.timesteps, 1, MAX_TIMESTEPS)
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    checkpoint_every = int_flag("--checkpoint-every", args.checkpoint_every, 0, MAX_TIMESTEPS)
+    workers = (
+        int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else min(os.cpu_count() or 1, MAX_JOBS)
+    )
     if args.backend not in BACKENDS:
         raise InputError(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
     if args.address is not None and args.backend != "ray":
@@ -410,9 +464,16 @@ def run(args: argparse.Namespace) -> int:
         config_dir=Path(args.config_dir) if args.config_dir is not None else None,
         timesteps=timesteps,
         episodes=episodes,
+        checkpoint_every=checkpoint_every,
     )
     where = f"Ray ({args.address or f'a local instance, {workers} CPUs'})" if args.backend == "ray" else None
     print(f"{len(jobs)} job{'s' if len(jobs) != 1 else ''} on {where or f'{min(workers, len(jobs))} local workers'}")
+    from polyenvs.training.train import interrupted_note
+
+    for job in jobs:
+        note = interrupted_note(job.out_dir)
+        if note is not None:
+            print(f"{job.name}: {note}")
     results: list[dict] = []
     start = time.monotonic()
     try:
@@ -420,7 +481,7 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(
             "polyenvs sweep: interrupted; finished jobs are kept (a re-run skips them); a run stopped mid-training "
-            "keeps its partial model (run.json: completed false): remove its directory to train it again",
+            "keeps its partial model (run.json: completed false), which a re-run resumes",
             file=sys.stderr,
         )
         return 130

@@ -201,6 +201,7 @@ def test_default_run_writes_to_an_untracked_directory(tmp_path, monkeypatch, cap
     monkeypatch.chdir(tmp_path)
     shutil.copytree(ROOT / "benchmarks" / "results", tmp_path / "benchmarks" / "results")
     (tmp_path / "benchmarks" / "LEADERBOARD.md").write_text("reference")
+    (tmp_path / "benchmarks" / "agents").mkdir()  # found here first: no agents (the checkout's are tested apart)
     before = {p.name: p.read_bytes() for p in (tmp_path / "benchmarks" / "results").iterdir()}
     code, _, err = run_main(["leaderboard", "--quick", "--episodes", "1", "--only", "Goal"], capsys)
     assert code == 0, err
@@ -344,3 +345,74 @@ def test_leaderboard_shows_progress_on_a_terminal(tmp_path, monkeypatch, capsys)
     assert "4/4 episodes" in text and "1/4 episodes" in text  # 2 policies x 2 episodes, one bar for the run
     assert "goal_seeker: 2 episodes" in text
     assert capsys.readouterr().out.startswith("# polyenvs leaderboard")
+
+
+# ------------------------------------------------------------------------------------------- trained agents
+
+
+def test_the_leaderboard_says_where_it_found_the_agents_from_any_directory(tmp_path, monkeypatch, capsys):
+    """Run from elsewhere, it used to look for benchmarks/agents in the current directory only and silently
+    evaluate no agent; now it also looks in the checkout it runs from, and says where and what it found."""
+    monkeypatch.chdir(tmp_path)
+    seeds = sorted((ROOT / "benchmarks" / "agents" / "polyenvs__BumperCartExplore-v0" / "ppo").iterdir())
+    code, out, err = run_main(
+        ["leaderboard", "--only", "BumperCartExplore", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
+         "--output", str(tmp_path / "L.md")],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    line = f"trained agents: {len(seeds)} (ppo) for 1 of 1 environment, from {ROOT / 'benchmarks' / 'agents'}"
+    assert line in err.splitlines(), err
+    assert "| ppo | polyenvs/BumperCartExplore-v0 |" in out
+
+
+def test_the_leaderboard_says_why_it_found_no_agents(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    empty = tmp_path / "agents"
+    empty.mkdir()
+    argv = ["leaderboard", "--only", "BumperCartExplore", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
+            "--output", str(tmp_path / "L.md")]  # fmt: skip
+    code, out, err = run_main([*argv, "--agents-dir", str(empty)], capsys)
+    assert code == 0, err
+    assert f"trained agents: none in {empty} for the 1 environment run (it has no <env id" in err
+    # An installed package without a checkout beside it (the fresh-venv case): nowhere to look but here.
+    monkeypatch.setattr(polyenvs.leaderboard, "default_agents_dirs", lambda: [Path("benchmarks/agents")])
+    code, out, err = run_main(argv, capsys)
+    assert code == 0, err
+    assert (
+        f"trained agents: none found (no {tmp_path / 'benchmarks' / 'agents'}; the committed agents are in the "
+        "polyenvs repository's benchmarks/agents/, which an installed package does not include" in err
+    )
+    assert "| ppo |" not in out
+
+
+def _without_mujoco(monkeypatch):
+    """As in a ``pip install ".[train]"`` without the mujoco extra: importing mujoco fails."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_mujoco(name, *args, **kwargs):
+        if name == "mujoco" or name.startswith("mujoco."):
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+        return real_import(name, *args, **kwargs)
+
+    for module in [m for m in sys.modules if m.startswith(("gymnasium.envs.mujoco", "polyenvs.beast", "mujoco"))]:
+        monkeypatch.delitem(sys.modules, module)
+    monkeypatch.setattr(builtins, "__import__", no_mujoco)
+
+
+def test_environments_whose_packages_are_missing_are_left_out_before_any_evaluation(tmp_path, monkeypatch, capsys):
+    """``polyenvs leaderboard --quick`` after ``pip install ".[train]"`` evaluated the Buckybot ids, then stopped at
+    BeastTumble-v0 with "needs the package 'mujoco'" (exit 2, after minutes of work)."""
+    _without_mujoco(monkeypatch)
+    code, out, err = run_main(leaderboard(tmp_path, "--only", "ll", "--episodes", "1"), capsys)  # WallFollow, Roll
+    assert code == 0, err
+    assert (
+        'left out: polyenvs/BeastRoll-v0 needs packages that are not installed: pip install "polyenvs[mujoco]"'
+        in err.splitlines()
+    )
+    assert "## polyenvs/BuckybotWallFollow-v0" in out and "BeastRoll" not in out
+    code, out, err = run_main(leaderboard(tmp_path, "--only", "Beast", "--episodes", "1", "--redo"), capsys)
+    assert_one_line_error(code, err, "polyenvs/BeastTumble-v0, polyenvs/BeastRoll-v0, polyenvs/BeastTurn-v0, ")
+    assert 'need packages that are not installed: pip install "polyenvs[mujoco]"' in err

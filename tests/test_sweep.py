@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -13,6 +18,7 @@ pytest.importorskip("sb3_contrib")
 
 from polyenvs.cli import main  # noqa: E402
 
+ROOT = Path(__file__).resolve().parent.parent
 WALL = "polyenvs/BuckybotWallFollow-v0"
 SLUG = "polyenvs__BuckybotWallFollow-v0"
 TINY = """\
@@ -111,15 +117,98 @@ def test_bad_flags_are_one_line_before_any_job(tmp_path, config_dir, capsys, mon
     assert not (tmp_path / "out").exists()
 
 
-def test_unfinished_run_in_the_way_is_one_line(tmp_path, config_dir, capsys):
+def test_an_interrupted_job_that_saved_no_model_is_trained_again(tmp_path, config_dir, capsys):
+    """What a kill -9 before the first checkpoint leaves: the run.json written before training, without
+    ``completed`` true (and maybe a temporary file cut short). Every re-run used to stop at it with exit 2."""
     out = tmp_path / "out"
     busy = out / "agents" / SLUG / "ppo" / "seed1"
     busy.mkdir(parents=True)
-    (busy / "run.json").write_text(json.dumps({"env_id": WALL, "algo": "ppo", "seed": 1, "completed": False}))
-    assert main(_argv(config_dir, out)) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "holds an unfinished or interrupted run; remove it" in err
-    assert not (out / "agents" / SLUG / "ppo" / "seed0").exists()
+    (busy / "run.json").write_text(json.dumps({"env_id": WALL, "algo": "ppo", "seed": 1, "timesteps": 0,
+                                               "requested_timesteps": 256, "completed": False}))  # fmt: skip
+    (busy / ".model.zip.0123abcd.tmp.zip").write_bytes(b"PK")  # the write the kill cut short
+    assert main(_argv(config_dir, out)) == 0
+    printed = capsys.readouterr().out
+    assert f"{WALL} ppo seed1: interrupted before it saved a model: training it again from the start" in printed
+    assert "2 of 2 jobs finished" in printed
+    _check_outputs(out)
+    assert "resumed_at" not in json.loads((busy / "run.json").read_text())
+    assert sorted(p.name for p in busy.iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+
+
+def _wait_for_checkpoints(proc: subprocess.Popen, run_files: list[Path], log: Path) -> None:
+    """Until every run.json records a checkpoint (timesteps > 0); fails if the process ends first."""
+    deadline = time.monotonic() + 300  # a bound on a broken run, not a timing assertion
+    while True:
+        runs = []
+        for path in run_files:
+            try:
+                runs.append(json.loads(path.read_text()))
+            except (OSError, ValueError):
+                runs.append({})
+        if all(r.get("timesteps", 0) > 0 for r in runs):
+            return
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"the sweep ended (or never checkpointed) before it was killed: {log.read_text()[-2000:]}")
+        time.sleep(0.2)
+
+
+def _wait_until_unlocked(lock: Path) -> None:
+    import fcntl
+
+    deadline = time.monotonic() + 60  # a bound, not a timing assertion
+    while lock.exists():
+        with open(lock) as fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except OSError:
+                if time.monotonic() > deadline:
+                    pytest.fail(f"{lock} is still held after the kill")
+        time.sleep(0.1)
+
+
+def test_a_sweep_killed_mid_training_resumes_every_job(tmp_path, config_dir, capsys):
+    """kill -9 of the whole sweep (driver and workers: the machine lost, the OOM killer) mid-training, then the
+    same sweep again: every job resumes from its last checkpoint and finishes."""
+    out = tmp_path / "out"
+    argv = _argv(config_dir, out, "--checkpoint-every", "128")
+    argv[argv.index("--timesteps") + 1] = "1000000"  # would train for an hour: only the kill ends it
+    log = tmp_path / "sweep.log"
+    with open(log, "w") as sink:
+        proc = subprocess.Popen([sys.executable, "-m", "polyenvs.cli", *argv], cwd=ROOT, stdout=sink,
+                                stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
+    runs = [out / "agents" / SLUG / "ppo" / f"seed{seed}" / "run.json" for seed in (0, 1)]
+    try:
+        _wait_for_checkpoints(proc, runs, log)
+    finally:
+        with contextlib.suppress(ProcessLookupError):  # (already gone if it failed to start)
+            os.killpg(proc.pid, signal.SIGKILL)  # the driver and its workers, as a lost machine stops them
+        proc.wait()
+    for path in runs:  # the workers are gone once the kernel has released their locks (a moment after the driver)
+        _wait_until_unlocked(path.parent / ".training.lock.tmp")
+    from polyenvs.training.train import saved_timesteps
+
+    saved = {}
+    for seed, path in enumerate(runs):
+        run = json.loads(path.read_text())
+        saved[seed] = saved_timesteps(path.parent)  # run.json may lag the model by the moment between the two
+        assert run["completed"] is False and 0 < run["timesteps"] <= saved[seed]
+
+    argv[argv.index("--timesteps") + 1] = "512"
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    for seed in (0, 1):
+        assert (
+            f"ppo seed{seed}: interrupted at {saved[seed]} of 1000000 timesteps: resuming it from its saved model"
+            in printed
+        )
+        assert f"ppo seed{seed}: resumed at {saved[seed]} timesteps, trained in" in printed
+    assert "2 of 2 jobs finished" in printed
+    _check_outputs(out)
+    for seed, path in enumerate(runs):
+        run = json.loads(path.read_text())
+        assert run["resumed_at"] == [saved[seed]] and run["timesteps"] >= 512 and run["requested_timesteps"] == 512
 
 
 def test_a_failing_job_is_reported_and_the_others_finish(tmp_path, config_dir, capsys):

@@ -7,6 +7,7 @@ and the ``polyenvs train`` command in ``test_training_command.py``.
 from __future__ import annotations
 
 import json
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -165,9 +166,27 @@ def test_ctrl_c_saves_the_partial_model(tmp_path):
     assert run["completed"] is False and run["timesteps"] == 600 and run["requested_timesteps"] == 100_000
     assert (out / "model.zip").is_file() and (out / "vecnormalize.pkl").is_file()
     assert sb3.PPO.load(out / "model.zip", device="cpu").num_timesteps == 600
-    # An interrupted run is not finished: a re-run refuses the directory instead of skipping it.
-    with pytest.raises(InputError, match="holds an unfinished or interrupted run"):
+    # An interrupted run is not finished: a re-run refuses the directory instead of skipping it, and says how to go on.
+    with pytest.raises(InputError, match=r"holds an interrupted run \(600 of 100000 timesteps saved\); --resume"):
         train(WALL, "ppo", timesteps=64, n_envs=2, out_dir=out)
+
+
+def test_resume_continues_the_saved_model_and_its_statistics(tmp_path):
+    out = tmp_path / "run"
+    common = {"n_envs": 2, "out_dir": out, "tensorboard": False}
+    with pytest.raises(TrainingInterrupted):
+        train(WALL, "ppo", timesteps=100_000, callbacks=[_Interrupt(after=300)], **common)
+    with pytest.raises(InputError, match="cannot resume .*: it trained with n_envs=2, this run asks for 4"):
+        train(WALL, "ppo", timesteps=1200, resume=True, **{**common, "n_envs": 4})
+    assert train(WALL, "ppo", timesteps=1200, resume=True, **common) == out
+    run = _run(out)
+    assert run["completed"] is True and run["resumed_at"] == [600] and run["timesteps"] >= 1200
+    model = sb3.PPO.load(out / "model.zip", device="cpu")
+    assert model.num_timesteps == run["timesteps"]
+    with open(out / "vecnormalize.pkl", "rb") as fh:
+        statistics = pickle.load(fh)
+    # The statistics went on from the saved ones: one observation per env and step (and reset) since the start.
+    assert abs(statistics.obs_rms.count - run["timesteps"]) <= 8
 
 
 def test_native_and_dummy_training_give_the_same_model(tmp_path):

@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -18,7 +23,8 @@ from polyenvs.evaluation import InputError  # noqa: E402
 from polyenvs.training.command import add_parser, default_out_dir  # noqa: E402
 
 WALL = "polyenvs/BuckybotWallFollow-v0"
-CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = ROOT / "configs"
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -125,3 +131,95 @@ def test_defaults():
     assert _parser().parse_args(["train", WALL, "--algo", "ppo", "--no-progress"]).progress is False
     with pytest.raises(SystemExit):
         _parser().parse_args(["train", WALL])  # --algo is required
+
+
+# ------------------------------------------------------------------------------------- interrupted runs
+
+TINY = f"""\
+{WALL}:
+  n_envs: 2
+  n_timesteps: 256
+  policy: 'MlpPolicy'
+  normalize: true
+  n_steps: 64
+  batch_size: 64
+  n_epochs: 1
+  policy_kwargs: "dict(net_arch=[16])"
+"""
+
+
+def test_an_interrupted_out_dir_is_one_line_naming_the_flag_to_use(tmp_path, capsys, no_work):
+    out = tmp_path / "run"
+    out.mkdir()
+    run = {"env_id": WALL, "algo": "ppo", "seed": 0, "timesteps": 512, "requested_timesteps": 4096, "completed": False}
+    (out / "run.json").write_text(json.dumps(run))
+    assert main(["train", WALL, "--algo", "ppo", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("polyenvs train: error: ")
+    assert "holds an interrupted run that saved no model yet; --overwrite (or --resume) to train it again" in err
+    (out / "model.zip").write_bytes(b"PK")
+    assert main(["train", WALL, "--algo", "ppo", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "holds an interrupted run (512 of 4096 timesteps saved); --resume to continue it, or --overwrite" in err
+    assert main(["train", WALL, "--algo", "ppo", "--seed", "1", "--resume", "--out", str(out)]) == 2
+    assert (
+        "holds an unfinished or interrupted run of polyenvs/BuckybotWallFollow-v0 ppo seed 0" in capsys.readouterr().err
+    )
+    with pytest.raises(SystemExit):
+        _parser().parse_args(["train", WALL, "--algo", "ppo", "--resume", "--overwrite"])
+    assert sorted(p.name for p in out.iterdir()) == ["model.zip", "run.json"]  # refused: nothing touched
+
+
+def _wait_for_a_checkpoint(proc: subprocess.Popen, run_file: Path, log: Path) -> dict:
+    deadline = time.monotonic() + 300  # a bound on a broken run, not a timing assertion
+    while True:
+        try:
+            run = json.loads(run_file.read_text())
+        except (OSError, ValueError):
+            run = {}
+        if run.get("timesteps", 0) > 0:
+            return run
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"training ended (or never checkpointed) before it was killed: {log.read_text()[-2000:]}")
+        time.sleep(0.2)
+
+
+def test_kill_9_then_resume_continues_from_the_last_checkpoint_and_overwrite_starts_again(tmp_path, capsys):
+    config, out, log = tmp_path / "tiny.yml", tmp_path / "run", tmp_path / "train.log"
+    config.write_text(TINY)
+    argv = ["train", WALL, "--algo", "ppo", "--config", str(config), "--out", str(out), "--no-progress"]
+    with open(log, "w") as sink:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "polyenvs.cli", *argv, "--timesteps", "1000000", "--checkpoint-every", "128"],
+            cwd=ROOT, stdout=sink, stderr=subprocess.STDOUT, start_new_session=True,
+        )  # fmt: skip
+    try:
+        _wait_for_a_checkpoint(proc, out / "run.json", log)
+        # While it trains, the directory is its alone.
+        assert main([*argv, "--resume"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"is being trained into by pid {proc.pid}; wait for it or stop it" in err
+    finally:
+        with contextlib.suppress(ProcessLookupError):  # (already gone if it failed to start)
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    run = json.loads((out / "run.json").read_text())
+    saved = train_module.saved_timesteps(out)  # run.json may lag the model by the moment between the two
+    assert run["completed"] is False and 0 < run["timesteps"] <= saved and saved % 128 == 0
+
+    assert main([*argv, "--timesteps", "512", "--resume"]) == 0
+    printed = capsys.readouterr().out
+    assert f"interrupted at {saved} of 1000000 timesteps: resuming it from its saved model" in printed
+    run = json.loads((out / "run.json").read_text())
+    assert run["completed"] is True and run["resumed_at"] == [saved] and run["requested_timesteps"] == 512
+    assert run["timesteps"] >= 512 and run["command"].endswith("--timesteps 1000000 --checkpoint-every 128")
+    import stable_baselines3 as sb3
+
+    assert sb3.PPO.load(out / "model.zip", device="cpu").num_timesteps == run["timesteps"]
+    assert not list(out.glob(".*"))  # no lock or temporary file left in a finished run
+
+    assert main([*argv, "--timesteps", "256", "--overwrite"]) == 0
+    run = json.loads((out / "run.json").read_text())
+    assert run["completed"] is True and run["timesteps"] == 256 and "resumed_at" not in run

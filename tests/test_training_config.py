@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -272,14 +273,44 @@ def test_jsonable():
     assert jsonable({"a": (nn.Tanh, 1), "b": [None, True, "s"]}) == {"a": ["torch.nn.Tanh", 1], "b": [None, True, "s"]}
 
 
-def test_env_kwargs_as_rl_zoo_writes_them(tmp_path):
-    entry = {"n_timesteps": 100, "policy": "MlpPolicy", "env_kwargs": "dict(floor_plan='corner')"}
-    assert load_config(_write(tmp_path, entry), WALL, "ppo").env_kwargs == {"floor_plan": "corner"}
-    entry["env_kwargs"] = {"floor_plan": "office", "noise_scale": 0.5}
+def test_env_kwargs_are_a_yaml_mapping_as_rl_zoo_needs_them(tmp_path):
+    """RL Zoo hands env_kwargs to the environment as they are (a string made it fail with ``make_env() argument
+    after ** must be a mapping, not str``): the reader takes the same form, and no other."""
+    entry = {"n_timesteps": 100, "policy": "MlpPolicy", "env_kwargs": {"floor_plan": "office", "noise_scale": 0.5}}
     config = load_config(_write(tmp_path, entry), WALL, "ppo")
     assert config.env_kwargs == {"floor_plan": "office", "noise_scale": 0.5}
     assert config.resolved()["env_kwargs"] == {"floor_plan": "office", "noise_scale": 0.5}
-    for bad in ("[1, 2]", 3, "dict(1=2)"):
+    entry["env_kwargs"] = "dict(floor_plan='corner')"
+    with pytest.raises(InputError, match=r"env_kwargs: write env_kwargs as a YAML mapping .*RL Zoo passes it on as"):
+        load_config(_write(tmp_path, entry), WALL, "ppo")
+    for bad in ([1, 2], 3, {1: 2}):
         entry["env_kwargs"] = bad
-        with pytest.raises(InputError, match="env_kwargs"):
+        with pytest.raises(InputError, match="env_kwargs: expected a mapping of keyword arguments"):
             load_config(_write(tmp_path, entry), WALL, "ppo")
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        # RL Zoo evaluates the strings of policy_kwargs and replay_buffer_kwargs only
+        ({**BASE, "rollout_buffer_kwargs": "dict(gae_lambda=0.9)"}, "write rollout_buffer_kwargs as a YAML mapping"),
+        (
+            {**BASE, "env_wrapper": [{"gymnasium.wrappers.TimeLimit": "dict(max_episode_steps=10)"}]},
+            "write the keyword arguments of gymnasium.wrappers.TimeLimit as a YAML mapping",
+        ),
+        # RL Zoo calls Wrapper(env, **kwargs): no keyword arguments is an empty mapping, or the bare path
+        ({**BASE, "env_wrapper": [{"gymnasium.wrappers.TimeLimit": None}]}, "expected {'module.Wrapper': {kwargs}}"),
+        # RL Zoo splits a schedule at its one "_"
+        ({**BASE, "learning_rate": "lin_1_000"}, "learning_rate: expected a number or 'lin_<number>'"),
+    ],
+)
+def test_only_the_forms_rl_zoo_reads(tmp_path, entry, message):
+    with pytest.raises(InputError, match=re.escape(message)):
+        load_config(_write(tmp_path, entry), WALL, "ppo")
+
+
+def test_the_shipped_configs_write_every_env_kwargs_as_a_mapping():
+    for path in sorted(CONFIGS.glob("*.yml")):
+        for env_id, entry in yaml.safe_load(path.read_text()).items():
+            if "env_kwargs" in entry:
+                assert isinstance(entry["env_kwargs"], dict), f"{path.name}: {env_id}: env_kwargs is not a mapping"

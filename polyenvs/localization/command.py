@@ -24,6 +24,10 @@ import time
 from pathlib import Path
 
 from polyenvs.evaluation import (
+    MAX_BUMPS,
+    MAX_PARTICLES,
+    MAX_RUNS,
+    MAX_SEED,
     InputError,
     add_progress_flag,
     check_writable_directory,
@@ -57,9 +61,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="'mcl' (the paper's bump-space Monte Carlo localizer), 'dead_reckoning', or a user's 'module:Class'; "
         f"repeatable (default: {' and '.join(DEFAULT_ESTIMATORS)})",
     )
-    p.add_argument("--particles", default="1000", help="particles for sampling estimators, >= 10 (default 1000)")
-    p.add_argument("--runs", default="100", help="seeded runs, >= 1 (default 100)")
-    p.add_argument("--bumps", default="15", help="bumps per run, >= 1 (default 15)")
+    p.add_argument(
+        "--particles",
+        default="1000",
+        help=f"particles for sampling estimators, 10 to {MAX_PARTICLES} (mcl: at most 100000; default 1000)",
+    )
+    p.add_argument("--runs", default="100", help=f"seeded runs, 1 to {MAX_RUNS} (default 100)")
+    p.add_argument("--bumps", default="15", help=f"bumps per run, 1 to {MAX_BUMPS} (default 15)")
     p.add_argument("--map", default=None, help="the environment's map (default: its own, the paper's arena)")
     p.add_argument(
         "--env", default=DEFAULT_ENV_ID, help=f"environment id producing the logs (default {DEFAULT_ENV_ID})"
@@ -67,7 +75,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
     p.add_argument("--estimator-kwargs", default="{}", help="JSON object of keyword arguments for every estimator")
     p.add_argument("--policy", default="paper", help="the logging policy (default 'paper': the random bounce)")
-    p.add_argument("--seed", default="0", help="first seed, >= 0; run r uses seed + r (default 0)")
+    p.add_argument("--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; run r uses seed + r (default 0)")
     p.add_argument("--out", default=None, help=f"output directory (default {DEFAULT_LOCALIZE_DIR}/MAP)")
     p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
     add_progress_flag(p)
@@ -81,10 +89,10 @@ def run(args: argparse.Namespace) -> int:
     from polyenvs.localization.report import convergence_plot, convergence_table, write_png
     from polyenvs.localization.runner import CONVERGED_CM, CONVERGED_DEG, rollout_logs, score_estimator, summarize
 
-    particles = int_flag("--particles", args.particles, 10)
-    runs = int_flag("--runs", args.runs, 1)
-    bumps = int_flag("--bumps", args.bumps, 1)
-    seed = int_flag("--seed", args.seed, 0)
+    particles = int_flag("--particles", args.particles, 10, MAX_PARTICLES)
+    runs = int_flag("--runs", args.runs, 1, MAX_RUNS)
+    bumps = int_flag("--bumps", args.bumps, 1, MAX_BUMPS)
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     if args.map is not None:
         env_kwargs["map"] = args.map

@@ -18,4 +18,11 @@ The output directory of a run (a contract the evaluator, the leaderboard and swe
                              command, versions, git_commit, wall_clock_s, completed (false while running or if
                              interrupted)
     <out>/tb/                TensorBoard logs
+
+The model, its statistics and run.json's timesteps are saved every ``DEFAULT_CHECKPOINT_EVERY`` timesteps while a
+run trains (and on Ctrl-C), so an interrupted run (run.json: completed false) resumes from there
+(``train(resume=True)``, ``polyenvs train --resume``; a sweep's re-run does it by itself).
 """
+
+#: Save the model this often (timesteps) while training, so that a killed run can resume; light to import.
+DEFAULT_CHECKPOINT_EVERY = 100_000

@@ -1,4 +1,4 @@
-"""Callbacks for training: the task metrics of finished episodes, logged like SB3's episode return."""
+"""Callbacks for training: the task metrics of finished episodes, logged like SB3's episode return; checkpoints."""
 
 from __future__ import annotations
 
@@ -7,7 +7,25 @@ from collections import deque
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-__all__ = ["EpisodeMetricsCallback"]
+__all__ = ["CheckpointCallback", "EpisodeMetricsCallback"]
+
+
+class CheckpointCallback(BaseCallback):
+    """Call ``save()`` each time ``every`` more timesteps have passed since the last call (or the start of
+    ``learn``): what lets a killed run resume from its last checkpoint."""
+
+    def __init__(self, every: int, save, verbose: int = 0):
+        super().__init__(verbose)
+        self.every, self.save, self.last = int(every), save, 0
+
+    def _on_training_start(self) -> None:
+        self.last = self.num_timesteps
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps - self.last >= self.every:
+            self.save()
+            self.last = self.num_timesteps
+        return True
 
 
 class EpisodeMetricsCallback(BaseCallback):

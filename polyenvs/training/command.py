@@ -1,7 +1,7 @@
 """The ``polyenvs train`` subcommand.
 
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
-[--out DIR] [--progress/--no-progress]``
+[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress]``
 
 Every flag is checked before any work: a bad value raises :class:`~polyenvs.evaluation.InputError`, which the
 command line prints as one line (exit 2). Wired into ``polyenvs.cli`` with::
@@ -17,7 +17,16 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.evaluation import (
+    MAX_N_ENVS,
+    MAX_SEED,
+    MAX_TIMESTEPS,
+    InputError,
+    add_progress_flag,
+    int_flag,
+    is_terminal,
+    parse_json_object,
+)
 
 __all__ = ["add_parser", "default_out_dir", "run"]
 
@@ -33,6 +42,7 @@ def default_out_dir(env_id: str, algo: str, seed: int) -> Path:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``train`` subcommand to an ``argparse`` subparsers object; ``args.func`` is :func:`run`."""
     from polyenvs.training.algos import ALGOS
+    from polyenvs.training.train import DEFAULT_CHECKPOINT_EVERY
 
     p = subparsers.add_parser(
         "train",
@@ -40,17 +50,44 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Train an agent with Stable-Baselines3 / sb3-contrib on hyperparameters from an RL Zoo-format "
         "config, on the id's native vector env where it has one. Writes DIR/model.zip, DIR/vecnormalize.pkl (when "
         "the config normalises), DIR/run.json (config, seed, command, versions, git commit) and TensorBoard logs "
-        "in DIR/tb. Ctrl-C saves the model trained so far (run.json: completed false). A DIR that holds a finished "
-        "run of the same id, algorithm and seed is left as it is.",
+        "in DIR/tb. The model is saved every --checkpoint-every timesteps and on Ctrl-C (run.json: completed false); "
+        "--resume continues such a run, --overwrite trains it again. A DIR that holds a finished run of the same "
+        "id, algorithm and seed is left as it is (unless --overwrite).",
     )
     p.add_argument("env_id", help="environment id (polyenvs list)")
     p.add_argument("--algo", required=True, help=f"one of {', '.join(ALGOS)}")
-    p.add_argument("--config", default=None, help="RL Zoo-format YAML file (default configs/ALGO.yml)")
-    p.add_argument("--timesteps", default=None, help="training steps, >= 1 (default: the config's n_timesteps)")
-    p.add_argument("--seed", default="0", help="training seed, >= 0 (default 0)")
-    p.add_argument("--n-envs", default=None, help="parallel environments, >= 1 (default: the config's n_envs)")
+    p.add_argument(
+        "--config", default=None, help="RL Zoo-format YAML file (default: the configs/ALGO.yml shipped with polyenvs)"
+    )
+    p.add_argument(
+        "--timesteps",
+        default=None,
+        help=f"training steps, 1 to {MAX_TIMESTEPS:,} (default: the config's n_timesteps)",
+    )
+    p.add_argument("--seed", default="0", help=f"training seed, 0 to {MAX_SEED} (default 0)")
+    p.add_argument(
+        "--n-envs", default=None, help=f"parallel environments, 1 to {MAX_N_ENVS} (default: the config's n_envs)"
+    )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
-    p.add_argument("--out", default=None, help=f"output directory (default {DEFAULT_TRAIN_DIR}/ENV/ALGO/seedS)")
+    p.add_argument(
+        "--out", default=None, metavar="DIR", help=f"output directory (default {DEFAULT_TRAIN_DIR}/ENV/ALGO/seedS)"
+    )
+    again = p.add_mutually_exclusive_group()
+    again.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the interrupted run in DIR from its saved model (the last checkpoint or what Ctrl-C saved) "
+        "up to the requested timesteps; with no saved model, train it from the start",
+    )
+    again.add_argument(
+        "--overwrite", action="store_true", help="replace the run in DIR (finished or not): train from the start"
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        default=str(DEFAULT_CHECKPOINT_EVERY),
+        help=f"save the model every this many timesteps, so that a killed run can --resume; 0: only at the end "
+        f"and on Ctrl-C (default {DEFAULT_CHECKPOINT_EVERY})",
+    )
     add_progress_flag(p)
     p.set_defaults(func=run)
     return p
@@ -61,18 +98,26 @@ def run(args: argparse.Namespace) -> int:
     from polyenvs.training.algos import get_algo
 
     get_algo(args.algo)
-    timesteps = int_flag("--timesteps", args.timesteps, 1)
-    seed = int_flag("--seed", args.seed, 0)
-    n_envs = int_flag("--n-envs", args.n_envs, 1)
+    timesteps = int_flag("--timesteps", args.timesteps, 1, MAX_TIMESTEPS)
+    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
+    n_envs = int_flag("--n-envs", args.n_envs, 1, MAX_N_ENVS)
+    checkpoint_every = int_flag("--checkpoint-every", args.checkpoint_every, 0, MAX_TIMESTEPS)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
+    resume, overwrite = getattr(args, "resume", False), getattr(args, "overwrite", False)
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
     progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
 
-    from polyenvs.training.train import TrainingInterrupted, finished_run, train
+    from polyenvs.training.train import TrainingInterrupted, check_out_dir, interrupted_note, read_run, train
 
-    if finished_run(out_dir, args.env_id, args.algo, seed) is not None:
+    try:
+        action = check_out_dir(out_dir, args.env_id, args.algo, seed, resume=resume, overwrite=overwrite)
+    except InputError as exc:  # name the flags, as the command line spells them
+        raise InputError(str(exc).replace("resume and overwrite", "--resume and --overwrite")) from None
+    if action == "finished":
         print(f"{out_dir} already holds a finished run of {args.env_id} {args.algo} seed {seed}: nothing to do")
         return 0
+    if action in ("resume", "restart"):
+        print(f"{out_dir}: {interrupted_note(out_dir)}")
     start = time.monotonic()
     try:
         train(
@@ -85,16 +130,17 @@ def run(args: argparse.Namespace) -> int:
             env_kwargs=env_kwargs,
             out_dir=out_dir,
             progress_bar=progress,
+            resume=resume,
+            overwrite=overwrite,
+            checkpoint_every=checkpoint_every,
         )
     except TrainingInterrupted as stop:
         print(
             f"polyenvs train: interrupted after {stop.timesteps} timesteps; saved the partial model in "
-            f"{stop.out_dir} (run.json: completed false)",
+            f"{stop.out_dir} (run.json: completed false); the same command with --resume continues it",
             file=sys.stderr,
         )
         return 130
-    from polyenvs.training.train import read_run
-
     doc = read_run(out_dir) or {}
     steps, seconds = doc.get("timesteps", 0), doc.get("wall_clock_s", time.monotonic() - start)
     rate = f", {steps / seconds:,.0f} steps/s" if seconds else ""

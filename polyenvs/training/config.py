@@ -12,13 +12,18 @@ One YAML mapping per file, keyed by environment id; each entry holds RL Zoo's ke
       env_wrapper: module.Wrapper       # per-env gym.Wrapper: an import path, a list of them, or a list of
                                         #   {path: {kwargs}} mappings (as RL Zoo)
       frame_stack: 4                    # VecFrameStack (optional)
+      env_kwargs:                       # the environment's keyword arguments: a YAML mapping
+        ctrl_cost_weight: 0.001
       policy_kwargs: "dict(net_arch=[64, 64], activation_fn=nn.Tanh)"
       learning_rate: lin_3e-4           # RL Zoo's linear schedule (also clip_range, clip_range_vf), or a number
       ...                               # every other key: a constructor argument of the algorithm
 
-The Python-like strings (``policy_kwargs``, ``normalize``, other ``*_kwargs``) are parsed from their syntax tree:
-literals, lists, tuples, dicts, ``dict(...)`` and activation or optimizer classes by name (``nn.Tanh``,
-``th.nn.ReLU``, ``torch.optim.Adam``), nothing else. Every problem raises
+Every file reads the same here and in RL Zoo (``python -m rl_zoo3.train --conf-file``; tests/test_rl_zoo.py runs
+it), so this reader takes exactly the forms RL Zoo takes: a Python-like string only where RL Zoo evaluates one
+(``normalize``, ``policy_kwargs``, ``replay_buffer_kwargs``), a YAML mapping everywhere else (``env_kwargs``, a
+wrapper's keyword arguments, other ``*_kwargs``: RL Zoo passes them on as they are). The strings are parsed from
+their syntax tree: literals, lists, tuples, dicts, ``dict(...)`` and activation or optimizer classes by name
+(``nn.Tanh``, ``th.nn.ReLU``, ``torch.optim.Adam``), nothing else. Every problem raises
 :class:`~polyenvs.evaluation.InputError` with a one-line message naming the file, the id and the key.
 """
 
@@ -34,11 +39,12 @@ from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import InputError
+from polyenvs.evaluation import MAX_N_ENVS, MAX_TIMESTEPS, InputError
 
 __all__ = [
     "META_KEYS",
     "TrainConfig",
+    "config_dirs",
     "default_config_path",
     "jsonable",
     "load_config",
@@ -61,6 +67,9 @@ RESERVED_KEYS = {"self", "policy", "env", "tensorboard_log", "verbose", "seed", 
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 #: Integer-defaulted arguments that take any number.
 FLOAT_KEYS = {"max_grad_norm"}
+#: The ``*_kwargs`` keys whose strings RL Zoo evaluates (ExperimentManager._preprocess_hyperparams); every other
+#: one it passes to the algorithm as it is, so a string there would reach the constructor as a string.
+EVALUATED_KWARGS = ("policy_kwargs", "replay_buffer_kwargs")
 
 _MODULE_ALIASES = {"nn": "torch.nn", "th": "torch", "torch": "torch"}
 #: Dotted names a config may use, by prefix: activation functions and optimizers.
@@ -120,12 +129,22 @@ class TrainConfig:
 # ------------------------------------------------------------------------------------------------ file loading
 
 
+def config_dirs() -> list[Path]:
+    """Where the shipped configs are, in the order they are looked for: the package's own ``polyenvs/configs``
+    (what a wheel installs: pyproject.toml maps the repository's top-level ``configs/`` there), then the
+    ``configs/`` beside the package (a checkout, or an editable install of one)."""
+    package = Path(__file__).resolve().parents[1]
+    return [package / "configs", package.parent / "configs"]
+
+
 def default_config_path(algo: str) -> Path:
-    """``configs/<algo>.yml`` of the repository polyenvs runs from, else of the current directory."""
-    repo = Path(__file__).resolve().parents[2] / "configs" / f"{algo}.yml"
-    if repo.is_file():
-        return repo
-    return Path("configs") / f"{algo}.yml"
+    """The shipped ``<algo>.yml`` (see :func:`config_dirs`), wherever polyenvs runs from; InputError if none."""
+    for directory in config_dirs():
+        path = directory / f"{algo}.yml"
+        if path.is_file():
+            return path
+    looked = " and ".join(str(d) for d in config_dirs())
+    raise InputError(f"polyenvs ships no {algo}.yml config (looked in {looked}); give one with --config FILE")
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:
@@ -200,12 +219,12 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         path=path,
         env_id=env_id,
         algo=algo,
-        n_timesteps=_count(entry["n_timesteps"], 1, where("n_timesteps")),
+        n_timesteps=_count(entry["n_timesteps"], 1, where("n_timesteps"), MAX_TIMESTEPS),
         policy=_policy(entry.get("policy", "MlpPolicy"), cls, where("policy")),
         raw=entry,
     )
     if "n_envs" in entry:
-        config.n_envs = _count(entry["n_envs"], 1, where("n_envs"))
+        config.n_envs = _count(entry["n_envs"], 1, where("n_envs"), MAX_N_ENVS)
     if "frame_stack" in entry:
         config.frame_stack = _count(entry["frame_stack"], 1, where("frame_stack"))
     if "env_wrapper" in entry:
@@ -244,16 +263,23 @@ def _yaml_hint(value: Any) -> str:
     return ""
 
 
-def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
-    """A mapping written in YAML, or a string of one (``"dict(n_robots=5)"``, as RL Zoo writes it)."""
+def _mapping_only(value: Any, where: str, what: str) -> None:
     if isinstance(value, str):
-        value = parse_python_value(value, where)
+        raise InputError(
+            f"{where}: write {what} as a YAML mapping (one 'name: value' per indented line), not the string "
+            f"{_show(value)}: RL Zoo passes it on as it is, without evaluating it"
+        )
+
+
+def _env_kwargs(value: Any, where: str) -> dict[str, Any]:
+    """A YAML mapping, as RL Zoo needs it (it hands ``env_kwargs`` to ``gym.make`` as they are)."""
+    _mapping_only(value, where, "env_kwargs")
     if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
         raise InputError(f"{where}: expected a mapping of keyword arguments, got {_show(value)}")
     return dict(value)
 
 
-def _count(value: Any, minimum: int, where: str) -> int:
+def _count(value: Any, minimum: int, where: str, maximum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, Real):
         raise InputError(f"{where}: expected an integer >= {minimum}, got {_show(value)}{_yaml_hint(value)}")
     if not isinstance(value, Integral):
@@ -262,6 +288,8 @@ def _count(value: Any, minimum: int, where: str) -> int:
     value = int(value)
     if value < minimum:
         raise InputError(f"{where}: expected an integer >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{where}: expected an integer <= {maximum}, got {value}")
     return value
 
 
@@ -282,7 +310,7 @@ def _schedule(value: Any, where: str):
     from stable_baselines3.common.utils import LinearSchedule
 
     if isinstance(value, str):
-        if value.startswith("lin_"):
+        if value.startswith("lin_") and value.count("_") == 1:  # RL Zoo splits it at its one "_"
             try:
                 start = float(value[4:])
             except ValueError:
@@ -300,8 +328,9 @@ def _algo_value(key: str, value: Any, default: Any, where: str) -> Any:
             return None
         return _schedule(value, where)
     if key.endswith("_kwargs"):
-        if isinstance(value, str):
+        if isinstance(value, str) and key in EVALUATED_KWARGS:
             value = parse_python_value(value, where)
+        _mapping_only(value, where, key)
         if value is not None and not isinstance(value, dict):
             raise InputError(f"{where}: expected a dict, got {_show(value)}")
         return value
@@ -354,9 +383,7 @@ def _env_wrappers(value: Any, where: str) -> list[tuple[str, dict[str, Any]]]:
             path, kwargs = item, {}
         elif isinstance(item, dict) and len(item) == 1:
             ((path, kwargs),) = item.items()
-            kwargs = {} if kwargs is None else kwargs
-            if isinstance(kwargs, str):
-                kwargs = parse_python_value(kwargs, where)
+            _mapping_only(kwargs, where, f"the keyword arguments of {path}")
             if not isinstance(path, str) or not isinstance(kwargs, dict):
                 raise InputError(f"{where}: expected {{'module.Wrapper': {{kwargs}}}}, got {_show(item)}")
         else:

@@ -7,30 +7,66 @@ native vector env through :class:`~polyenvs.training.vec_adapter.NativeVecEnvAda
 first with ``"completed": false`` and rewritten at the end, so a directory whose run.json says completed holds a
 finished model; a re-run into it returns at once, which is how sweeps skip finished jobs.
 
-Ctrl-C (``KeyboardInterrupt``) during training saves the model trained so far, with ``"completed": false`` and the
-timesteps reached, and raises :class:`TrainingInterrupted` (a ``KeyboardInterrupt``) naming the directory.
+Every ``checkpoint_every`` timesteps the model (and its VecNormalize statistics) is saved and run.json records the
+timesteps reached, so a run killed outright (``kill -9``, the machine lost) keeps its last checkpoint. Ctrl-C
+(``KeyboardInterrupt``) during training saves the model trained so far, with ``"completed": false`` and the
+timesteps reached, and raises :class:`TrainingInterrupted` (a ``KeyboardInterrupt``) naming the directory. Either
+way ``resume=True`` continues the run from its saved model up to the requested timesteps (``reset_num_timesteps``
+false, as SB3 continues a loaded model; an off-policy algorithm starts again with an empty replay buffer), and
+``overwrite=True`` trains it again from the start. While a run trains, its directory is locked (``flock``): a second
+run into it is refused, and the lock goes with the process however it ends.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import platform
+import re
 import shlex
+import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import InputError, atomic_path, check_count, check_writable_directory, write_json_atomic
+from polyenvs.evaluation import (
+    MAX_N_ENVS,
+    MAX_SEED,
+    MAX_TIMESTEPS,
+    InputError,
+    check_count,
+    check_writable_directory,
+    temp_path_for,
+    write_json_atomic,
+)
+from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
-__all__ = ["RUN_FILE", "TrainingInterrupted", "check_out_dir", "finished_run", "read_run", "train"]
+__all__ = [
+    "DEFAULT_CHECKPOINT_EVERY",
+    "RUN_FILE",
+    "TrainingInterrupted",
+    "check_out_dir",
+    "finished_run",
+    "interrupted_note",
+    "read_run",
+    "saved_timesteps",
+    "train",
+]
 
 RUN_FILE = "run.json"
 MODEL_FILE = "model.zip"
 VECNORMALIZE_FILE = "vecnormalize.pkl"
 TENSORBOARD_DIR = "tb"
+#: Held (flock) by the process training into the directory; hidden and gitignored like every temporary file.
+LOCK_FILE = ".training.lock.tmp"
+#: What a run writes: removed when a run is trained again from the start (anything else is left alone).
+_RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR)
+#: Temporary files of atomic writes (polyenvs.evaluation.temp_path_for) and the lock: not a run's content.
+_TEMPORARY = re.compile(r"\..+\.tmp(\..*)?")
 
 
 class TrainingInterrupted(KeyboardInterrupt):
@@ -66,23 +102,176 @@ def finished_run(out_dir: str | Path, env_id: str, algo: str, seed: int) -> dict
     return None
 
 
-def check_out_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> bool:
-    """True if ``out_dir`` is a finished run of the same job; InputError if it cannot be used; else False."""
+def _content(out_dir: Path) -> list[Path]:
+    """The entries of ``out_dir`` other than temporary files (a write or a lock a killed run left behind)."""
+    return [p for p in out_dir.iterdir() if not _TEMPORARY.fullmatch(p.name)]
+
+
+def _holder(out_dir: Path) -> str | None:
+    """``"pid N"`` if another process holds ``out_dir``'s training lock (is training into it now), else None."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no locking
+        return None
+    lock = out_dir / LOCK_FILE
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        try:
+            pid = lock.read_text().strip()
+        except OSError:
+            pid = ""
+        return f"pid {pid}" if pid.isdigit() else "another process"
+    finally:
+        os.close(fd)  # releases the probe's lock, if it got it
+    return None
+
+
+@contextlib.contextmanager
+def _training_lock(out_dir: Path) -> Iterator[None]:
+    """Hold ``out_dir``'s training lock for the block (the kernel releases it when the process dies)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no locking
+        yield
+        return
+    lock = out_dir / LOCK_FILE
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(f"output directory {out_dir} is being trained into by {_holder(out_dir)}") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        try:
+            yield
+        finally:
+            lock.unlink(missing_ok=True)  # while still held: a finished directory keeps no lock file
+    finally:
+        os.close(fd)
+
+
+def _same_job(run: dict[str, Any], env_id: str, algo: str, seed: int) -> bool:
+    return (run.get("env_id"), run.get("algo"), run.get("seed")) == (env_id.split(":", 1)[-1], algo, seed)
+
+
+def _progress(run: dict[str, Any], out_dir: Path) -> str:
+    """``N of M timesteps``: N the saved model's count (run.json's may lag it by the moment between the two)."""
+    saved = saved_timesteps(out_dir)
+    return (
+        f"{saved if saved is not None else run.get('timesteps', 0)} of {run.get('requested_timesteps', '?')} timesteps"
+    )
+
+
+def check_out_dir(
+    out_dir: Path, env_id: str, algo: str, seed: int, *, resume: bool = False, overwrite: bool = False
+) -> str:
+    """What training (env_id, algo, seed) into ``out_dir`` will do; InputError (one line) if it cannot.
+
+    Returns ``"new"`` (absent or empty), ``"finished"`` (a finished run of the same job: nothing to do),
+    ``"resume"`` (``resume``, and an interrupted run of the same job with a saved model), ``"restart"``
+    (``resume``, and an interrupted run of the same job that saved no model yet) or ``"overwrite"``
+    (``overwrite``, and a run of any job). Refused: a file, a directory with files but no run.json, a directory
+    another process is training into, a run that is not this one's to take over without ``overwrite``.
+    """
+    out_dir = Path(out_dir)
+    if resume and overwrite:
+        raise InputError("resume and overwrite exclude each other: --resume continues a run, --overwrite restarts it")
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"output directory {out_dir} is a file")
-    if out_dir.is_dir() and any(out_dir.iterdir()):
-        if finished_run(out_dir, env_id, algo, seed) is not None:
-            return True
+    if out_dir.is_dir() and _content(out_dir):
+        holder = _holder(out_dir)
+        if holder is not None:
+            raise InputError(f"output directory {out_dir} is being trained into by {holder}; wait for it or stop it")
         run = read_run(out_dir)
         if run is None:
-            what = "holds files and no run.json"
-        elif run.get("completed") is not True:
-            what = "holds an unfinished or interrupted run"
-        else:
-            what = f"holds a finished run of {run.get('env_id')} {run.get('algo')} seed {run.get('seed')}"
-        raise InputError(f"output directory {out_dir} {what}; choose another --out or remove it")
+            raise InputError(
+                f"output directory {out_dir} holds files and no run.json; choose another --out or remove it"
+            )
+        job = f"{run.get('env_id')} {run.get('algo')} seed {run.get('seed')}"
+        if overwrite:
+            return "overwrite"
+        if finished_run(out_dir, env_id, algo, seed) is not None:
+            return "finished"
+        if run.get("completed") is True:
+            raise InputError(
+                f"output directory {out_dir} holds a finished run of {job}; choose another --out, or --overwrite to "
+                "replace it"
+            )
+        if not _same_job(run, env_id, algo, seed):
+            raise InputError(
+                f"output directory {out_dir} holds an unfinished or interrupted run of {job}; choose another --out, "
+                "or --overwrite to replace it"
+            )
+        saved = (out_dir / MODEL_FILE).is_file()
+        if resume:
+            return "resume" if saved else "restart"
+        if saved:
+            raise InputError(
+                f"output directory {out_dir} holds an interrupted run ({_progress(run, out_dir)} saved); --resume to continue "
+                "it, or --overwrite to train it again from the start"
+            )
+        raise InputError(
+            f"output directory {out_dir} holds an interrupted run that saved no model yet; --overwrite (or --resume) "
+            "to train it again from the start"
+        )
     check_writable_directory(out_dir, "output directory")
-    return False
+    return "new"
+
+
+def interrupted_note(out_dir: str | Path) -> str | None:
+    """For an interrupted run in ``out_dir``: what resuming it does (a sentence), else None."""
+    run = read_run(out_dir)
+    if run is None or run.get("completed") is True:
+        return None
+    if (Path(out_dir) / MODEL_FILE).is_file():
+        return f"interrupted at {_progress(run, Path(out_dir))}: resuming it from its saved model"
+    return "interrupted before it saved a model: training it again from the start"
+
+
+def _remove_temporaries(out_dir: Path) -> None:
+    """Remove the temporary files a killed run left in ``out_dir`` (called with its lock held)."""
+    for path in out_dir.iterdir():
+        if _TEMPORARY.fullmatch(path.name) and path.name != LOCK_FILE and path.is_file():
+            path.unlink(missing_ok=True)
+
+
+def _clear_run(out_dir: Path) -> None:
+    """Remove what a run wrote in ``out_dir``; anything else stays."""
+    for name in _RUN_ENTRIES:
+        path = out_dir / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
+
+
+#: Settings of a run that must not change when it resumes (the hyperparameters are compared apart).
+_RESUME_KEYS = ("n_envs", "env_kwargs")
+
+
+def _check_resumable(out_dir: Path, previous: dict[str, Any], run: dict[str, Any]) -> None:
+    """The resumed run trains as the interrupted one did: same n_envs, env_kwargs and hyperparameters."""
+    run = json.loads(json.dumps(run))  # as run.json holds it: tuples as lists
+    for key in _RESUME_KEYS:
+        if previous.get(key) != run[key]:
+            raise InputError(
+                f"cannot resume {out_dir}: it trained with {key}={previous.get(key)!r}, this run asks for "
+                f"{run[key]!r}; --overwrite to train it again from the start"
+            )
+    old = {k: v for k, v in (previous.get("hyperparams") or {}).items() if k not in ("n_timesteps", "n_envs")}
+    new = {k: v for k, v in run["hyperparams"].items() if k not in ("n_timesteps", "n_envs")}
+    for key in sorted(set(old) | set(new)):
+        if old.get(key) != new.get(key):
+            raise InputError(
+                f"cannot resume {out_dir}: its {key} was {old.get(key)!r}, the config now says {new.get(key)!r}; "
+                "--overwrite to train it again from the start"
+            )
 
 
 def versions() -> dict[str, str | None]:
@@ -150,6 +339,9 @@ def train(
     device: str = "cpu",
     verbose: int = 0,
     callbacks: Sequence[Any] = (),
+    resume: bool = False,
+    overwrite: bool = False,
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
 ) -> Path:
     """Train ``algo`` on ``env_id`` and write ``out_dir``; return ``out_dir``.
 
@@ -163,7 +355,8 @@ def train(
         n_envs: parallel environments instead of the config's n_envs.
         env_kwargs: the environment's constructor keywords (``{"floor_plan": "office"}``).
         out_dir: the output directory: must not exist, be empty, or hold a finished run of the same (env_id,
-            algo, seed), which is returned without training.
+            algo, seed), which is returned without training (or, with ``resume`` / ``overwrite``, a run to
+            continue / to replace).
         progress_bar: show SB3's progress bar (tqdm and rich).
         tensorboard: write TensorBoard logs under ``out_dir/tb``.
         command: the command line recorded in run.json (default: ``sys.argv``).
@@ -172,6 +365,12 @@ def train(
         device: torch device (``"cpu"``: small MLPs train faster there).
         verbose: SB3's verbosity (1 prints its table of training statistics).
         callbacks: extra SB3 callbacks.
+        resume: continue an interrupted run of the same job in ``out_dir`` from its saved model (the last
+            checkpoint, or what Ctrl-C saved) up to the requested timesteps; with no saved model, train it again
+            from the start. The config, n_envs and env_kwargs must be those it trained with.
+        overwrite: replace any run in ``out_dir`` (finished or not, of any job): train again from the start.
+        checkpoint_every: save the model (and run.json's timesteps) every this many timesteps; 0: only at the
+            end and on Ctrl-C.
 
     Raises:
         InputError: before any environment is built, for anything the caller got wrong.
@@ -188,18 +387,20 @@ def train(
     if not isinstance(env_id, str):
         raise InputError(f"env_id must be a string, got {env_id!r}")
     env_id = env_id.split(":", 1)[-1]
-    seed = check_count("seed", seed, 0)
+    seed = check_count("seed", seed, 0, MAX_SEED)
     if timesteps is not None:
-        timesteps = check_count("timesteps", timesteps, 1)
+        timesteps = check_count("timesteps", timesteps, 1, MAX_TIMESTEPS)
     if n_envs is not None:
-        n_envs = check_count("n_envs", n_envs, 1)
+        n_envs = check_count("n_envs", n_envs, 1, MAX_N_ENVS)
+    checkpoint_every = check_count("checkpoint_every", checkpoint_every, 0, MAX_TIMESTEPS)
     if env_kwargs is not None and not isinstance(env_kwargs, dict):
         raise InputError(f"env_kwargs must be a dict, got {env_kwargs!r}")
     env_kwargs = dict(env_kwargs or {})
     if vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
     out_dir = Path(out_dir)
-    if check_out_dir(out_dir, env_id, algo, seed):
+    action = check_out_dir(out_dir, env_id, algo, seed, resume=resume, overwrite=overwrite)
+    if action == "finished":
         return out_dir
     probe = make_env(env_id, env_kwargs)  # an unknown id or bad keyword arguments raise InputError here
     try:
@@ -217,88 +418,171 @@ def train(
     requested = timesteps if timesteps is not None else cfg.n_timesteps
     if vec_env == "native" and wrappers:
         raise InputError(f"{cfg.path}: {env_id}: env_wrapper wraps single envs: it needs vec_env='dummy' or 'auto'")
+    hyperparams = cfg.resolved()
+    hyperparams.update(n_envs=n_envs, n_timesteps=requested)
+    run: dict[str, Any] = {
+        "env_id": env_id,
+        "algo": algo,
+        "seed": seed,
+        "timesteps": 0,
+        "requested_timesteps": requested,
+        "n_envs": n_envs,
+        "env_kwargs": env_kwargs,
+        "hyperparams": hyperparams,
+        "config_file": str(cfg.path),
+        "vec_env": None,
+        "command": command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "versions": versions(),
+        "git_commit": git_commit(),
+        "wall_clock_s": 0.0,
+        "completed": False,
+    }
+    previous = read_run(out_dir) if action == "resume" else None
+    if previous is not None:
+        _check_resumable(out_dir, previous, run)
+        if cfg.normalize and not (out_dir / VECNORMALIZE_FILE).is_file():
+            raise InputError(
+                f"cannot resume {out_dir}: it has a model but no {VECNORMALIZE_FILE} (the config normalises); "
+                "--overwrite to train it again from the start"
+            )
 
     # ---- the environments and the model
     import torch
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
     from polyenvs.training.algos import algo_class
-    from polyenvs.training.callbacks import EpisodeMetricsCallback
+    from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
     from polyenvs.training.vec_adapter import make_training_vec_env
 
     torch.set_num_threads(1)  # small MLPs: more threads only contend (intermittently 10-100x slower on 2 cores)
     venv = make_training_vec_env(env_id, n_envs, seed=seed, env_kwargs=env_kwargs, wrappers=wrappers, vec_env=vec_env)
     try:
+        run["vec_env"] = type(_innermost(venv)).__name__
         if cfg.frame_stack is not None:
             venv = VecFrameStack(venv, cfg.frame_stack)
-        if cfg.normalize:
+        if cfg.normalize and previous is not None:
+            venv = VecNormalize.load(str(out_dir / VECNORMALIZE_FILE), venv)
+            venv.training = True
+        elif cfg.normalize:
             venv = VecNormalize(venv, **cfg.normalize_kwargs)
         cls = algo_class(algo)
-        try:
-            model = cls(
-                cfg.policy, venv, seed=seed, device=device, verbose=verbose,
-                tensorboard_log=str(out_dir / TENSORBOARD_DIR) if tensorboard else None, **cfg.hyperparams,
-            )  # fmt: skip
-        except (AssertionError, ValueError, TypeError) as exc:
-            message = " ".join(str(exc).split()) or type(exc).__name__
-            raise InputError(f"{cfg.path}: {env_id}: {cls.__name__} rejected the hyperparameters: {message}") from exc
+        tensorboard_log = str(out_dir / TENSORBOARD_DIR) if tensorboard else None
+        if previous is not None:
+            try:
+                model = cls.load(out_dir / MODEL_FILE, env=venv, device=device, verbose=verbose,
+                                 tensorboard_log=tensorboard_log)  # fmt: skip
+            except (OSError, ValueError, KeyError, RuntimeError) as exc:
+                message = " ".join(str(exc).split()) or type(exc).__name__
+                raise InputError(
+                    f"cannot resume {out_dir}: its {MODEL_FILE} does not load ({message}); --overwrite to train it "
+                    "again from the start"
+                ) from exc
+            model.set_random_seed(seed)
+            marked = getattr(model.get_vec_normalize_env(), "saved_at_timesteps", model.num_timesteps)
+            if marked != model.num_timesteps:  # the process died between the two renames: vanishingly rare
+                raise InputError(
+                    f"cannot resume {out_dir}: its {MODEL_FILE} ({model.num_timesteps} timesteps) and "
+                    f"{VECNORMALIZE_FILE} ({marked}) were saved apart; --overwrite to train it again from the start"
+                )
+        else:
+            try:
+                model = cls(
+                    cfg.policy, venv, seed=seed, device=device, verbose=verbose, tensorboard_log=tensorboard_log,
+                    **cfg.hyperparams,
+                )  # fmt: skip
+            except (AssertionError, ValueError, TypeError) as exc:
+                message = " ".join(str(exc).split()) or type(exc).__name__
+                raise InputError(
+                    f"{cfg.path}: {env_id}: {cls.__name__} rejected the hyperparameters: {message}"
+                ) from exc
 
-        hyperparams = cfg.resolved()
-        hyperparams.update(n_envs=n_envs, n_timesteps=requested)
-        run: dict[str, Any] = {
-            "env_id": env_id,
-            "algo": algo,
-            "seed": seed,
-            "timesteps": 0,
-            "requested_timesteps": requested,
-            "n_envs": n_envs,
-            "env_kwargs": env_kwargs,
-            "hyperparams": hyperparams,
-            "config_file": str(cfg.path),
-            "vec_env": type(_innermost(venv)).__name__,
-            "command": command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]]),
-            "versions": versions(),
-            "git_commit": git_commit(),
-            "wall_clock_s": 0.0,
-            "completed": False,
-        }
         out_dir.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(out_dir / RUN_FILE, run)
+        with _training_lock(out_dir):
+            _remove_temporaries(out_dir)
+            if previous is not None:
+                run.update(
+                    command=previous.get("command", run["command"]),
+                    resumed_at=[*previous.get("resumed_at", []), int(model.num_timesteps)],
+                    timesteps=int(model.num_timesteps),
+                    wall_clock_s=float(previous.get("wall_clock_s", 0.0)),
+                )
+            else:
+                _clear_run(out_dir)  # an interrupted run trained again, or one overwritten
+            write_json_atomic(out_dir / RUN_FILE, run)
+            trained_before = float(run["wall_clock_s"])
 
-        # ---- training
-        metrics = EpisodeMetricsCallback()
-        start = time.monotonic()
-        interrupted = False
-        try:
-            model.learn(
-                total_timesteps=requested,
-                callback=[metrics, *callbacks],
-                progress_bar=progress_bar,
-                tb_log_name=cls.__name__,
+            # ---- training
+            metrics = EpisodeMetricsCallback()
+            start = time.monotonic()
+            checkpoints = (
+                [CheckpointCallback(checkpoint_every, lambda: _save(model, out_dir, run, trained_before, start))]
+                if checkpoint_every
+                else []
             )
-        except KeyboardInterrupt:
-            interrupted = True
-        elapsed = time.monotonic() - start
+            interrupted = False
+            remaining = requested - int(model.num_timesteps)
+            try:
+                if remaining > 0:
+                    model.learn(
+                        total_timesteps=remaining,
+                        callback=[metrics, *checkpoints, *callbacks],
+                        progress_bar=progress_bar,
+                        tb_log_name=cls.__name__,
+                        reset_num_timesteps=previous is None,
+                    )
+            except KeyboardInterrupt:
+                interrupted = True
 
-        # ---- the directory: model, statistics, then run.json (which marks it finished)
-        with atomic_path(out_dir / MODEL_FILE, keep_suffix=True) as tmp:
-            model.save(tmp)
-        normalizer = model.get_vec_normalize_env()
-        if normalizer is not None:
-            with atomic_path(out_dir / VECNORMALIZE_FILE) as tmp:
-                normalizer.save(tmp)
-        run.update(
-            timesteps=int(model.num_timesteps),
-            wall_clock_s=round(elapsed, 3),
-            completed=not interrupted,
-            episode_metrics=metrics.means(),
-        )
-        write_json_atomic(out_dir / RUN_FILE, run)
+            # ---- the directory: model, statistics, then run.json (which marks it finished)
+            run.update(episode_metrics=metrics.means())
+            _save(model, out_dir, run, trained_before, start, completed=not interrupted)
     finally:
         venv.close()
     if interrupted:
         raise TrainingInterrupted(out_dir, int(model.num_timesteps))
     return out_dir
+
+
+def _save(model, out_dir: Path, run: dict[str, Any], trained_before: float, start: float, completed=False) -> None:
+    """Save the model and its VecNormalize statistics, then run.json (timesteps, time; completed).
+
+    Both files are written and synced in full under temporary names before either is renamed into place, one
+    rename straight after the other, so a process killed at any moment leaves the two of one checkpoint (the
+    statistics are marked with the model's timesteps, which resuming checks)."""
+    normalizer = model.get_vec_normalize_env()
+    targets = [out_dir / MODEL_FILE] + ([out_dir / VECNORMALIZE_FILE] if normalizer is not None else [])
+    temporary = [temp_path_for(targets[0], keep_suffix=True)] + [temp_path_for(t) for t in targets[1:]]
+    try:
+        model.save(temporary[0])
+        if normalizer is not None:
+            normalizer.saved_at_timesteps = int(model.num_timesteps)  # pickled with the statistics
+            normalizer.save(temporary[1])
+        for tmp in temporary:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+        for tmp, target in zip(temporary, targets, strict=True):
+            os.replace(tmp, target)
+    finally:
+        for tmp in temporary:
+            tmp.unlink(missing_ok=True)
+    run.update(
+        timesteps=int(model.num_timesteps),
+        wall_clock_s=round(trained_before + time.monotonic() - start, 3),
+        completed=completed,
+    )
+    write_json_atomic(out_dir / RUN_FILE, run)
+
+
+def saved_timesteps(out_dir: str | Path) -> int | None:
+    """The timesteps of the model saved in ``out_dir`` (read from model.zip without loading it), or None."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(Path(out_dir) / MODEL_FILE) as archive:
+            value = json.loads(archive.read("data")).get("num_timesteps")
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return None
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
 
 
 def _innermost(venv):
