@@ -13,12 +13,19 @@ import subprocess
 import sys
 from pathlib import Path
 
+import gymnasium as gym
+import gymnasium.envs.registration
+import gymnasium.wrappers.common
 import pytest
 
+_TIME_LIMIT = gym.wrappers.TimeLimit
 rl_zoo3 = pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (it is in the dev extra)")
+# Importing rl_zoo3 replaces Gymnasium's TimeLimit process-wide (rl_zoo3.gym_patches adds "TimeLimit.truncated" to
+# infos); this module only reads configs in-process and trains in subprocesses, so every other test gets Gymnasium's
+# own wrapper back (pytest imports every test module before running any).
+gym.wrappers.TimeLimit = gym.wrappers.common.TimeLimit = gym.envs.registration.TimeLimit = _TIME_LIMIT
 yaml = pytest.importorskip("yaml")
 
-import gymnasium as gym  # noqa: E402
 import torch  # noqa: E402
 from rl_zoo3.exp_manager import ExperimentManager  # noqa: E402
 from rl_zoo3.utils import ALGOS  # noqa: E402
