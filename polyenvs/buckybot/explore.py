@@ -27,17 +27,17 @@ _MAX_BATCH_CELLS = 500_000_000
 @njit(cache=True)
 def _observe(b, state, task, cells, known_rows, known_cols, free, grid, tp):
     """Mark row ``b``'s beams on its grid; returns the fraction of the free area newly observed."""
+    beams = (state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
+             state[b, S.NO_RETURN : S.NO_RETURN + 6])  # fmt: skip
+    true_pose = (state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS], state[b, S.HEADING_SIN])
     fresh = mark_beams_rotated(
-        cells[b], known_rows[b], known_cols[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS],
-        state[b, S.HEADING_SIN], state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
-        state[b, S.NO_RETURN : S.NO_RETURN + 6], free,
+        (cells[b], known_rows[b], known_cols[b]), (grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL]), true_pose, beams,
+        free,
     )  # fmt: skip
     task[b, _SEEN] += fresh
     # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
-    total, count = placement_gaps_rotated(
-        state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS], state[b, S.HEADING_SIN], state[b, S.DR_X],
-        state[b, S.DR_Y], state[b, S.DR_COS], state[b, S.DR_SIN], state[b, S.READING : S.READING + 6],
-    )  # fmt: skip
+    dead_reckoned_pose = (state[b, S.DR_X], state[b, S.DR_Y], state[b, S.DR_COS], state[b, S.DR_SIN])
+    total, count = placement_gaps_rotated(true_pose, dead_reckoned_pose, state[b, S.READING : S.READING + 6])
     task[b, _ERROR_SUM] += total
     task[b, _POINTS] += count
     return fresh / grid[_FREE_TOTAL]
