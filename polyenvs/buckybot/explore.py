@@ -74,7 +74,7 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, c
 @njit(cache=True)
 def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, cells, known_rows,
                  known_cols, free, grids, tp):  # fmt: skip
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+    advance_rows(actions, (state, walls, params, normals, cursor, obs, scratch, groups))
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:

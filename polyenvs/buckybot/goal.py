@@ -63,7 +63,7 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, t
 
 @njit(cache=True)
 def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, tp):
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+    advance_rows(actions, (state, walls, params, normals, cursor, obs, scratch, groups))
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue

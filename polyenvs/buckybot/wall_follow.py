@@ -64,7 +64,7 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, f
 def _step_kernel(
     actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, followed, bins, seg_bins, slot, tp
 ):
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+    advance_rows(actions, (state, walls, params, normals, cursor, obs, scratch, groups))
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:
