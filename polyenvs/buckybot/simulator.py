@@ -14,9 +14,9 @@ resting face and the actuator each action extends.
 Packed state. Everything a step reads or writes about a robot is one row of ``BuckybotSimulator.state``
 (float64, columns named by the constants below), and the compiled kernels take the simulator's arrays as one tuple
 ``sim`` (:data:`SIM_ARRAYS`: state, walls, parameters, draws, observation rows, scratch), which numba unpacks for
-free, instead of twenty arguments. ``advance_rows(actions, sim)`` (a step of every robot) and ``first_sense_row``
-(a reset) are called from each task's own compiled step and reset loops, which then score the task and write the
-observation in the same call.
+free, instead of twenty arguments. ``advance_rows(actions, sim)`` (a step of every robot) and
+``first_sense_row(b, sim)`` (a reset) are called from each task's own compiled step and reset loops, which then
+score the task and write the observation in the same call.
 
 Walls. A tip is allowed when its mean landing point keeps the body ``body_radius_cm`` off every wall and the
 straight motion there crosses no wall (the action mask is exactly this test). The noisy landing is used when its
@@ -33,7 +33,7 @@ import numpy as np
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.sensors import measure_one
-from polyenvs.core.columns import indices
+from polyenvs.core.columns import indices, spans
 from polyenvs.core.geometry2d import (
     SegmentTable,
     crossings,
@@ -47,7 +47,9 @@ from polyenvs.core.jit import njit
 from polyenvs.core.streams import RowStreams
 
 __all__ = [
+    "BASE_METRICS",
     "NORMALS_PER_STEP",
+    "SENSOR_OBSERVATION_STRUCTURE",
     "SIM_ARRAYS",
     "TIP_ANGLES_RAD",
     "BuckybotSimulator",
@@ -108,9 +110,17 @@ SCRATCH_ROWS = 24
 # A query is skipped only when the triangle inequality settles it with this much to spare (cm).
 _MARGIN_CM = 1e-6
 
-# The sensor part of every Buckybot observation (the first 19 entries).
-OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = 0, 6, 12, 18
-N_SENSOR_OBS = 19
+#: The sensor part of every Buckybot observation (its first entries): name -> size. Ranges are reading /
+#: 182.88 cm for valid readings (0 when too close, 1 when no return); too_close is 1 where the sensor did not
+#: settle (< 30.48 cm), no_return 1 where nothing was seen within 182.88 cm, tip_failed 1 if the last tip was
+#: blocked (the accelerometer reports the same face).
+SENSOR_OBSERVATION = {"range": 6, "too_close": 6, "no_return": 6, "tip_failed": 1}
+#: The same as name -> (start, stop) indices.
+SENSOR_OBSERVATION_STRUCTURE = spans(SENSOR_OBSERVATION)
+OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = (
+    SENSOR_OBSERVATION_STRUCTURE[name][0] for name in ("range", "too_close", "no_return", "tip_failed")
+)
+N_SENSOR_OBS = SENSOR_OBSERVATION_STRUCTURE["tip_failed"][1]
 
 #: The arrays every compiled step and reset takes, as one tuple ``sim`` in this order: the packed state, the walls
 #: ``(W, S, 6)``, the parameters, the draw blocks and cursors (:class:`polyenvs.core.streams.RowStreams`), the
@@ -119,6 +129,10 @@ SIM_ARRAYS = ("state", "walls", "params", "normals", "cursor", "obs", "scratch",
 _SIM = indices(SIM_ARRAYS)
 A_STATE, A_WALLS, A_PARAMS, A_NORMALS = _SIM["state"], _SIM["walls"], _SIM["params"], _SIM["normals"]
 A_CURSOR, A_OBS, A_SCRATCH, A_GROUPS = _SIM["cursor"], _SIM["obs"], _SIM["scratch"], _SIM["groups"]
+
+#: The metrics every Buckybot task reports: name -> the state column that counts it.
+BASE_METRICS = {"blocked_tips": BLOCKED_TIPS, "oscillation_events": OSCILLATIONS}
+_BASE_METRIC_STATE = tuple(BASE_METRICS.values())
 
 
 @dataclass(frozen=True)
@@ -549,19 +563,21 @@ def write_info(b, state):
 
 
 @njit(cache=True)
-def first_sense_row(b, state, walls, params, normals, cursor, obs):
-    """First readings of freshly placed robot ``b`` (one draw row of its block)."""
+def first_sense_row(b, sim):
+    """First readings of freshly placed robot ``b`` (one draw row of its block); ``sim``: :data:`SIM_ARRAYS`."""
+    state, walls, normals, cursor = sim[A_STATE], sim[A_WALLS], sim[A_NORMALS], sim[A_CURSOR]
     z = normals[b, cursor[b]]
     cursor[b] += 1
-    sense_row(b, state, walls, params, z, obs)
+    sense_row(b, state, walls[0 if walls.shape[0] == 1 else b], sim[A_PARAMS], z, sim[A_OBS])
     write_info(b, state)
 
 
 @njit(cache=True)
-def write_base_metrics(b, state, out, column):
-    """The metrics every task reports, into ``out[b, column:column + 2]``: blocked tips, oscillation events."""
-    out[b, column] = state[b, BLOCKED_TIPS]
-    out[b, column + 1] = state[b, OSCILLATIONS]
+def write_base_metrics(b, state, out, columns):
+    """The metrics every task reports (:data:`BASE_METRICS`) into ``out[b, columns]``, ``columns`` their columns
+    in that order (``OutColumns.metric_columns(*BASE_METRICS)``)."""
+    for j in range(len(columns)):
+        out[b, columns[j]] = state[b, _BASE_METRIC_STATE[j]]
 
 
 @njit(cache=True)
