@@ -202,7 +202,9 @@ def test_grid_traversal_matches_brute_force_on_random_beams():
         no_return = (rng.random(6) < 0.2) & ~too_close
         reading[too_close | no_return] = np.nan
         args = (heading, reading, too_close, no_return, count_in)
-        fresh = mark_beams(cells, origin[0], origin[1], cell, x, y, *args)
+        fresh = mark_beams(
+            cells, (origin[0], origin[1], cell), (x, y, heading), (reading, too_close, no_return), count_in
+        )
         assert fresh == _reference_mark(reference, origin, cell, x, y, *args)
         np.testing.assert_array_equal(cells, reference)
     assert (cells == OccupancyGrid.FREE).mean() > 0.5 and (cells == OccupancyGrid.OCCUPIED).any()
@@ -224,13 +226,13 @@ def test_grid_traversal_never_writes_outside_the_grid():
     poses += [(s * 1e6, 60.0, 0.0) for s in (-1, 1)] + [(75.0, s * 1e300, 1.0) for s in (-1, 1)]
     for x, y, heading in poses:
         for reading in (rng.uniform(30.48, 182.88, 6), np.full(6, 1e300)):
-            fresh = mark_beams(cells, 0.0, 0.0, cell, x, y, heading, reading, flags, flags, everywhere)
+            fresh = mark_beams(cells, (0.0, 0.0, cell), (x, y, heading), (reading, flags, flags), everywhere)
             assert fresh == _reference_mark(
                 reference, (0.0, 0.0), cell, x, y, heading, reading, flags, flags, everywhere
             )
             np.testing.assert_array_equal(cells, reference)
     for x, y, heading in ((np.nan, 50.0, 0.0), (50.0, np.inf, 0.0), (50.0, 50.0, np.nan)):
-        assert mark_beams(cells, 0.0, 0.0, cell, x, y, heading, np.full(6, 90.0), flags, flags, everywhere) == 0
+        assert mark_beams(cells, (0.0, 0.0, cell), (x, y, heading), (np.full(6, 90.0), flags, flags), everywhere) == 0
     np.testing.assert_array_equal(cells, reference)
     assert (buffer[:pad] == 7).all() and (buffer[-pad:] == 7).all()
 
@@ -263,12 +265,12 @@ def test_bit_planes_that_skip_known_beams_change_nothing_even_on_degenerate_beam
             too_close = rng.random(6) < 0.1
             no_return = (rng.random(6) < 0.3) & ~too_close
             reading[too_close | no_return] = np.nan
-            args = (origin[0], origin[1], cell, x, y, math.cos(heading), math.sin(heading), reading, too_close,
-                    no_return, count_in)  # fmt: skip
+            args = ((origin[0], origin[1], cell), (x, y, math.cos(heading), math.sin(heading)),
+                    (reading, too_close, no_return), count_in)  # fmt: skip
             before = cells.copy()
-            fresh = mark_beams_rotated(cells, known_rows, known_cols, *args)
+            fresh = mark_beams_rotated((cells, known_rows, known_cols), *args)
             cleared = [np.zeros_like(plane) for plane in (known_rows, known_cols)]
-            assert fresh == mark_beams_rotated(walked, *cleared, *args)
+            assert fresh == mark_beams_rotated((walked, *cleared), *args)
             np.testing.assert_array_equal(cells, walked)
             skipped += fresh == 0 and np.array_equal(before, cells)
             for kept, rebuilt in zip((known_rows, known_cols), known_bits(cells), strict=True):

@@ -3,12 +3,19 @@
 Everything inside works on a batch of robots ("rows"), like the simulator: ``BuckybotEnv`` is a
 :class:`polyenvs.core.rows.RowsEnv`, so a Gymnasium env is a batch of one and
 :class:`polyenvs.buckybot.vector.BuckybotVectorEnv` (a ``RowsVectorEnv``) runs the same class with many rows, and
-the task equations exist once, in compiled kernels. A task subclasses :class:`BuckybotEnv` and provides
+the task equations exist once, in compiled kernels. The base knows no task: a task module declares its reward
+terms, metrics and observation parts by name and subclasses :class:`BuckybotEnv` with
 
-- ``reward_names`` and ``metric_names`` (the columns its kernels write into ``self._out``),
-- ``_step_kernel`` and ``_reset_kernel``: compiled loops over rows that call the simulator's row kernels, score
-  the task and write observation rows, all in one call (see :mod:`polyenvs.buckybot.wall_follow`),
-- ``_task_arrays()``: the task's own arrays, passed to both kernels after the shared ones,
+- ``reward_names`` and ``metric_names`` (its own metrics; :data:`polyenvs.buckybot.simulator.BASE_METRICS` come
+  first), and ``out_columns``, the :class:`polyenvs.core.columns.OutColumns` its kernels' column constants come
+  from (:meth:`BuckybotEnv.task_columns` makes it from the names);
+- ``task_observation_sizes`` (name -> size of each observation part after the sensors), with their bounds;
+- ``_step_kernel(actions, kernel)`` and ``_reset_kernel(rows, kernel)``: compiled loops over rows that call the
+  simulator's row kernels, score the task and write observation rows, all in one call (see
+  :mod:`polyenvs.buckybot.wall_follow`). ``kernel`` (:class:`polyenvs.core.jit.KernelArgs`) holds ``kernel.sim``,
+  the tuple of :data:`polyenvs.buckybot.simulator.SIM_ARRAYS`, ``kernel.out``, the ``_out`` table, and
+  ``kernel.task``, the task's tuple;
+- ``_task_arrays()``: the task's own arrays, that tuple (after replacing one, call ``_repack_task()``);
 - optional hooks for per-plan tables (``_task_install_plan``) and per-episode choices (``_task_sample`` /
   ``_task_commit``).
 
@@ -31,6 +38,7 @@ from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.floor_plans import MAX_RANDOM_SEGMENTS, RANDOM_ROOM_BOUNDS, make_floor_plan, random_room
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.rows import RowsEnv, vector_convention
@@ -54,13 +62,8 @@ class BuckybotAction(enum.IntEnum):
     FORWARD_LEFT = 2
 
 
-#: Layout of the sensor part of every Buckybot observation: name -> (start, stop) indices.
-SENSOR_OBSERVATION_STRUCTURE = {
-    "range": (0, 6),  # reading / 182.88 cm for valid readings; 0 when too close, 1 when no return
-    "too_close": (6, 12),  # 1 where the sensor did not settle (< 30.48 cm)
-    "no_return": (12, 18),  # 1 where nothing was seen within 182.88 cm
-    "tip_failed": (18, 19),  # 1 if the last tip was blocked (the accelerometer reports the same face)
-}
+#: Layout of the sensor part of every Buckybot observation: name -> (start, stop) indices (the simulator's).
+SENSOR_OBSERVATION_STRUCTURE = S.SENSOR_OBSERVATION_STRUCTURE
 #: Actuator letters each action extends, by (face, edge at frame direction 0).
 _ACTUATOR_NAMES = [
     ["".join(geo.ACTUATOR_LETTERS[geo.FACE_CORNER_ACTUATOR[f, (e0 + j) % 3]] for j in range(3)) for e0 in range(3)]
@@ -198,11 +201,7 @@ class BuckybotEnv(RowsEnv):
         low = np.concatenate([np.zeros(S.N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
         high = np.concatenate([np.ones(S.N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        self.observation_structure = dict(SENSOR_OBSERVATION_STRUCTURE)
-        start = S.N_SENSOR_OBS
-        for name, size in self.task_observation_sizes.items():
-            self.observation_structure[name] = (start, start + size)
-            start += size
+        self.observation_structure = self.observation_parts()
 
         # Plan slots: one plan shared by every row, or (random rooms in a vector env) one per row.
         self._n_slots = 1 if self.floor_plan is not None else n
@@ -216,15 +215,27 @@ class BuckybotEnv(RowsEnv):
         self._trail = PathTrail() if render_mode is not None else None
         self._renderer = None
         self._task_init()
-        self._kernel_arrays = self._task_arrays()
+        self._repack_task()
 
     # --- task interface ---------------------------------------------------------------------------------------
     #: Metrics every Buckybot task reports, before the task's own.
-    base_metric_names = ("blocked_tips", "oscillation_events")
+    base_metric_names = tuple(S.BASE_METRICS)
 
     @property
     def all_metric_names(self) -> tuple[str, ...]:
         return self.base_metric_names + self.metric_names
+
+    @classmethod
+    def task_columns(cls, reward_names: tuple[str, ...], metric_names: tuple[str, ...]) -> OutColumns:
+        """The ``_out`` columns of a task with these reward terms and own metrics (the base metrics first)."""
+        return OutColumns(reward_names, cls.base_metric_names + tuple(metric_names))
+
+    @classmethod
+    def observation_parts(cls, task_sizes: dict[str, int] | None = None) -> dict[str, tuple[int, int]]:
+        """The observation's layout, name -> (start, stop): the sensor part, then the task's parts
+        (``task_observation_sizes`` unless ``task_sizes`` is given)."""
+        sizes = cls.task_observation_sizes if task_sizes is None else task_sizes
+        return spans({**S.SENSOR_OBSERVATION, **sizes})
 
     _step_kernel = None  # staticmethod(compiled step loop), set by each task
     _reset_kernel = None  # staticmethod(compiled reset loop)
@@ -233,8 +244,14 @@ class BuckybotEnv(RowsEnv):
         """Allocate the task's arrays (``self._n_slots`` plan slots, ``self._batch_size`` rows)."""
 
     def _task_arrays(self) -> tuple:
-        """The task's arrays, passed to both kernels after the shared ones."""
+        """The task's arrays, the tuple ``kernel.task`` both kernels take."""
         return ()
+
+    def _repack_task(self) -> None:
+        """Pack the kernels' arguments again from ``_task_arrays()`` (at construction, and after a task replaced
+        one of its arrays)."""
+        self._kernel_arrays = self._task_arrays()
+        self._pack_kernel(self.sim.kernel_arrays(self._observations), self._kernel_arrays)
 
     def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         """Fill the task's tables for ``plan`` in plan slot ``slot``."""
@@ -345,10 +362,7 @@ class BuckybotEnv(RowsEnv):
             self._task_commit(r.row, r.task)
         rows = self._row0 if len(resets) == 1 and resets[0].row == 0 else np.array([r.row for r in resets])
         sim.streams.refill(rows)  # the first readings take a draw row
-        self._reset_kernel(
-            rows, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
-            self._out, *self._kernel_arrays,
-        )  # fmt: skip
+        self._reset_kernel(rows, self._kernel)
         self._started = True
         if self._trail is not None and 0 in rows:
             self._trail.clear()
@@ -362,12 +376,8 @@ class BuckybotEnv(RowsEnv):
 
     def _advance(self, actions: np.ndarray) -> None:
         """Step every row whose action is >= 0 (rows with -1 were just reset: they neither move nor score)."""
-        sim = self.sim
-        sim.streams.refill()
-        self._step_kernel(
-            actions, sim.state, sim.walls, sim.params, sim.streams.normals, sim.streams.cursor, self._observations,
-            self._out, sim.scratch, sim.groups, *self._kernel_arrays,
-        )  # fmt: skip
+        self.sim.streams.refill()
+        self._step_kernel(actions, self._kernel)
 
     def _option_pose(self, plan: FloorPlan, pose) -> tuple[np.ndarray, float]:
         try:

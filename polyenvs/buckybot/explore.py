@@ -8,12 +8,28 @@ from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams_rotated, placement_gaps_rotated
-from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import (
+    A_STATE,
+    A_WALLS,
+    BASE_METRICS,
+    advance_rows,
+    first_sense_row,
+    write_base_metrics,
+)
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotExploreEnv"]
+
+#: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
+REWARD_TERMS = ("coverage", "blocked")
+METRICS = ("coverage", "map_error_cm")
+OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
+_R_COVERAGE, _R_BLOCKED = OUT.term_columns("coverage", "blocked")
+_M_COVERAGE, _M_MAP_ERROR = OUT.metric_columns("coverage", "map_error_cm")
+_M_BASE = OUT.metric_columns(*BASE_METRICS)
+_REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
 # Columns of the task state: free cells of the main region observed so far, the map-error sum and its count.
 _SEEN, _ERROR_SUM, _POINTS = range(3)
@@ -25,19 +41,21 @@ _MAX_BATCH_CELLS = 500_000_000
 
 
 @njit(cache=True)
-def _observe(b, state, task, cells, known_rows, known_cols, free, grid, tp):
-    """Mark row ``b``'s beams on its grid; returns the fraction of the free area newly observed."""
+def _observe(b, state, arrays, w):
+    """Mark row ``b``'s beams on its grid (plan slot ``w``); returns the fraction of the free area newly observed."""
+    task, cells, known_rows, known_cols, free, grids, tp = arrays
+    grid = grids[w]
+    beams = (state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
+             state[b, S.NO_RETURN : S.NO_RETURN + 6])  # fmt: skip
+    true_pose = (state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS], state[b, S.HEADING_SIN])
     fresh = mark_beams_rotated(
-        cells[b], known_rows[b], known_cols[b], grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL], state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS],
-        state[b, S.HEADING_SIN], state[b, S.READING : S.READING + 6], state[b, S.TOO_CLOSE : S.TOO_CLOSE + 6],
-        state[b, S.NO_RETURN : S.NO_RETURN + 6], free,
+        (cells[b], known_rows[b], known_cols[b]), (grid[_ORIGIN_X], grid[_ORIGIN_Y], tp[_CELL]), true_pose, beams,
+        free[w],
     )  # fmt: skip
     task[b, _SEEN] += fresh
     # The paper's Figure 8: the same readings placed from the true and from the dead-reckoned pose.
-    total, count = placement_gaps_rotated(
-        state[b, S.X], state[b, S.Y], state[b, S.HEADING_COS], state[b, S.HEADING_SIN], state[b, S.DR_X],
-        state[b, S.DR_Y], state[b, S.DR_COS], state[b, S.DR_SIN], state[b, S.READING : S.READING + 6],
-    )  # fmt: skip
+    dead_reckoned_pose = (state[b, S.DR_X], state[b, S.DR_Y], state[b, S.DR_COS], state[b, S.DR_SIN])
+    total, count = placement_gaps_rotated(true_pose, dead_reckoned_pose, state[b, S.READING : S.READING + 6])
     task[b, _ERROR_SUM] += total
     task[b, _POINTS] += count
     return fresh / grid[_FREE_TOTAL]
@@ -45,45 +63,50 @@ def _observe(b, state, task, cells, known_rows, known_cols, free, grid, tp):
 
 @njit(cache=True)
 def _write_out(b, state, task, grid, tp, out):
-    write_base_metrics(b, state, out, 2)
+    write_base_metrics(b, state, out, _M_BASE)
     coverage = task[b, _SEEN] / grid[_FREE_TOTAL]
-    out[b, 4] = coverage
-    out[b, 5] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
-    out[b, 6] = out[b, 0] + out[b, 1]
-    out[b, 7] = 1.0 if coverage >= tp[_GOAL] else 0.0
+    out[b, _M_COVERAGE] = coverage
+    out[b, _M_MAP_ERROR] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
+    out[b, _REWARD] = out[b, _R_COVERAGE] + out[b, _R_BLOCKED]
+    out[b, _TERMINATED] = 1.0 if coverage >= tp[_GOAL] else 0.0
 
 
 @njit(cache=True)
-def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, cells, known_rows, known_cols, free,
-                  grids, tp):  # fmt: skip
+def _reset_kernel(rows, kernel):
+    """Sense, map and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotExploreEnv._task_arrays()``)."""
+    sim, out, arrays = kernel.sim, kernel.out, kernel.task
+    state, walls = sim[A_STATE], sim[A_WALLS]
+    task, cells, known_rows, known_cols, free, grids, tp = arrays
     shared = walls.shape[0] == 1
     for n in range(rows.shape[0]):
         b = rows[n]
         w = 0 if shared else b
-        first_sense_row(b, state, walls[w], params, normals, cursor, obs)
+        first_sense_row(b, sim)
         cells[b, :, :] = 0  # unknown
         known_rows[b, :] = 0
         known_cols[b, :] = 0
         task[b, :] = 0.0
-        # What the robot sees before its first tip counts.
-        _observe(b, state, task, cells, known_rows, known_cols, free[w], grids[w], tp)
+        _observe(b, state, arrays, w)  # what the robot sees before its first tip counts
         out[b, :] = 0.0
         _write_out(b, state, task, grids[w], tp, out)
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, cells, known_rows,
-                 known_cols, free, grids, tp):  # fmt: skip
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+def _step_kernel(actions, kernel):
+    """Step every row with an action >= 0, map and score it (``kernel.task``: ``BuckybotExploreEnv._task_arrays()``)."""
+    sim, out, arrays = kernel.sim, kernel.out, kernel.task
+    advance_rows(actions, sim)
+    state, walls = sim[A_STATE], sim[A_WALLS]
+    task, cells, known_rows, known_cols, free, grids, tp = arrays
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
         w = 0 if shared else b
         blocked = state[b, S.BLOCKED] > 0.5
-        observed = _observe(b, state, task, cells, known_rows, known_cols, free[w], grids[w], tp)
-        out[b, 0] = 100.0 * observed  # percent newly observed
-        out[b, 1] = -1.0 if blocked else 0.0
+        observed = _observe(b, state, arrays, w)
+        out[b, _R_COVERAGE] = 100.0 * observed  # percent newly observed
+        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
         _write_out(b, state, task, grids[w], tp, out)
 
 
@@ -129,8 +152,9 @@ class BuckybotExploreEnv(BuckybotEnv):
     * v0: initial version.
     """
 
-    reward_names = ("coverage", "blocked")
-    metric_names = ("coverage", "map_error_cm")
+    reward_names = REWARD_TERMS
+    metric_names = METRICS
+    out_columns = OUT
 
     def __init__(self, *, floor_plan="office", coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
         self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.01, 1.0)

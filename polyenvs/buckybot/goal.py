@@ -9,7 +9,7 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import A_OBS, A_STATE, BASE_METRICS, advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_finite, check_in_range, show
@@ -20,6 +20,18 @@ __all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
 GOAL_DISTANCE_SCALE_CM = 200.0
 #: The farthest start-to-goal distance accepted (the widest plan is 50 m).
 MAX_GOAL_DISTANCE_CM = 5000.0
+#: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
+REWARD_TERMS = ("progress", "goal", "blocked")
+METRICS = ("success", "final_distance_cm")
+OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
+_R_PROGRESS, _R_GOAL, _R_BLOCKED = OUT.term_columns("progress", "goal", "blocked")
+_M_SUCCESS, _M_FINAL_DISTANCE = OUT.metric_columns("success", "final_distance_cm")
+_M_BASE = OUT.metric_columns(*BASE_METRICS)
+_REWARD, _TERMINATED = OUT.reward, OUT.terminated
+#: The observation's part after the sensors: the goal's bearing (cos, sin) and tanh(distance / 200 cm).
+OBSERVATION_PARTS = {"goal": 3}
+_GOAL_COS, _GOAL_SIN, _GOAL_DISTANCE = range(*BuckybotEnv.observation_parts(OBSERVATION_PARTS)["goal"])
+
 # Columns of the task state: the goal, the true distance to it after the last step, success.
 _GOAL_X, _GOAL_Y, _DISTANCE, _SUCCESS = range(4)
 _RADIUS = 0
@@ -32,28 +44,31 @@ def _goal_observation(b, state, task, obs):
     distance = math.sqrt(dx * dx + dy * dy)
     if distance > 0.0:  # rotate the direction into the frame with the kept cosine and sine of the heading
         c, s = state[b, S.DR_COS], state[b, S.DR_SIN]
-        obs[b, S.N_SENSOR_OBS] = (dx * c + dy * s) / distance
-        obs[b, S.N_SENSOR_OBS + 1] = (dy * c - dx * s) / distance
+        obs[b, _GOAL_COS] = (dx * c + dy * s) / distance
+        obs[b, _GOAL_SIN] = (dy * c - dx * s) / distance
     else:
-        obs[b, S.N_SENSOR_OBS], obs[b, S.N_SENSOR_OBS + 1] = 1.0, 0.0
-    obs[b, S.N_SENSOR_OBS + 2] = math.tanh(distance / GOAL_DISTANCE_SCALE_CM)
+        obs[b, _GOAL_COS], obs[b, _GOAL_SIN] = 1.0, 0.0
+    obs[b, _GOAL_DISTANCE] = math.tanh(distance / GOAL_DISTANCE_SCALE_CM)
 
 
 @njit(cache=True)
 def _write_out(b, state, task, out):
-    write_base_metrics(b, state, out, 3)
-    out[b, 5] = task[b, _SUCCESS]
-    out[b, 6] = task[b, _DISTANCE]
-    out[b, 7] = out[b, 0] + out[b, 1] + out[b, 2]
-    out[b, 8] = task[b, _SUCCESS]
+    write_base_metrics(b, state, out, _M_BASE)
+    out[b, _M_SUCCESS] = task[b, _SUCCESS]
+    out[b, _M_FINAL_DISTANCE] = task[b, _DISTANCE]
+    out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_GOAL] + out[b, _R_BLOCKED]
+    out[b, _TERMINATED] = task[b, _SUCCESS]
 
 
 @njit(cache=True)
-def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, tp):
-    shared = walls.shape[0] == 1
+def _reset_kernel(rows, kernel):
+    """Sense and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotGoalEnv._task_arrays()``)."""
+    sim, out = kernel.sim, kernel.out
+    state, obs = sim[A_STATE], sim[A_OBS]
+    task, tp = kernel.task
     for n in range(rows.shape[0]):
         b = rows[n]
-        first_sense_row(b, state, walls[0 if shared else b], params, normals, cursor, obs)
+        first_sense_row(b, sim)
         task[b, _DISTANCE] = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
         task[b, _SUCCESS] = 0.0
         _goal_observation(b, state, task, obs)
@@ -62,18 +77,22 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, t
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, tp):
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+def _step_kernel(actions, kernel):
+    """Step every row with an action >= 0 and score it (``kernel.task``: ``BuckybotGoalEnv._task_arrays()``)."""
+    sim, out = kernel.sim, kernel.out
+    advance_rows(actions, sim)
+    state, obs = sim[A_STATE], sim[A_OBS]
+    task, tp = kernel.task
     for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
         blocked = state[b, S.BLOCKED] > 0.5
         d = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
-        out[b, 0] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in lattice steps
+        out[b, _R_PROGRESS] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in steps
         task[b, _DISTANCE] = d
         task[b, _SUCCESS] = 1.0 if d <= tp[_RADIUS] else 0.0
-        out[b, 1] = 10.0 * task[b, _SUCCESS]
-        out[b, 2] = -1.0 if blocked else 0.0
+        out[b, _R_GOAL] = 10.0 * task[b, _SUCCESS]
+        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
         _goal_observation(b, state, task, obs)
         _write_out(b, state, task, out)
 
@@ -121,10 +140,11 @@ class BuckybotGoalEnv(BuckybotEnv):
     * v0: initial version.
     """
 
-    reward_names = ("progress", "goal", "blocked")
-    metric_names = ("success", "final_distance_cm")
+    reward_names = REWARD_TERMS
+    metric_names = METRICS
+    out_columns = OUT
     task_option_names = ("goal",)
-    task_observation_sizes = {"goal": 3}
+    task_observation_sizes = OBSERVATION_PARTS
     task_observation_low = (-1.0, -1.0, 0.0)
     task_observation_high = (1.0, 1.0, 1.0)
 

@@ -52,7 +52,9 @@ def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]
     Poses are ``(x_cm, y_cm, heading_rad)``.
     """
     return placement_gaps(
-        *(float(v) for v in true_pose), *(float(v) for v in dead_reckoned_pose), np.asarray(reading, dtype=np.float64)
+        tuple(float(v) for v in true_pose),
+        tuple(float(v) for v in dead_reckoned_pose),
+        np.asarray(reading, dtype=np.float64),
     )
 
 
@@ -61,16 +63,19 @@ _SENSOR_COS, _SENSOR_SIN = np.cos(SENSOR_AZIMUTHS_RAD), np.sin(SENSOR_AZIMUTHS_R
 
 
 @njit(cache=True)
-def placement_gaps(xt, yt, ht, xd, yd, hd, reading):
-    """Compiled core of :func:`placement_error` for one pose pair."""
-    return placement_gaps_rotated(
-        xt, yt, math.cos(ht), math.sin(ht), xd, yd, math.cos(hd), math.sin(hd), reading
-    )  # fmt: skip
+def placement_gaps(true_pose, dead_reckoned_pose, reading):
+    """Compiled core of :func:`placement_error` for one pose pair, each ``(x, y, heading)``."""
+    xt, yt, ht = true_pose
+    xd, yd, hd = dead_reckoned_pose
+    return placement_gaps_rotated((xt, yt, math.cos(ht), math.sin(ht)), (xd, yd, math.cos(hd), math.sin(hd)), reading)
 
 
 @njit(cache=True)
-def placement_gaps_rotated(xt, yt, cht, sht, xd, yd, chd, shd, reading):
-    """:func:`placement_gaps` with each heading given by its cosine and sine (a simulator that keeps them)."""
+def placement_gaps_rotated(true_pose, dead_reckoned_pose, reading):
+    """:func:`placement_gaps` with each heading given by its cosine and sine, poses ``(x, y, cos, sin)`` (a
+    simulator that keeps them)."""
+    xt, yt, cht, sht = true_pose
+    xd, yd, chd, shd = dead_reckoned_pose
     ca, sa = _SENSOR_COS, _SENSOR_SIN
     total, count = 0.0, 0
     for i in range(reading.shape[0]):
@@ -124,11 +129,12 @@ class OccupancyGrid:
         ``reading`` the slant readings in cm. Cells already occupied stay occupied.
         """
         x, y = (float(v) for v in position)
+        beams = (np.asarray(reading, dtype=np.float64), np.asarray(too_close, dtype=np.bool_),
+                 np.asarray(no_return, dtype=np.bool_))  # fmt: skip
+        frame = (float(self.origin[0]), float(self.origin[1]), self.cell_cm)
         return mark_beams(
-            self.cells, self.origin[0], self.origin[1], self.cell_cm, x, y, float(heading),
-            np.asarray(reading, dtype=np.float64), np.asarray(too_close, dtype=np.bool_),
-            np.asarray(no_return, dtype=np.bool_), self._everywhere if count_in is None else count_in,
-        )  # fmt: skip
+            self.cells, frame, (x, y, float(heading)), beams, self._everywhere if count_in is None else count_in
+        )
 
 
 @njit(cache=True)
@@ -213,11 +219,15 @@ def _span_known(bits, lo, hi):
 
 
 @njit(cache=True)
-def _beam_settled(known_rows, known_cols, rows, cols, gx, gy, qx, qy, dx, dy):
-    """Whether the walk along the segment ``(gx, gy)``-``(qx, qy)`` (cell units, direction ``(dx, dy)``) would find
-    every cell it crosses known: whether every cell within ``_WALK_SLACK`` of it is, by lines of cells along
-    whichever axis the segment crosses fewer lines of. A segment far off the grid is left to the walk, which clips
-    first."""
+def _beam_settled(planes, segment, direction):
+    """Whether the walk along ``segment = (gx, gy, qx, qy)`` (cell units, unit ``direction = (dx, dy)``) over the
+    grid ``planes = (cells, known_rows, known_cols)`` would find every cell it crosses known: whether every cell
+    within ``_WALK_SLACK`` of it is, by lines of cells along whichever axis the segment crosses fewer lines of. A
+    segment far off the grid is left to the walk, which clips first."""
+    cells, known_rows, known_cols = planes
+    rows, cols = cells.shape
+    gx, gy, qx, qy = segment
+    dx, dy = direction
     if not (abs(gx) < _FAR and abs(gy) < _FAR and abs(qx) < _FAR and abs(qy) < _FAR):
         return False
     if abs(dx) >= abs(dy):
@@ -259,14 +269,17 @@ def _near_cells_known(bits, lines, length, a0, a1, b0, b1):
 
 
 @njit(cache=True)
-def _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, length):
-    """Free the unknown cells crossed by the segment from grid point ``(gx, gy)`` (cell units) along the unit
-    direction ``(dx, dy)`` for ``length`` cells, each crossed cell visited once (Amanatides & Woo's traversal),
-    keeping the bit planes up to date.
+def _free_cells(planes, count_in, start, direction, length):
+    """Free the unknown cells of ``planes = (cells, known_rows, known_cols)`` crossed by the segment from grid
+    point ``start = (gx, gy)`` (cell units) along the unit ``direction = (dx, dy)`` for ``length`` cells, each
+    crossed cell visited once (Amanatides & Woo's traversal), keeping the bit planes up to date.
 
     The segment is first clipped to the grid, so a beam from a pose far outside costs nothing and every index
     stays in range. Returns the cells newly freed where ``count_in`` is true.
     """
+    cells, known_rows, known_cols = planes
+    gx, gy = start
+    dx, dy = direction
     rows, cols = cells.shape
     inf = math.inf
     # Reciprocals once: the clipping and the traversal below then need no further division.
@@ -301,27 +314,35 @@ def _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, length)
 
 
 @njit(cache=True)
-def mark_beams(cells, ox, oy, cell, x, y, heading, reading, too_close, no_return, count_in):
-    """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``."""
+def mark_beams(cells, frame, pose, beams, count_in):
+    """Compiled core of :meth:`OccupancyGrid.observe` on one grid; returns the cells newly freed in ``count_in``.
+
+    ``frame = (ox, oy, cell)``: the grid's origin and cell size (cm); ``pose = (x, y, heading)``; ``beams =
+    (reading, too_close, no_return)``, the six readings and their flags.
+    """
+    x, y, heading = pose
     if not math.isfinite(heading):
         return 0
     known_rows, known_cols = known_bits(cells)
     return mark_beams_rotated(
-        cells, known_rows, known_cols, ox, oy, cell, x, y, math.cos(heading), math.sin(heading), reading,
-        too_close, no_return, count_in,
-    )  # fmt: skip
+        (cells, known_rows, known_cols), frame, (x, y, math.cos(heading), math.sin(heading)), beams, count_in
+    )
 
 
 @njit(cache=True)
-def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh, reading, too_close, no_return,
-                       count_in):  # fmt: skip
-    """:func:`mark_beams` with the heading given by its cosine and sine (a simulator that keeps them), and the
-    grid's bit planes (:func:`known_bits`), which it keeps up to date with ``cells``.
+def mark_beams_rotated(planes, frame, pose, beams, count_in):
+    """:func:`mark_beams` on the grid and its bit planes ``planes = (cells, known_rows, known_cols)``
+    (:func:`known_bits`), which it keeps up to date with ``cells``, from ``pose = (x, y, cos, sin)``, the heading
+    given by its cosine and sine (a simulator that keeps them).
 
     Each beam frees the cells its segment crosses (:func:`_free_cells`). Most beams cross only known cells: the
     bit planes settle that a line of cells at a time (:func:`_beam_settled`), and the walk runs only where some
     cell near the segment is unknown, so the cells marked are exactly those the walk alone would mark.
     """
+    cells, known_rows, known_cols = planes
+    ox, oy, cell = frame
+    x, y, ch, sh = pose
+    reading, too_close, no_return = beams
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(ch) and math.isfinite(sh)):
         return 0
     ca, sa, sensor_offset = _SENSOR_COS, _SENSOR_SIN, SENSOR_HORIZONTAL_OFFSET_CM
@@ -342,8 +363,8 @@ def mark_beams_rotated(cells, known_rows, known_cols, ox, oy, cell, x, y, ch, sh
         gx, gy = (sx - ox) * inv_cell, (sy - oy) * inv_cell
         reach = free_length * inv_cell
         qx, qy = gx + reach * dx, gy + reach * dy
-        if not _beam_settled(known_rows, known_cols, rows, cols, gx, gy, qx, qy, dx, dy):
-            fresh += _free_cells(cells, known_rows, known_cols, count_in, gx, gy, dx, dy, reach)
+        if not _beam_settled(planes, (gx, gy, qx, qy), (dx, dy)):
+            fresh += _free_cells(planes, count_in, (gx, gy), (dx, dy), reach)
         if not no_return[i]:
             # Compare as floats before converting: a far-off hit must not overflow the integer cast.
             hc, hr = gx + length * inv_cell * dx, gy + length * inv_cell * dy

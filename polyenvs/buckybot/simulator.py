@@ -12,9 +12,11 @@ that remembers anything can carry it from one frame to the next. ``info`` publis
 resting face and the actuator each action extends.
 
 Packed state. Everything a step reads or writes about a robot is one row of ``BuckybotSimulator.state``
-(float64, columns named by the constants below), so a compiled step takes a handful of arrays instead of twenty.
-``advance_rows`` (a step of every robot) and ``first_sense_row`` (a reset) are called from each task's own
-compiled step and reset loops, which then score the task and write the observation in the same call.
+(float64, columns named by the constants below), and the compiled kernels take the simulator's arrays as one tuple
+``sim`` (:data:`SIM_ARRAYS`: state, walls, parameters, draws, observation rows, scratch), which numba unpacks for
+free, instead of twenty arguments. ``advance_rows(actions, sim)`` (a step of every robot) and
+``first_sense_row(b, sim)`` (a reset) are called from each task's own compiled step and reset loops, which then
+score the task and write the observation in the same call.
 
 Walls. A tip is allowed when its mean landing point keeps the body ``body_radius_cm`` off every wall and the
 straight motion there crosses no wall (the action mask is exactly this test). The noisy landing is used when its
@@ -31,6 +33,7 @@ import numpy as np
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.sensors import measure_one
+from polyenvs.core.columns import indices, spans
 from polyenvs.core.geometry2d import (
     SegmentTable,
     crossings,
@@ -43,7 +46,15 @@ from polyenvs.core.geometry2d import (
 from polyenvs.core.jit import njit
 from polyenvs.core.streams import RowStreams
 
-__all__ = ["TipModel", "BuckybotSimulator", "TIP_ANGLES_RAD", "NORMALS_PER_STEP"]
+__all__ = [
+    "BASE_METRICS",
+    "NORMALS_PER_STEP",
+    "SENSOR_OBSERVATION_STRUCTURE",
+    "SIM_ARRAYS",
+    "TIP_ANGLES_RAD",
+    "BuckybotSimulator",
+    "TipModel",
+]
 
 #: Frame azimuths of the three tip directions.
 TIP_ANGLES_RAD = np.radians([0.0, 120.0, 240.0])
@@ -99,9 +110,29 @@ SCRATCH_ROWS = 24
 # A query is skipped only when the triangle inequality settles it with this much to spare (cm).
 _MARGIN_CM = 1e-6
 
-# The sensor part of every Buckybot observation (the first 19 entries).
-OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = 0, 6, 12, 18
-N_SENSOR_OBS = 19
+#: The sensor part of every Buckybot observation (its first entries): name -> size. Ranges are reading /
+#: 182.88 cm for valid readings (0 when too close, 1 when no return); too_close is 1 where the sensor did not
+#: settle (< 30.48 cm), no_return 1 where nothing was seen within 182.88 cm, tip_failed 1 if the last tip was
+#: blocked (the accelerometer reports the same face).
+SENSOR_OBSERVATION = {"range": 6, "too_close": 6, "no_return": 6, "tip_failed": 1}
+#: The same as name -> (start, stop) indices.
+SENSOR_OBSERVATION_STRUCTURE = spans(SENSOR_OBSERVATION)
+OBS_RANGE, OBS_TOO_CLOSE, OBS_NO_RETURN, OBS_TIP_FAILED = (
+    SENSOR_OBSERVATION_STRUCTURE[name][0] for name in ("range", "too_close", "no_return", "tip_failed")
+)
+N_SENSOR_OBS = SENSOR_OBSERVATION_STRUCTURE["tip_failed"][1]
+
+#: The arrays every compiled step and reset takes, as one tuple ``sim`` in this order: the packed state, the walls
+#: ``(W, S, 6)``, the parameters, the draw blocks and cursors (:class:`polyenvs.core.streams.RowStreams`), the
+#: observation rows (float32, the sensor part first), the step's scratch and its query groups.
+SIM_ARRAYS = ("state", "walls", "params", "normals", "cursor", "obs", "scratch", "groups")
+_SIM = indices(SIM_ARRAYS)
+A_STATE, A_WALLS, A_PARAMS, A_NORMALS = _SIM["state"], _SIM["walls"], _SIM["params"], _SIM["normals"]
+A_CURSOR, A_OBS, A_SCRATCH, A_GROUPS = _SIM["cursor"], _SIM["obs"], _SIM["scratch"], _SIM["groups"]
+
+#: The metrics every Buckybot task reports: name -> the state column that counts it.
+BASE_METRICS = {"blocked_tips": BLOCKED_TIPS, "oscillation_events": OSCILLATIONS}
+_BASE_METRIC_STATE = tuple(BASE_METRICS.values())
 
 
 @dataclass(frozen=True)
@@ -193,6 +224,14 @@ class BuckybotSimulator:
         # Robot of each compacted query group: tipping robots near a wall, robots near a wall, every robot.
         self.groups = np.zeros((3, b), dtype=np.int64)
         self.groups[2] = np.arange(b)
+
+    def kernel_arrays(self, obs: np.ndarray) -> tuple:
+        """The tuple ``sim`` (:data:`SIM_ARRAYS`) the compiled kernels take, with observation rows ``obs`` (the
+        sensor part first); build it again after :meth:`set_walls`."""
+        s = self.streams
+        arrays = dict(state=self.state, walls=self.walls, params=self.params, normals=s.normals, cursor=s.cursor,
+                      obs=obs, scratch=self.scratch, groups=self.groups)  # fmt: skip
+        return tuple(arrays[name] for name in SIM_ARRAYS)
 
     # Named views of the packed state (writable where that makes sense).
     position = property(lambda self: self.state[:, X : Y + 1])
@@ -331,21 +370,33 @@ def sense_row(b, state, walls, params, z, obs):
 
 
 @njit(cache=True, error_model="numpy")
-def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups):
+def advance_rows(actions, sim):
     """One step of every robot whose action is >= 0: tip, update its records, sense; writes the sensor part of
-    its observation row. Each consumes one draw row of its block.
+    its observation row. Each consumes one draw row of its block. ``sim``: the arrays of :data:`SIM_ARRAYS`.
 
     The same physics as ``tip_row`` and ``sense_row``, with the wall queries of the whole batch made by the
     batched geometry kernels (walls outside, queries inside). Queries the triangle inequality settles are
     skipped: a robot farther from every wall than a step plus the body radius can neither cross a wall nor land
     against one, so only robots near walls check their motions and landings.
     """
-    n = actions.shape[0]
-    radius, reach = params[P_BODY_RADIUS], params[P_STEP_REACH]
-    # 1. Tip proposals: the noisy landing and the checked mean landing of every robot that tips. The noisy motion
-    #    needs checking only if it could touch a wall or end within half the body radius of one.
+    near = _propose_tips(actions, sim)
+    _check_motions(sim, near)
+    _move_rows(actions, sim)
+    _cast_beams(actions, sim)
+    _mask_rows(actions, sim)
+    _read_sensors(actions, sim)
+
+
+@njit(cache=True, error_model="numpy")
+def _propose_tips(actions, sim):
+    """Step 1: the noisy landing and the checked mean landing of every robot that tips (blocked tips are counted
+    here). Robots whose noisy motion could touch a wall or end within half the body radius of one are queued in
+    ``groups[0]`` (their motions and end points in the scratch); returns how many."""
+    state, params, normals, cursor = sim[A_STATE], sim[A_PARAMS], sim[A_NORMALS], sim[A_CURSOR]
+    scratch, groups = sim[A_SCRATCH], sim[A_GROUPS]
+    radius = params[P_BODY_RADIUS]
     near = 0
-    for b in range(n):
+    for b in range(actions.shape[0]):
         scratch[TIP_ACTIVE, b] = 0.0
         a = actions[b]
         if a < 0:
@@ -373,17 +424,28 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, g
             scratch[MV_BY, near] = scratch[C_Y, near] = y + dy
             groups[0, near] = b
             near += 1
-    # 2. Do those noisy motions touch a wall, or end too close to one?
-    crossings(
-        walls, groups[0], 1, near, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT]
-    )
-    nearest_squared(walls, groups[0], 1, near, scratch[C_X], scratch[C_Y], scratch[C_D2], scratch[C_K])
-    half_radius_sq = (0.5 * radius) ** 2
+    return near
+
+
+@njit(cache=True, error_model="numpy")
+def _check_motions(sim, near):
+    """Step 2: do the ``near`` queued noisy motions touch a wall, or end too close to one? Those are not safe."""
+    walls, params, scratch, groups = sim[A_WALLS], sim[A_PARAMS], sim[A_SCRATCH], sim[A_GROUPS]
+    queries = (groups[0], 1, near)
+    crossings(walls, queries, (scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY]), scratch[MV_HIT])
+    nearest_squared(walls, queries, (scratch[C_X], scratch[C_Y]), scratch[C_D2], scratch[C_K])
+    half_radius_sq = (0.5 * params[P_BODY_RADIUS]) ** 2
     for g in range(near):
         if scratch[MV_HIT, g] > 0.5 or scratch[C_D2, g] < half_radius_sq:
             scratch[TIP_SAFE, groups[0, g]] = 0.0
-    # 3. Move: the noisy landing, or the checked one where contact stops the body; dead reckoning; faces.
-    for b in range(n):
+
+
+@njit(cache=True, error_model="numpy")
+def _move_rows(actions, sim):
+    """Step 3: move to the noisy landing, or the checked one where contact stops the body; dead reckoning;
+    faces; oscillations."""
+    state, params, normals, cursor, scratch = sim[A_STATE], sim[A_PARAMS], sim[A_NORMALS], sim[A_CURSOR], sim[A_SCRATCH]
+    for b in range(actions.shape[0]):
         if scratch[TIP_ACTIVE, b] < 0.5:
             continue
         a = actions[b]
@@ -402,7 +464,13 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, g
         if a == 0 and state[b, LAST_TIP_MOVED] > 0.5:
             state[b, OSCILLATIONS] += 1.0  # undid the previous tip: the robot alternates between two faces
         state[b, LAST_TIP_MOVED] = 1.0
-    # 4. Sensing geometry at the new poses: six beams and the centre of every robot.
+
+
+@njit(cache=True, error_model="numpy")
+def _cast_beams(actions, sim):
+    """Step 4: sensing geometry at the new poses, the six beams and the centre of every robot."""
+    state, walls, scratch, groups = sim[A_STATE], sim[A_WALLS], sim[A_SCRATCH], sim[A_GROUPS]
+    n = actions.shape[0]
     for b in range(n):
         px, py = state[b, X], state[b, Y]
         c, s = state[b, HEADING_COS], state[b, HEADING_SIN]
@@ -412,9 +480,17 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, g
             scratch[R_OX, j], scratch[R_OY, j] = px + _SENSOR_OFFSET * dx, py + _SENSOR_OFFSET * dy
             scratch[R_DX, j], scratch[R_DY, j] = dx, dy
         scratch[PT_X, b], scratch[PT_Y, b] = px, py
-    first_hits(walls, groups[2], 6, 6 * n, scratch[R_OX], scratch[R_OY], scratch[R_DX], scratch[R_DY], scratch[R_T])
-    nearest_squared(walls, groups[2], 1, n, scratch[PT_X], scratch[PT_Y], scratch[PT_D2], scratch[PT_K])
-    # 5. The action mask: robots near a wall check their three mean landings and motions.
+    rays = (scratch[R_OX], scratch[R_OY], scratch[R_DX], scratch[R_DY])
+    first_hits(walls, (groups[2], 6, 6 * n), rays, scratch[R_T])
+    nearest_squared(walls, (groups[2], 1, n), (scratch[PT_X], scratch[PT_Y]), scratch[PT_D2], scratch[PT_K])
+
+
+@njit(cache=True, error_model="numpy")
+def _mask_rows(actions, sim):
+    """Step 5: the action mask; robots near a wall check their three mean landings and motions."""
+    state, walls, params, scratch, groups = sim[A_STATE], sim[A_WALLS], sim[A_PARAMS], sim[A_SCRATCH], sim[A_GROUPS]
+    radius, reach = params[P_BODY_RADIUS], params[P_STEP_REACH]
+    n = actions.shape[0]
     near = 0
     for b in range(n):
         if actions[b] < 0 or math.sqrt(scratch[PT_D2, b]) >= reach + radius + _MARGIN_CM:
@@ -429,10 +505,9 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, g
             scratch[MV_BY, q] = scratch[C_Y, q] = py + s * mx + c * my
         groups[1, near] = b
         near += 1
-    nearest_squared(walls, groups[1], 3, 3 * near, scratch[C_X], scratch[C_Y], scratch[C_D2], scratch[C_K])
-    crossings(
-        walls, groups[1], 3, 3 * near, scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY], scratch[MV_HIT]
-    )
+    queries = (groups[1], 3, 3 * near)
+    nearest_squared(walls, queries, (scratch[C_X], scratch[C_Y]), scratch[C_D2], scratch[C_K])
+    crossings(walls, queries, (scratch[MV_AX], scratch[MV_AY], scratch[MV_BX], scratch[MV_BY]), scratch[MV_HIT])
     for b in range(n):
         if actions[b] >= 0:
             state[b, ALLOWED], state[b, ALLOWED + 1], state[b, ALLOWED + 2] = 1.0, 1.0, 1.0
@@ -442,10 +517,16 @@ def advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, g
         for j in range(3):
             clear = scratch[C_D2, 3 * g + j] >= radius_sq and scratch[MV_HIT, 3 * g + j] < 0.5
             state[b, ALLOWED + j] = 1.0 if clear else 0.0
-    # 6. What the sensors report, the nearest wall.
+
+
+@njit(cache=True, error_model="numpy")
+def _read_sensors(actions, sim):
+    """Step 6: what the sensors report (the observation rows), the nearest wall, the ground-truth block."""
+    state, walls, params, normals, cursor = sim[A_STATE], sim[A_WALLS], sim[A_PARAMS], sim[A_NORMALS], sim[A_CURSOR]
+    obs, scratch = sim[A_OBS], sim[A_SCRATCH]
     scale = params[P_RANGE_NOISE]
     shared = walls.shape[0] == 1
-    for b in range(n):
+    for b in range(actions.shape[0]):
         if actions[b] < 0:
             continue
         c_b = cursor[b]
@@ -482,19 +563,21 @@ def write_info(b, state):
 
 
 @njit(cache=True)
-def first_sense_row(b, state, walls, params, normals, cursor, obs):
-    """First readings of freshly placed robot ``b`` (one draw row of its block)."""
+def first_sense_row(b, sim):
+    """First readings of freshly placed robot ``b`` (one draw row of its block); ``sim``: :data:`SIM_ARRAYS`."""
+    state, walls, normals, cursor = sim[A_STATE], sim[A_WALLS], sim[A_NORMALS], sim[A_CURSOR]
     z = normals[b, cursor[b]]
     cursor[b] += 1
-    sense_row(b, state, walls, params, z, obs)
+    sense_row(b, state, walls[0 if walls.shape[0] == 1 else b], sim[A_PARAMS], z, sim[A_OBS])
     write_info(b, state)
 
 
 @njit(cache=True)
-def write_base_metrics(b, state, out, column):
-    """The metrics every task reports, into ``out[b, column:column + 2]``: blocked tips, oscillation events."""
-    out[b, column] = state[b, BLOCKED_TIPS]
-    out[b, column + 1] = state[b, OSCILLATIONS]
+def write_base_metrics(b, state, out, columns):
+    """The metrics every task reports (:data:`BASE_METRICS`) into ``out[b, columns]``, ``columns`` their columns
+    in that order (``OutColumns.metric_columns(*BASE_METRICS)``)."""
+    for j in range(len(columns)):
+        out[b, columns[j]] = state[b, _BASE_METRIC_STATE[j]]
 
 
 @njit(cache=True)

@@ -9,13 +9,30 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import advance_rows, first_sense_row, write_base_metrics
+from polyenvs.buckybot.simulator import (
+    A_STATE,
+    A_WALLS,
+    BASE_METRICS,
+    advance_rows,
+    first_sense_row,
+    write_base_metrics,
+)
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotWallFollowEnv"]
 
+
+#: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
+REWARD_TERMS = ("progress", "distance", "blocked")
+METRICS = ("wall_distance_error_cm", "perimeter_fraction", "laps", "progress_cm")
+OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
+_R_PROGRESS, _R_DISTANCE, _R_BLOCKED = OUT.term_columns("progress", "distance", "blocked")
+_M_ERROR, _M_PERIMETER = OUT.metric_columns("wall_distance_error_cm", "perimeter_fraction")
+_M_LAPS, _M_PROGRESS = OUT.metric_columns("laps", "progress_cm")
+_M_BASE = OUT.metric_columns(*BASE_METRICS)
+_REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
 _PERIMETER_BIN_CM = 10.0
 # Columns of the task state: pose terms after the last step (x, y, unit normal towards the nearest wall, angle
@@ -37,22 +54,26 @@ def _pose_terms(b, state, slot_info, task):
 
 @njit(cache=True)
 def _write_out(b, state, task, slot_info, out):
-    write_base_metrics(b, state, out, 3)
-    out[b, 5] = task[b, _ERROR_SUM] / max(state[b, S.STEPS], 1.0)
-    out[b, 6] = task[b, _FOLLOWED] / slot_info[2]
-    out[b, 7] = math.floor(max(task[b, _WINDING], 0.0) / (2 * math.pi))
-    out[b, 8] = task[b, _PROGRESS]
-    out[b, 9] = out[b, 0] + out[b, 1] + out[b, 2]
-    out[b, 10] = 0.0  # never terminates
+    write_base_metrics(b, state, out, _M_BASE)
+    out[b, _M_ERROR] = task[b, _ERROR_SUM] / max(state[b, S.STEPS], 1.0)
+    out[b, _M_PERIMETER] = task[b, _FOLLOWED] / slot_info[2]
+    out[b, _M_LAPS] = math.floor(max(task[b, _WINDING], 0.0) / (2 * math.pi))
+    out[b, _M_PROGRESS] = task[b, _PROGRESS]
+    out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_DISTANCE] + out[b, _R_BLOCKED]
+    out[b, _TERMINATED] = 0.0  # never terminates
 
 
 @njit(cache=True)
-def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, followed, bins, seg_bins, slot, tp):
+def _reset_kernel(rows, kernel):
+    """Sense and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotWallFollowEnv._task_arrays()``)."""
+    sim, out = kernel.sim, kernel.out
+    state, walls = sim[A_STATE], sim[A_WALLS]
+    task, followed, bins, seg_bins, slot, tp = kernel.task
     shared = walls.shape[0] == 1
     for n in range(rows.shape[0]):
         b = rows[n]
         w = 0 if shared else b
-        first_sense_row(b, state, walls[w], params, normals, cursor, obs)
+        first_sense_row(b, sim)
         followed[b, :] = False
         task[b, :] = 0.0
         _pose_terms(b, state, slot[w], task)
@@ -61,10 +82,12 @@ def _reset_kernel(rows, state, walls, params, normals, cursor, obs, out, task, f
 
 
 @njit(cache=True)
-def _step_kernel(
-    actions, state, walls, params, normals, cursor, obs, out, scratch, groups, task, followed, bins, seg_bins, slot, tp
-):
-    advance_rows(actions, state, walls, params, normals, cursor, obs, scratch, groups)
+def _step_kernel(actions, kernel):
+    """Step every row with an action >= 0 and score it (``kernel.task``: ``BuckybotWallFollowEnv._task_arrays()``)."""
+    sim, out = kernel.sim, kernel.out
+    advance_rows(actions, sim)
+    state, walls = sim[A_STATE], sim[A_WALLS]
+    task, followed, bins, seg_bins, slot, tp = kernel.task
     shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b] < 0:
@@ -93,9 +116,9 @@ def _step_kernel(
         angle0 = task[b, _ANGLE]
         _pose_terms(b, state, slot[w], task)
         task[b, _WINDING] += (task[b, _ANGLE] - angle0 + math.pi) % (2 * math.pi) - math.pi
-        out[b, 0] = progress / STEP_LENGTH_CM
-        out[b, 1] = -(error * error) / tp[_NORM]
-        out[b, 2] = -1.0 if blocked else 0.0
+        out[b, _R_PROGRESS] = progress / STEP_LENGTH_CM
+        out[b, _R_DISTANCE] = -(error * error) / tp[_NORM]
+        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
         _write_out(b, state, task, slot[w], out)
 
 
@@ -181,8 +204,9 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     * v0: initial version.
     """
 
-    reward_names = ("progress", "distance", "blocked")
-    metric_names = ("wall_distance_error_cm", "perimeter_fraction", "laps", "progress_cm")
+    reward_names = REWARD_TERMS
+    metric_names = METRICS
+    out_columns = OUT
 
     def __init__(
         self,
@@ -226,7 +250,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
             followed = np.zeros((self._batch_size, len(owner)), dtype=np.bool_)
             followed[:, : self._followed.shape[1]] = self._followed
             self._bins, self._followed = grown, followed
-            self._kernel_arrays = self._task_arrays()
+            self._repack_task()
         self._bins[slot] = 0.0
         self._bins[slot, : len(owner), 0:2] = seg[owner, :2] + frac[:, None] * (seg[owner, 2:] - seg[owner, :2])
         self._bins[slot, : len(owner), 2] = (length / counts)[owner]

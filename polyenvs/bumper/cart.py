@@ -170,15 +170,19 @@ def max_ticks(model: CartModel) -> int:
 
 
 @njit(cache=True)
-def _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, outward):
-    """First ``t`` in [0, 1] at which point ``p`` (moving as in the module docstring) enters across the segment
-    from ``q`` to ``q + e`` from its outer side; ``inf`` if it does not. ``outward``: +1 if the outer side (free
-    space for a wall, outside the body for a body edge) is left of ``e``, -1 if right.
+def _crossing(point, w, theta, segment, outward):
+    """First ``t`` in [0, 1] at which ``point = (px, py)`` (moving with ``w = (wx, wy)`` through angle ``theta``, as
+    in the module docstring) enters across ``segment = (qx, qy, ex, ey)``, from ``q`` to ``q + e``, from its outer
+    side; ``inf`` if it does not. ``outward``: +1 if the outer side (free space for a wall, outside the body for a
+    body edge) is left of ``e``, -1 if right.
 
     Only the direction of the crossing against that fixed outer side decides, never the side the point starts
     on: a point that first crosses the segment's line beyond the segment's end (round a wall corner that juts
     into the room) and then crosses back through the segment itself enters the wall there. A point on the line
     (within ``_ON_LINE_CM``, a rounding error either way) over the segment enters at ``t = 0`` if it moves in."""
+    px, py = point
+    wx, wy = w
+    qx, qy, ex, ey = segment
     nx, ny = -ey * outward, ex * outward  # the normal to the outer side
     c0 = nx * (px - qx) + ny * (py - qy)  # the signed distance (times |e|): positive outside
     a = -nx * wy + ny * wx  # n . J w: its rate at t = 0
@@ -237,8 +241,8 @@ def _first_contact(x, y, h, a, b, d, params, walls):
         for k in range(walls.shape[0]):
             if walls[k, 5] == 0.0:
                 continue
-            qx, qy, ex, ey = walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3]
-            t = _crossing(px, py, wx, wy, theta, qx, qy, ex, ey, walls[k, 5])  # column 5: free space's side
+            wall = (walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3])
+            t = _crossing((px, py), (wx, wy), theta, wall, walls[k, 5])  # column 5: free space's side
             if t < best:
                 phi = t * theta
                 sa = t if theta == 0.0 else math.sin(phi) / theta
@@ -258,7 +262,7 @@ def _first_contact(x, y, h, a, b, d, params, walls):
             rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
             ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
             outward = math.copysign(1.0, ey * (x - rx) - ex * (y - ry))  # outside the body: opposite the axle
-            t = _crossing(vx, vy, wx, wy, -theta, rx, ry, ex, ey, outward)
+            t = _crossing((vx, vy), (wx, wy), -theta, (rx, ry, ex, ey), outward)
             if t < best:
                 best, seg, cx, cy = t, k, vx, vy
     return best, seg, cx, cy

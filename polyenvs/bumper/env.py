@@ -2,7 +2,8 @@
 
 The environment is a batch of carts ("rows") like the simulator, so a native vector env is the same class with
 more rows: one compiled call steps every row, runs its cycle (:func:`polyenvs.bumper.cart.cycle_row`), scores the
-newly touched wall and writes observation, reward and metric rows into preallocated buffers.
+newly touched wall and writes observation, reward and metric rows into preallocated buffers. The reward term,
+the metrics and the observation's parts are declared by name here; the kernel's columns come from those names.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
 from polyenvs.bumper.maps import BumperMap, make_map
 from polyenvs.bumper.odometry import TICK_CM
+from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
@@ -26,13 +28,22 @@ from polyenvs.core.validation import check_action, check_in_range, show
 
 __all__ = ["OBSERVATION_STRUCTURE", "BumperCartExploreEnv", "LocalizationContext"]
 
-#: Layout of the observation: name -> (start, stop). Ticks are signed encoder counts of each stage of the cycle.
-OBSERVATION_STRUCTURE = {
-    "turn_ticks": (0, 2),  # left, right
-    "drive_ticks": (2, 4),
-    "backup_ticks": (4, 6),
-    "bump": (6, 7),  # 1 if the drive stage ended with the bumper tripped
-}
+#: The parts of the observation: name -> size. Ticks are signed encoder counts (left, right) of each stage of the
+#: cycle, in the order of the state's ``TICKS`` block; bump is 1 if the drive stage ended with the bumper tripped.
+OBSERVATION_PARTS = {"turn_ticks": 2, "drive_ticks": 2, "backup_ticks": 2, "bump": 1}
+#: The same as name -> (start, stop).
+OBSERVATION_STRUCTURE = spans(OBSERVATION_PARTS)
+_TICKS_OBS, _TICKS_END = OBSERVATION_STRUCTURE["turn_ticks"][0], OBSERVATION_STRUCTURE["backup_ticks"][1]
+_BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
+#: The reward term and the metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
+REWARD_TERMS = ("touch",)
+METRICS = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
+OUT = OutColumns(REWARD_TERMS, METRICS)
+_R_TOUCH = OUT.term_column("touch")
+_M_TOUCHED, _M_BUMPS = OUT.metric_columns("wall_fraction_touched", "bumps")
+_M_ODOMETRY, _M_SLIPS = OUT.metric_columns("odometry_error_cm", "large_slips")
+_REWARD = OUT.reward
+_METRICS = OUT.metric_slice
 #: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
 TRAIL_POINTS = 3000
 # Columns of the per-row task state: touched wall fraction, bumps, large slips, cycles into the episode.
@@ -87,8 +98,13 @@ class LocalizationContext:
 
 
 @njit(cache=True)
-def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task, touched, cell_first, cell_count,
-                 cell_share):  # fmt: skip
+def _step_kernel(actions, kernel):
+    """Cycle every row that has an action and score it. ``kernel.sim = (state, walls, params, normals, cursor,
+    obs)`` and ``kernel.task = (task, touched, cell_first, cell_count, cell_share)``, as
+    :class:`BumperCartExploreEnv` packs them; ``kernel.out`` the ``_out`` table."""
+    state, walls, params, normals, cursor, obs = kernel.sim
+    task, touched, cell_first, cell_count, cell_share = kernel.task
+    out = kernel.out
     for b in range(actions.shape[0]):
         if actions[b, 1] < 0.5:
             continue  # no action: a row that was just reset neither moves nor scores
@@ -107,15 +123,15 @@ def _step_kernel(actions, state, walls, params, normals, cursor, obs, out, task,
         task[b, _TOUCHED] += fresh
         task[b, _SLIPS] += row[C.BIG_SLIP]
         task[b, _STEPS] += 1.0
-        for k in range(6):
-            obs[b, k] = row[C.TICKS + k]
-        obs[b, 6] = row[C.BUMP]
-        out[b, 0] = 100.0 * fresh
-        out[b, 1] = task[b, _TOUCHED]
-        out[b, 2] = task[b, _BUMPS]
-        out[b, 3] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
-        out[b, 4] = task[b, _SLIPS]
-        out[b, 5] = out[b, 0]
+        for k in range(_TICKS_END - _TICKS_OBS):
+            obs[b, _TICKS_OBS + k] = row[C.TICKS + k]
+        obs[b, _BUMP_OBS] = row[C.BUMP]
+        out[b, _R_TOUCH] = 100.0 * fresh
+        out[b, _M_TOUCHED] = task[b, _TOUCHED]
+        out[b, _M_BUMPS] = task[b, _BUMPS]
+        out[b, _M_ODOMETRY] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
+        out[b, _M_SLIPS] = task[b, _SLIPS]
+        out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
 
 
 class BumperCartExploreEnv(RowsEnv):
@@ -183,8 +199,9 @@ class BumperCartExploreEnv(RowsEnv):
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
-    reward_names = ("touch",)
-    metric_names = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
+    reward_names = REWARD_TERMS
+    metric_names = METRICS
+    out_columns = OUT
 
     def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
@@ -214,6 +231,9 @@ class BumperCartExploreEnv(RowsEnv):
         self._cell_share = lengths / self.world.wall_length_cm
         self._touched = np.zeros((n, len(lengths)), dtype=np.uint8)
         self._task = np.zeros((n, 4))
+        # What the kernel takes (see _step_kernel).
+        sim = (self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor, self._observations)
+        self._pack_kernel(sim, (self._task, self._touched, self._cell_first, self._cell_count, self._cell_share))
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
 
@@ -276,11 +296,7 @@ class BumperCartExploreEnv(RowsEnv):
 
     def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
-        _step_kernel(
-            actions, self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
-            self._observations, self._out, self._task, self._touched, self._cell_first, self._cell_count,
-            self._cell_share,
-        )  # fmt: skip
+        _step_kernel(actions, self._kernel)
 
     def _row_generator(self, row: int) -> np.random.Generator | None:
         return self.streams.generators[row]
@@ -348,8 +364,8 @@ class BumperCartExploreEnv(RowsEnv):
             "bumped": bool(s[C.BUMP] > 0.5),
             "contact_point": s[[C.CONTACT_X, C.CONTACT_Y]],
             "touched_cells": int(self._touched[row].sum()),
-            "reward_touch": out[0],
-            "episode_metrics": dict(zip(self._metric_names, out[1 : self._reward_column], strict=True)),
+            "reward_touch": out[_R_TOUCH],
+            "episode_metrics": dict(zip(self._metric_names, out[_METRICS], strict=True)),
         }
 
     def _vector_info(self) -> dict[str, Any]:
@@ -365,7 +381,7 @@ class BumperCartExploreEnv(RowsEnv):
             "bumped": s[:, C.BUMP] > 0.5,
             "contact_point": s[:, [C.CONTACT_X, C.CONTACT_Y]],
             "touched_cells": self._touched.sum(axis=1, dtype=np.int64),
-            "reward_touch": scores[:, 0],
+            "reward_touch": scores[:, _R_TOUCH],
         }
-        metrics = {name: scores[:, 1 + j] for j, name in enumerate(self._metric_names)}
+        metrics = {name: scores[:, _METRICS.start + j] for j, name in enumerate(self._metric_names)}
         return vector_convention(values, metrics, self._batch_size)

@@ -148,9 +148,14 @@ def _densest_cluster(particles, n, params, counts, out):
 
 
 @njit(cache=True)
-def _mcl_update(particles, spare, ticks, bump, noise, params, walls, counts, out):
-    """One cycle: move by the turn and the drive, keep the bump-space particles, refill, estimate, move by the
-    back-up. Returns the number of survivors (0: the set emptied and was left as it was, unestimated)."""
+def _mcl_update(cloud, log, noise, model, out):
+    """One cycle: move by the turn and the drive, keep the bump-space particles, refill, estimate (into ``out``),
+    move by the back-up. ``cloud = (particles, spare, counts)``: the particles, room for the survivors and the
+    estimate's bins; ``log = (ticks, bump)``: the cycle's ``(3, 2)`` stage ticks and bump bit; ``model = (params,
+    walls)``. Returns the number of survivors (0: the set emptied and was left as it was, unestimated)."""
+    particles, spare, counts = cloud
+    ticks, bump = log
+    params, walls = model
     n = particles.shape[0]
     tick = params[_TICK]
     for stage in range(2):
@@ -186,6 +191,8 @@ class BumpSpaceMCL:
         bumper_width_cm, bumper_offset_cm: the bumper the test uses (default: the context's nominal cart).
         cluster_cm: the densest-cluster estimate's cell (default 10 cm; heading cells are 45°).
 
+    Every argument after ``particles`` is keyword-only.
+
     After an update that leaves no particle in the bump space (the paper's failure: "a movement resulted in no
     particles in the bump-space"), ``empty_sets`` counts one and the particles are seeded afresh over the map.
     """
@@ -193,6 +200,7 @@ class BumpSpaceMCL:
     def __init__(
         self,
         particles: int = 1000,
+        *,
         heading_sd_deg: float = 2.0,
         heading_sd_frac: float = 0.05,
         forward_sd_cm: float = 0.6,
@@ -258,8 +266,8 @@ class BumpSpaceMCL:
         log = np.asarray(log)
         ticks, bump = log[self._tick_index].astype(np.float64), bool(log[self._bump_index] > 0.5)
         self.rng.standard_normal(dtype=np.float32, out=self.noise)
-        kept = _mcl_update(self.particles, self.spare, ticks, bump, self.noise, self.params, self.walls, self.counts,
-                           self.estimate)  # fmt: skip
+        cloud, model = (self.particles, self.spare, self.counts), (self.params, self.walls)
+        kept = _mcl_update(cloud, (ticks, bump), self.noise, model, self.estimate)
         self.survivors = kept
         if kept == 0:
             self.empty_sets += 1

@@ -208,9 +208,10 @@ def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.nda
 
 
 # --- Batched, branch-free kernels: walls in the outer loop, queries inner, so the compiler vectorises them ------
-# Queries are flat arrays in groups of ``per`` consecutive entries (a robot's rays, say). With one shared wall set
-# (W = 1) every query meets every wall in one sweep; with a wall set per robot, group g meets walls[owners[g]].
-# They give exactly the scalar kernels' numbers (same operations, same wall order, no fast-math).
+# Queries are flat arrays in groups of ``per`` consecutive entries (a robot's rays, say), the first ``n`` entries
+# used; ``queries = (owners, per, n)``. With one shared wall set (W = 1) every query meets every wall in one sweep;
+# with a wall set per robot, group g meets walls[owners[g]]. The query coordinates come as one tuple of flat
+# arrays. They give exactly the scalar kernels' numbers (same operations, same wall order, no fast-math).
 
 
 @njit(cache=True, error_model="numpy")
@@ -229,8 +230,11 @@ def _rays_against(ws, lo, hi, ox, oy, dx, dy, best):
 
 
 @njit(cache=True, error_model="numpy")
-def first_hits(walls, owners, per, n, ox, oy, dx, dy, best):
-    """``best[:n]``: distance along each ray ``(o, d)`` to the first wall (``inf`` if none); as ``ray_distance``."""
+def first_hits(walls, queries, rays, best):
+    """``best[:n]``: distance along each ray ``rays = (ox, oy, dx, dy)`` to the first wall (``inf`` if none); as
+    ``ray_distance``. ``queries = (owners, per, n)``."""
+    owners, per, n = queries
+    ox, oy, dx, dy = rays
     for j in range(n):
         best[j] = math.inf
     if walls.shape[0] == 1:
@@ -256,9 +260,11 @@ def _nearest_against(ws, lo, hi, px, py, best, index):
 
 
 @njit(cache=True, error_model="numpy")
-def nearest_squared(walls, owners, per, n, px, py, best, index):
-    """``best[:n]``: squared distance from each point to the nearest wall, ``index[:n]`` that wall (as
-    ``nearest_point``, which also gives the foot)."""
+def nearest_squared(walls, queries, points, best, index):
+    """``best[:n]``: squared distance from each point of ``points = (px, py)`` to the nearest wall, ``index[:n]``
+    that wall (as ``nearest_point``, which also gives the foot). ``queries = (owners, per, n)``."""
+    owners, per, n = queries
+    px, py = points
     for j in range(n):
         best[j] = math.inf
         index[j] = -1.0
@@ -291,8 +297,11 @@ def _crossings_against(ws, lo, hi, ax, ay, bx, by, hit):
 
 
 @njit(cache=True, error_model="numpy")
-def crossings(walls, owners, per, n, ax, ay, bx, by, hit):
-    """``hit[:n]``: 1 where the motion from a to b touches a wall, else 0 (as ``segment_crosses``)."""
+def crossings(walls, queries, motions, hit):
+    """``hit[:n]``: 1 where the motion from a to b of ``motions = (ax, ay, bx, by)`` touches a wall, else 0 (as
+    ``segment_crosses``). ``queries = (owners, per, n)``."""
+    owners, per, n = queries
+    ax, ay, bx, by = motions
     for j in range(n):
         hit[j] = 0.0
     if walls.shape[0] == 1:

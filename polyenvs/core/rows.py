@@ -5,8 +5,12 @@ batch of many, so a family's equations exist once, in compiled kernels over pack
 ``num_envs`` rows behind Gymnasium's ``VectorEnv`` API. A family subclasses :class:`RowsEnv` (Buckybot:
 :class:`polyenvs.buckybot.env.BuckybotEnv`) and provides
 
+- ``out_columns``: the named columns (:class:`polyenvs.core.columns.OutColumns`) of the ``_out`` table its kernels
+  write, reward terms, metrics, reward and terminated, from the task's declared names (``reward_names`` and
+  ``all_metric_names`` must be those names: the kernels' columns and ``info``'s keys come from one declaration);
 - in ``__init__``: ``action_space``, ``observation_space``, then :meth:`RowsEnv._allocate_rows` (the observation
-  rows and the ``_out`` table of reward terms, metrics, reward and terminated that its kernels write);
+  rows and the ``_out`` table), and :meth:`RowsEnv._pack_kernel` (what its compiled kernels take, as one
+  :class:`polyenvs.core.jit.KernelArgs`: the simulator's tuple of arrays, ``_out`` and the task's tuple);
 - ``_check_options(options)``: the validated reset options;
 - ``_prepare_row(row, rng, options, reseeded)``: draw and validate one row's new episode on ``rng``, writing
   nothing (it may raise), and ``_commit_rows(prepared)``: install them (nothing in it raises), then observe;
@@ -41,6 +45,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from polyenvs.core.columns import OutColumns
+from polyenvs.core.jit import KernelArgs
 from polyenvs.core.validation import check_int, check_options, show
 
 __all__ = ["NO_ACTION", "RowsEnv", "RowsVectorEnv", "copy_generator", "only_rows", "vector_convention"]
@@ -57,9 +63,11 @@ def copy_generator(rng: np.random.Generator) -> np.random.Generator:
 class RowsEnv(gym.Env):
     """Base class of batched-rows environments (see the module docstring for what a family provides)."""
 
-    #: Names of the reward terms and of the task metrics, in the order of the kernels' ``_out`` columns.
+    #: Names of the reward terms and of the task metrics, in the order of ``info`` (and of ``out_columns``).
     reward_names: tuple[str, ...] = ()
     metric_names: tuple[str, ...] = ()
+    #: The columns of the ``_out`` table the kernels write, made from those names by the task's module.
+    out_columns: OutColumns = OutColumns((), ())
     #: Rows this instance simulates: 1 for ``gym.make``; :class:`RowsVectorEnv` builds the class with more.
     _batch_size = 1
 
@@ -68,18 +76,39 @@ class RowsEnv(gym.Env):
         return self.metric_names
 
     def _allocate_rows(self, action_dtype=np.int64, action_shape: tuple[int, ...] = ()) -> None:
-        """The arrays the kernels write: observation rows and ``_out`` (reward terms, metrics, reward,
-        terminated per row); and the actions batch."""
+        """The arrays the kernels write: observation rows and ``_out`` (the columns of ``out_columns``: reward
+        terms, metrics, reward, terminated per row); and the actions batch."""
+        columns = self.out_columns
+        if columns.terms != tuple(self.reward_names) or columns.metrics != tuple(self.all_metric_names):
+            raise TypeError(
+                f"{type(self).__name__}.out_columns {columns} does not match its reward_names {self.reward_names} "
+                f"and metric names {self.all_metric_names}"
+            )
         n = self._batch_size
         self._observations = np.zeros((n, *self.observation_space.shape), dtype=self.observation_space.dtype)
-        k, m = len(self.reward_names), len(self.all_metric_names)
-        self._out = np.zeros((n, k + m + 2))
-        self._reward_column, self._terminated_column = k + m, k + m + 1
-        self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
-        self._metric_names = self.all_metric_names
+        self._out = np.zeros((n, columns.width))
+        self._reward_column, self._terminated_column = columns.reward, columns.terminated
+        self._reward_keys = tuple(f"reward_{name}" for name in columns.terms)
+        self._metric_names = columns.metrics
         self._actions = np.zeros((n, *action_shape), dtype=action_dtype)
         self._row0 = np.zeros(1, dtype=np.int64)
         self._started = False
+
+    def _pack_kernel(self, sim: tuple, task: tuple) -> None:
+        """Pack what the compiled kernels take into ``self._kernel`` (``sim``, ``_out`` and ``task``); call it again
+        after replacing one of those arrays."""
+        self._kernel_parts = (sim, task)
+        self._kernel = KernelArgs(sim, self._out, task)
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state.pop("_kernel", None)  # compiled-code memory: rebuilt from its parts, which pickle with the env
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if "_kernel_parts" in state:
+            self._pack_kernel(*self._kernel_parts)
 
     # --- the family's part --------------------------------------------------------------------------------------
     def _check_options(self, options) -> dict:
