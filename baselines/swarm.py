@@ -37,10 +37,15 @@ import numpy as np
 from baselines.base import Policy
 from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import structure_for
+from polyenvs.swarm.formation_v0 import OBSERVATION_PARTS as FORMATION_PARTS
 from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 from polyenvs.swarm.sensors import inches_from_raw, raw_from_observation
 
-__all__ = ["APLite", "APLiteGoalSeeking", "FormationController"]
+__all__ = ["APLite", "APLiteGoalSeeking", "FormationController", "observation_layout"]
+
+#: The observation parts a task may add to the family's, which these controllers read around: none (corridor,
+#: obstacle field) or the formation's leader (``formation_v0``). The length of an observation tells them apart.
+TASK_PARTS = ({}, FORMATION_PARTS)
 
 #: The appendix's constants.
 RANGE_IN = 30.0
@@ -54,6 +59,17 @@ ALPHA = 1.0
 GOAL_FORCE = 100.0
 READING_FILTER = 30.0
 INITIAL_VELOCITY = 70.0
+
+
+def observation_layout(dim: int) -> dict[str, tuple[int, int]]:
+    """The observation structure of a swarm robot's ``dim``-long observation, with the task parts of
+    :data:`TASK_PARTS` that fit it (``ValueError`` if none does)."""
+    for parts in TASK_PARTS:
+        try:
+            return structure_for(dim, parts)
+        except ValueError:
+            continue
+    raise ValueError(f"an observation of length {dim} is not a swarm robot's")
 
 
 class APLite(Policy):
@@ -89,7 +105,7 @@ class APLite(Policy):
         mask[list(self.sensors)] = 1.0
         gain = np.array([K_SIDE, K_MID, K_MID, K_SIDE]) * mask
         self._cos, self._sin = gain * np.cos(angles), gain * np.sin(angles)
-        self.structure = structure_for(observation_space.shape[0])
+        self.structure = observation_layout(observation_space.shape[0])
         self.last_stopped = np.zeros(0, dtype=bool)
         self.last_turn = np.zeros(0)
 

@@ -210,6 +210,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/APLiteCorridor-v0",
         entry_point="polyenvs.swarm.single:APLiteCorridorEnv",
+        vector_entry_point="polyenvs.swarm.vector:APLiteCorridorVectorEnv",
         max_episode_steps=600,
         family="swarm",
         description="One X80Pro drives up a corridor past four obstacles to a light (AP-lite's indoor experiment)",
@@ -219,6 +220,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/APLiteObstacleField-v0",
         entry_point="polyenvs.swarm.single:APLiteObstacleFieldEnv",
+        vector_entry_point="polyenvs.swarm.vector:APLiteObstacleFieldVectorEnv",
         max_episode_steps=1000,
         family="swarm",
         description="One Maxelbot crosses an outdoor obstacle field (wheel-speed noise and drift) to a goal light",

@@ -7,7 +7,10 @@ import pytest
 
 from baselines.swarm import APLiteGoalSeeking, FormationController
 from polyenvs.swarm import corridor_v0, formation_v0, obstacle_field_v0
+from polyenvs.swarm.batch import TaskTerms
 from polyenvs.swarm.batched import SwarmVectorEnv
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv
+from polyenvs.swarm.layouts import box_walls
 
 MODULES = {"corridor_v0": corridor_v0, "obstacle_field_v0": obstacle_field_v0, "formation_v0": formation_v0}
 
@@ -95,3 +98,95 @@ def test_batched_swarm_trains_with_ppo_through_the_native_adapter():
     model.learn(512)
     assert model.num_timesteps >= 512
     venv.close()
+
+
+class _ClockTerms(TaskTerms):
+    """A task's own parts, declared by name: an observation part ``clock`` (steps into the episode / 100), a reward
+    term ``still`` (-0.01 per step for every robot in the episode) and a metric ``steps``."""
+
+    observation_parts = {"clock": (0.0,)}
+    reward_names = ("still",)
+    metric_names = ("steps",)
+
+    def __init__(self, task, batch):
+        super().__init__(task, batch)
+        self.at, self.column = batch.structure["clock"][0], batch.reward_column("still")
+
+    def observe(self, live, todo, normals, out):
+        rows = (todo > 0) & (live > 0)
+        out[rows, self.at] = (np.repeat(self.batch.cycles, self.batch.n_robots) / 100.0)[rows]
+
+    def score(self, live, rows, envs):
+        self.batch.rewards[:, self.column] = np.where(live, -0.01, 0.0)
+
+    def env_metrics(self):
+        return {"steps": self.batch.cycles.astype(np.float64)}
+
+    def robot_metrics(self):
+        return {"steps": np.repeat(self.batch.cycles, self.batch.n_robots).astype(np.float64)}
+
+
+class _ClockRoom(SwarmEnv):
+    """A task written outside the package: a 4 x 4 m room, one obstacle, the goal in a corner."""
+
+    terms_class = _ClockTerms
+    n_obstacles = 1
+
+    def _fixed_layout(self):
+        return Layout(walls=box_walls(0.0, 0.0, 4.0, 4.0), bounds=(0.0, 0.0, 4.0, 4.0))
+
+    def sample_episode(self, rng):
+        starts = np.column_stack([0.5 + 0.6 * np.arange(self.n_robots), np.full(self.n_robots, 0.5),
+                                  rng.uniform(-np.pi, np.pi, self.n_robots)])  # fmt: skip
+        return Episode(
+            circles=np.array([[2.0, 2.0, 0.3 + 0.1 * rng.random()]]), starts=starts, goal=np.array([3.5, 3.5])
+        )
+
+
+def test_a_task_passed_as_a_class_adds_its_named_parts_to_both_forms_bit_for_bit():
+    """The family's base knows no task: a task of its own (a class, here defined in the test) declares an
+    observation part, a reward term and a metric by name, and the batch of 3 gives the PettingZoo env's episodes."""
+    kwargs = {"n_robots": 2, "max_cycles": 15}
+    batch = SwarmVectorEnv(_ClockRoom, num_envs=3, **kwargs)
+    singles = [_ClockRoom(**kwargs) for _ in range(3)]
+    assert batch.task.observation_structure["clock"] == (24, 25) and batch.task.reward_names[-1] == "still"
+    obs, _ = batch.reset(seed=5)
+    single_obs = [env.reset(seed=5 + e)[0] for e, env in enumerate(singles)]
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        for e in range(3):
+            assert all(np.array_equal(obs[2 * e + r], single_obs[e][f"robot_{r}"]) for r in range(2))
+        actions = rng.uniform(-1, 1, (6, 2)).astype(np.float32)
+        obs, rewards, _, _, infos = batch.step(actions)
+        for e, env in enumerate(singles):
+            step_obs, step_rewards, _, _, step_infos = env.step(
+                {a: actions[2 * e + i] for i, a in enumerate(env.agents)}
+            )
+            assert [rewards[2 * e + r] for r in range(2)] == list(step_rewards.values())
+            assert (
+                step_infos["robot_0"]["reward_still"] == -0.01 and "steps" in step_infos["robot_0"]["episode_metrics"]
+            )
+            if not env.agents:  # truncated: the batch reset it in the same step
+                assert infos["final_info"]["episode_metrics"]["steps"][2 * e] == env.episode_metrics()["steps"] == 15
+                step_obs = env.reset()[0]
+            single_obs[e] = step_obs
+        live = batch.active > 0
+        assert np.array_equal(obs[live, 24], (np.repeat(batch.batch.cycles, 2) / 100.0).astype(np.float32)[live])
+
+
+def test_a_task_instance_is_a_batch_of_its_own_parameters():
+    kwargs = {"n_robots": 3, "max_cycles": 30}
+    by_name = SwarmVectorEnv("formation_v0", num_envs=2, **kwargs)
+    by_instance = SwarmVectorEnv(formation_v0.parallel_env(**kwargs), num_envs=2)
+    by_class = SwarmVectorEnv(formation_v0.FormationEnv, num_envs=2, **kwargs)
+    results = [env.reset(seed=3) for env in (by_name, by_instance, by_class)]
+    rng = np.random.default_rng(2)
+    for _ in range(40):
+        actions = rng.uniform(-1, 1, (6, 2))
+        results = [env.step(actions) for env in (by_name, by_instance, by_class)]
+        for other in results[1:]:
+            assert all(np.array_equal(a, b) for a, b in zip(results[0][:4], other[:4], strict=True))
+    with pytest.raises(ValueError, match="task"):
+        SwarmVectorEnv(formation_v0.parallel_env(), num_envs=2, n_robots=3)
+    with pytest.raises(ValueError, match="task"):
+        SwarmVectorEnv(object, num_envs=2)

@@ -12,6 +12,7 @@ from baselines.swarm import APLite, APLiteGoalSeeking, FormationController
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
 from polyenvs.swarm.env import observation_structure
+from polyenvs.swarm.formation_v0 import OBSERVATION_PARTS
 from polyenvs.swarm.layouts import hex_lattice, lattice_pairs
 
 OBS = spaces.Box(-1.0, 1.0, (8 + 3 * 6,), np.float32)
@@ -114,7 +115,7 @@ def test_goal_seeking_turns_towards_the_light_and_faithful_does_not():
 
 def test_formation_springs_pull_towards_a_far_neighbour_and_push_from_a_near_one():
     formation_obs = spaces.Box(-1.0, 1.0, (12 + 3 * 6,), np.float32)
-    structure = observation_structure(6, True)
+    structure = observation_structure(6, OBSERVATION_PARTS)
     policy = FormationController(formation_obs, ACT, spacing_m=0.9, spring_k=300.0, comm_range_m=3.0)
     a = structure["neighbours"][0]
     obs = np.zeros((2, formation_obs.shape[0]), np.float32)

@@ -197,7 +197,7 @@ def test_256_robots_run_without_overlap(module):
         xy = env.pose[env.active > 0, :2]
         d = np.hypot(*(xy[:, None] - xy[None]).transpose(2, 0, 1)) + 1e9 * np.eye(len(xy))
         assert d.min() >= 2 * env.platform.radius_m - 1e-9
-        assert (env._clearance[env.active > 0] >= 0).all()
+        assert (env.batch.clearance[env.active > 0] >= 0).all()
     assert env.episode_metrics()["min_clearance_cm"] >= 0
 
 
@@ -244,7 +244,7 @@ def test_the_halt_rule_traps_the_robot_and_the_stopped_diagnostic_shows_it():
     policy = APLite(env.observation_space("robot_0"), env.action_space("robot_0"))
     obs, _ = env.reset(seed=0)
     env.pose[0] = (1.5, 3.0, np.pi)  # facing the left wall, 1.5 m away
-    obs = {"robot_0": env._sense(np.zeros((1, env._sense_draws)), np.zeros((1, 4)))[0]}
+    obs = {"robot_0": env.batch.resense(np.zeros((1, env.batch.sense_draws)), np.zeros((1, 4)))[0]}
     state = None
     for _ in range(100):
         action, state = policy.predict(obs["robot_0"], state)

@@ -49,10 +49,30 @@ from polyenvs.core.columns import OutColumns
 from polyenvs.core.jit import KernelArgs
 from polyenvs.core.validation import check_int, check_options, show
 
-__all__ = ["NO_ACTION", "RowsEnv", "RowsVectorEnv", "copy_generator", "only_rows", "vector_convention"]
+__all__ = [
+    "NO_ACTION",
+    "RowsEnv",
+    "RowsVectorEnv",
+    "check_autoreset_mode",
+    "copy_generator",
+    "only_rows",
+    "vector_convention",
+]
 
 #: The action a row gets in the step that restarted it (next-step autoreset): it neither moves nor scores.
 NO_ACTION = -1
+
+
+def check_autoreset_mode(value) -> AutoresetMode:
+    """A native vector env's ``autoreset_mode``: ``NEXT_STEP`` or ``SAME_STEP`` (an ``AutoresetMode`` or its
+    value), else ``ValueError``."""
+    try:
+        mode = AutoresetMode(value)
+    except ValueError:
+        raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(value)}") from None
+    if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+        raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(value)}")
+    return mode
 
 
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
@@ -223,12 +243,7 @@ class RowsVectorEnv(VectorEnv):
         **kwargs,
     ):
         num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
-        try:
-            autoreset_mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}") from None
-        if autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(autoreset_mode)}")
+        autoreset_mode = check_autoreset_mode(autoreset_mode)
         if max_episode_steps is not None:
             max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
         if render_mode not in (None, *self.metadata["render_modes"]):

@@ -9,9 +9,11 @@ Paper: Hettiarachchi and Spears, "Physicomimetics for mobile robot obstacle avoi
 | ``sensors`` | the GP2D12 IR model (the paper's conversion function) and the two reading scales |
 | ``core`` | the batched simulation: moves, contacts, beams, trilateration, on a cell list |
 | ``layouts`` | walls, start blocks, the hexagonal lattice, seeded obstacle fields |
+| ``batch`` | ``SwarmBatch``, the one core (E environments x N robots; E = 1 in the PettingZoo env); ``TaskTerms`` |
 | ``env`` | the PettingZoo surface the tasks share |
 | ``corridor_v0``, ``obstacle_field_v0``, ``formation_v0`` | the PettingZoo tasks |
 | ``single`` | the Gymnasium ids APLiteCorridor-v0 and APLiteObstacleField-v0 |
+| ``vector`` | their native vector envs (``gym.make_vec``) |
 | ``batched`` | ``SwarmVectorEnv``: E environments x N robots as one vector env of robots (parameter sharing) |
 | ``rendering`` | top-down frames |
 

@@ -120,7 +120,7 @@ class CorridorEnv(SwarmEnv):
         ])  # fmt: skip
         return Layout(walls=walls, bounds=(0.0, bottom, CORRIDOR_WIDTH_M, CORRIDOR_LENGTH_M))
 
-    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+    def sample_episode(self, rng: np.random.Generator) -> Episode:
         n = self.n_robots
         slots = start_block(n, 3, START_SPACING_M)
         xy = np.array(START_M) - slots

@@ -1,15 +1,16 @@
-"""The PettingZoo surface shared by the swarm tasks: spaces, seeding, sensing, rewards, info and metrics.
+"""The PettingZoo surface shared by the swarm tasks: parameters, spaces, seeding, the agents' dictionaries.
 
 A task (``corridor_v0``, ``obstacle_field_v0``, ``formation_v0``) subclasses :class:`SwarmEnv` and provides
-``_fixed_layout`` (walls and view bounds, once per instance) and ``_sample_episode`` (obstacles, starts and goal,
-drawn on the episode's generator at every reset). Everything per step works on arrays over robots: one noise draw,
-two compiled calls (:func:`polyenvs.swarm.core.move`, :func:`polyenvs.swarm.core.sense`), a few numpy operations
-for observations and rewards; only the PettingZoo dictionaries are built per agent.
+``_fixed_layout`` (walls and view bounds, once per instance) and ``sample_episode`` (obstacles, starts and goal,
+drawn on the episode's generator at every reset); what it adds to the family's observation, rewards, metrics and
+info it declares by name in its ``terms_class`` (:class:`polyenvs.swarm.batch.TaskTerms`). The simulation is
+:class:`polyenvs.swarm.batch.SwarmBatch` with one environment (``env.batch``), the same core the vector envs run
+with many: per step one noise draw and one compiled call per kernel over the robots; only the PettingZoo
+dictionaries are built per agent.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,6 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
-from polyenvs.core.jit import njit
 from polyenvs.core.validation import (
     check_action,
     check_bool,
@@ -30,21 +30,36 @@ from polyenvs.core.validation import (
     real_array,
     show,
 )
-from polyenvs.swarm import core
-from polyenvs.swarm import sensors as ir
+from polyenvs.swarm.batch import (
+    BEAM_M,
+    LIGHT_REFERENCE_M,
+    MAX_SPEED_FACTOR,
+    METRIC_NAMES,
+    REWARD_NAMES,
+    STILL_M,
+    STOPPED_WINDOW_S,
+    SwarmBatch,
+    TaskTerms,
+)
 from polyenvs.swarm.platforms import SENSOR_ANGLES_DEG, get_platform
 
 __all__ = [
+    "BEAM_M",
     "DEFAULT_COMM_RANGE_M",
     "Episode",
+    "LIGHT_REFERENCE_M",
     "Layout",
+    "MAX_SPEED_FACTOR",
     "PARAMETER_RANGES",
     "PETTINGZOO_PROBE_OPTION",
+    "STILL_M",
+    "STOPPED_WINDOW_S",
     "SwarmAECEnv",
     "SwarmEnv",
     "SwarmOrderEnforcingWrapper",
     "check_swarm_options",
     "module_constructors",
+    "observation_parts",
     "observation_structure",
     "structure_for",
 ]
@@ -65,68 +80,6 @@ PARAMETER_RANGES = {
 }
 #: Trilateration reach when not given (m).
 DEFAULT_COMM_RANGE_M = 3.0
-#: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
-BEAM_M = ir.IR_MAX_CM / 100.0
-#: Intensity of the goal light is 1 / (1 + (d / LIGHT_REFERENCE_M)^2) (inverse square, *ours*).
-LIGHT_REFERENCE_M = 1.0
-#: A robot that has moved less than this per step for STOPPED_WINDOW_S counts as stopped.
-STILL_M = 1e-3
-STOPPED_WINDOW_S = 1.0
-#: Reward weights (*ours*): per metre of progress, per step in contact, on arrival, per unit formation error.
-PROGRESS_PER_M = 10.0
-COLLISION_PENALTY = 1.0
-ARRIVAL_BONUS = 10.0
-FORMATION_PENALTY = 0.1
-#: The wheels' speed factor under terrain noise is clipped to [0, MAX_SPEED_FACTOR].
-MAX_SPEED_FACTOR = 1.5
-
-
-#: Columns of the per-robot bookkeeping array ``SwarmEnv._track``.
-DISTANCE, TURN, STILL, COLLISIONS, WAS_BLOCKED, ARRIVED, TIME_TO_GOAL, MIN_CLEARANCE = range(8)
-N_TRACK = 8
-
-
-@njit(cache=True)
-def account(pose, before, active, blocked, clearance, goals, per, cycles, params, track, rewards, terminated):
-    """Score one step for every active robot: the three reward terms, arrival and termination, and the running
-    episode metrics in ``track`` (turn, still steps, contact events, time, smallest clearance).
-
-    Args:
-        before: ``(N, 3)`` poses before the step.
-        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment; ``cycles``: ``(E,)`` steps
-            so far in each environment's episode.
-        params: ``[goal_radius_m, dt_s, terminate_on_collision, still_m]``.
-    """
-    goal_radius, dt, stop_on_contact, still_m = params[0], params[1], params[2] > 0.5, params[3]
-    for i in range(pose.shape[0]):
-        terminated[i] = 0
-        rewards[i, 0] = 0.0
-        rewards[i, 1] = 0.0
-        rewards[i, 2] = 0.0
-        track[i, TURN] = 0.0
-        if not active[i]:
-            continue
-        turn = pose[i, 2] - before[i, 2]
-        track[i, TURN] = math.atan2(math.sin(turn), math.cos(turn))
-        moved = math.hypot(pose[i, 0] - before[i, 0], pose[i, 1] - before[i, 1])
-        track[i, STILL] = track[i, STILL] + 1.0 if moved < still_m else 0.0
-        contact = blocked[i] > 0
-        if contact and track[i, WAS_BLOCKED] == 0.0:
-            track[i, COLLISIONS] += 1.0
-        track[i, WAS_BLOCKED] = 1.0 if contact else 0.0
-        e = i // per
-        distance = math.hypot(pose[i, 0] - goals[e, 0], pose[i, 1] - goals[e, 1])
-        arrived = distance <= goal_radius
-        rewards[i, 0] = PROGRESS_PER_M * (track[i, DISTANCE] - distance)
-        rewards[i, 1] = -COLLISION_PENALTY if contact else 0.0
-        rewards[i, 2] = ARRIVAL_BONUS if arrived else 0.0
-        track[i, DISTANCE] = distance
-        if arrived:
-            track[i, ARRIVED] = 1.0
-        track[i, TIME_TO_GOAL] = cycles[e] * dt
-        track[i, MIN_CLEARANCE] = min(track[i, MIN_CLEARANCE], clearance[i])
-        terminated[i] = 1 if arrived or (contact and stop_on_contact) else 0
-
 
 #: PettingZoo's ``api_test`` and ``parallel_api_test`` check that reset takes options by calling
 #: ``reset(seed=0, options={"options": 1})``: that one key is ignored, so the swarm passes PettingZoo's own tests.
@@ -152,22 +105,38 @@ class Layout:
 
 @dataclass
 class Episode:
-    """What a reset draws: obstacles ``(C, 3)``, start poses ``(N, 3)`` and the goal light ``(2,)``."""
+    """What a reset draws: obstacles ``(C, 3)`` (at most the task's ``n_obstacles``), start poses ``(N, 3)`` and
+    the goal light ``(2,)``."""
 
     circles: np.ndarray
     starts: np.ndarray
     goal: np.ndarray
 
 
+def _check_sensor_angles(sensor_angles_deg) -> tuple[float, ...]:
+    try:
+        angles = [
+            check_in_range("sensor_angles_deg", a, *PARAMETER_RANGES["sensor_angle_deg"]) for a in sensor_angles_deg
+        ]
+    except TypeError:
+        raise ValueError(f"sensor_angles_deg must be four angles, got {show(sensor_angles_deg)}") from None
+    if len(angles) != 4 or sorted(angles) != angles:
+        raise ValueError(
+            f"sensor_angles_deg must be four increasing angles (S0 right-most), got {show(sensor_angles_deg)}"
+        )
+    return tuple(angles)
+
+
 class SwarmEnv(ParallelEnv):
     """Base class of the swarm tasks (see the task modules for the full documentation)."""
 
     metadata = {"render_modes": ["rgb_array", "human"], "name": "swarm", "is_parallelizable": True, "render_fps": 10}
-    reward_names: tuple[str, ...] = ("progress", "collision", "arrival")
-    metric_names = ("success_rate", "collisions", "time_to_goal_s", "min_clearance_cm", "stopped")
-    #: Formation tasks add the leader's trilateration and a formation error (set by the formation task).
-    formation = False
     default_platform = "maxelbot"
+    #: The most obstacles an episode places (a batch keeps that many slots per environment).
+    n_obstacles = 0
+    #: What the task adds to the family's observation, rewards, metrics and info (by name); the family's own
+    #: tasks add nothing.
+    terms_class: type[TaskTerms] = TaskTerms
 
     def __init__(
         self,
@@ -202,17 +171,7 @@ class SwarmEnv(ParallelEnv):
         p = {name: check_in_range(name, value, *PARAMETER_RANGES[name]) for name, value in given.items()}
         self.__dict__.update(p)
         self.n_neighbours = check_int("n_neighbours", n_neighbours, 1, 32)
-        try:
-            angles = [
-                check_in_range("sensor_angles_deg", a, *PARAMETER_RANGES["sensor_angle_deg"]) for a in sensor_angles_deg
-            ]
-        except TypeError:
-            raise ValueError(f"sensor_angles_deg must be four angles, got {show(sensor_angles_deg)}") from None
-        if len(angles) != 4 or sorted(angles) != angles:
-            raise ValueError(
-                f"sensor_angles_deg must be four increasing angles (S0 right-most), got {show(sensor_angles_deg)}"
-            )
-        self.sensor_angles_deg = tuple(angles)
+        self.sensor_angles_deg = _check_sensor_angles(sensor_angles_deg)
         self.terminate_on_collision = check_bool("terminate_on_collision", terminate_on_collision)
         self.flat_info = check_bool("flat_info", flat_info)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -229,18 +188,26 @@ class SwarmEnv(ParallelEnv):
             )
         self._task_init()
         self.layout = self._fixed_layout()
+        self._build_spaces()
+        #: The simulation: this environment as a batch of one.
+        self.batch = SwarmBatch(self, 1)
+        self._np_random_seed = None
+        self._renderer = None
+        self._started = False  # step() and render() need a first reset()
 
-        n, k = self.n_robots, self.n_neighbours
+    def _build_spaces(self) -> None:
+        """Agents, the observation structure, and one space object per agent (built once: action-space seeding
+        then acts on what step() checks)."""
+        n = self.n_robots
         self.possible_agents = [f"robot_{i}" for i in range(n)]
         self.agents: list[str] = []
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
-        self.observation_structure = observation_structure(k, self.formation)
-        size = self.observation_structure["powers"][1]
-        low = [0.0] * 4 + [-1.0, 0.0] + [0.0, -1.0, 0.0] * k + ([0.0, -1.0, 0.0, 0.0] if self.formation else [])
-        low += [-1.0, -1.0]
-        obs_space = spaces.Box(np.array(low, np.float32), np.ones(size, np.float32), dtype=np.float32)
+        self._every_agent = list(range(n))
+        parts = observation_parts(self.n_neighbours, self.terms_class.observation_parts)
+        self.observation_structure = observation_structure(self.n_neighbours, self.terms_class.observation_parts)
+        low = np.array([v for lows in parts.values() for v in lows], np.float32)
+        obs_space = spaces.Box(low, np.ones(len(low), np.float32), dtype=np.float32)
         act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        # One space object per agent, built once (action-space seeding then acts on what step() checks).
         self.observation_spaces = {
             a: obs_space if i == 0 else _copy_box(obs_space) for i, a in enumerate(self.possible_agents)
         }
@@ -254,42 +221,6 @@ class SwarmEnv(ParallelEnv):
             dtype=np.float32,
         )
 
-        self._angles = np.radians(np.array(self.sensor_angles_deg))
-        self._walls = np.ascontiguousarray(self.layout.walls, dtype=np.float64)[None]
-        self._cell_m = core.cell_size(radius, BEAM_M, self.comm_range_m, self.max_step_m)
-        self._grid = core.Grid(self.layout.bounds, self._cell_m, n)
-        self._move_params = np.array([self.control_period_s, self.platform.wheel_base_m, radius])
-        self._sense_params = np.array([radius, BEAM_M, self.comm_range_m])
-        self._observe_params = np.array([
-            self.ir_noise, self.ir_raw_sd, math.radians(self.light_noise_deg), self.range_noise_m,
-            math.radians(self.bearing_noise_deg), self.comm_range_m, float(self.platform.ir_scale == "x80pro"),
-            LIGHT_REFERENCE_M,
-        ])  # fmt: skip
-        self._leader_at = self.observation_structure["leader"][0] if self.formation else -1
-        self._track = np.zeros((n, N_TRACK))
-        self._account_params = np.array(
-            [self.goal_radius_m, self.control_period_s, float(self.terminate_on_collision), STILL_M]
-        )
-        self._obs_size = size
-        self._sense_draws = 11 + 2 * k
-        self.pose = np.zeros((n, 3))
-        self.active = np.zeros(n, dtype=np.uint8)
-        self._all_rows = np.ones(n, dtype=np.uint8)
-        self._proposal = np.zeros((n, 3))
-        self._blocked = np.zeros(n, dtype=np.uint8)
-        self._beams = np.zeros((n, 4))
-        self._nb_index = np.zeros((n, k), dtype=np.int64)
-        self._nb_range = np.zeros((n, k))
-        self._clearance = np.zeros(n)
-        self._wheels = np.zeros((n, 2))
-        self._rng: np.random.Generator | None = None
-        self._np_random_seed = None
-        self._renderer = None
-        self.circles = np.zeros((0, 3))
-        self.goal = np.zeros(2)
-        self.num_cycles = 0
-        self._started = False  # step() and render() need a first reset()
-
     # --- task interface ---------------------------------------------------------------------------------------
     def _task_init(self) -> None:
         """Check the task's own parameters (before the layout is built)."""
@@ -297,12 +228,50 @@ class SwarmEnv(ParallelEnv):
     def _fixed_layout(self) -> Layout:
         raise NotImplementedError
 
-    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+    def sample_episode(self, rng: np.random.Generator) -> Episode:
+        """Draw an episode (obstacles, starts, goal) on ``rng``; the task's."""
         raise NotImplementedError
 
-    def _formation_error(self) -> tuple[np.ndarray, float]:
-        """Per-robot and swarm formation error (formation tasks only)."""
-        return np.zeros(self.n_robots), 0.0
+    # --- names and state ----------------------------------------------------------------------------------------
+    @property
+    def reward_names(self) -> tuple[str, ...]:
+        """The reward terms, the family's then the task's (``info["reward_<name>"]`` each)."""
+        return (*REWARD_NAMES, *self.terms_class.reward_names)
+
+    @property
+    def metric_names(self) -> tuple[str, ...]:
+        """The episode metrics, the family's then the task's."""
+        return (*METRIC_NAMES, *self.terms_class.metric_names)
+
+    @property
+    def pose(self) -> np.ndarray:
+        """``(N, 3)`` true poses: x, y (m), heading (rad). The simulation's own array."""
+        return self.batch.pose
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(N,)`` uint8: 1 while the robot is in the episode. The simulation's own array."""
+        return self.batch.active
+
+    @property
+    def goal(self) -> np.ndarray:
+        """The goal light ``(2,)`` (m)."""
+        return self.batch.goals[0]
+
+    @property
+    def circles(self) -> np.ndarray:
+        """The episode's obstacles ``(C, 3)``: x, y, radius (m)."""
+        return self.batch.circles[0, : self.batch.n_circles[0]]
+
+    @property
+    def beams(self) -> np.ndarray:
+        """``(N, 4)`` true distance (m) along each IR beam to what it hits, ``inf`` for nothing within reach."""
+        return self.batch.beams
+
+    @property
+    def num_cycles(self) -> int:
+        """Steps into the episode."""
+        return int(self.batch.cycles[0])
 
     # --- PettingZoo API ---------------------------------------------------------------------------------------
     def observation_space(self, agent):
@@ -313,9 +282,9 @@ class SwarmEnv(ParallelEnv):
 
     @property
     def np_random(self) -> np.random.Generator:
-        if self._rng is None:
-            self._rng, self._np_random_seed = seeding.np_random()
-        return self._rng
+        if self.batch.generators[0] is None:
+            self.batch.generators[0], self._np_random_seed = seeding.np_random()
+        return self.batch.generators[0]
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         """Start an episode. The swarm takes no reset options: ``options`` must be ``None`` or ``{}`` (anything else
@@ -326,29 +295,11 @@ class SwarmEnv(ParallelEnv):
             rng, used = seeding.np_random(seed)
         else:
             rng, used = self.np_random, self._np_random_seed
-        episode = self._sample_episode(rng)
-        self._rng, self._np_random_seed = rng, used
-        n = self.n_robots
-        self.circles = np.ascontiguousarray(episode.circles, dtype=np.float64).reshape(-1, 3)
-        self._circles = self.circles[None]
-        self.goal = np.asarray(episode.goal, dtype=np.float64)
-        self.pose[:] = episode.starts
-        self.active[:] = 1
+        self.batch.reset([0], [rng])
+        self._np_random_seed = used
         self.agents = self.possible_agents[:]
-        self.num_cycles = 0
-        # Per-episode wheel drift (terrain: slopes and grass pull one wheel), then per-step noise.
-        self._drift = self.terrain_noise * 0.5 * rng.standard_normal((n, 2))
-        self._powers = np.zeros((n, 2))
-        self._blocked[:] = 0
-        self._formation_sum = np.zeros(n)
-        self._formation_total, self._formation_steps = 0.0, 0  # a running mean: memory stays bounded
-        self._rewards = np.zeros((n, len(self.reward_names)))
-        obs = self._sense(rng.standard_normal((n, self._sense_draws)), rng.random((n, 4)))
-        self._track[:] = 0.0
-        self._track[:, DISTANCE] = np.hypot(*(self.pose[:, :2] - self.goal).T)
-        self._track[:, MIN_CLEARANCE] = self._clearance
-        self._update_metrics()
-        infos = self._infos(range(n))
+        obs = self.batch.observations.copy()
+        infos = self._infos(range(self.n_robots))
         self._started = True
         if self.render_mode == "human":
             self.render()
@@ -357,42 +308,23 @@ class SwarmEnv(ParallelEnv):
     def step(self, actions):
         if not self._started:
             raise ResetNeeded("call reset() before step()")
-        n = self.n_robots
         command = self._command(actions)
         if not self.agents:
             # Every robot has left: nothing moves (SuperSuit's black_death wrapper steps once more with no actions).
             return {}, {}, {}, {}, {}
-        rng = self._rng
-        # One draw per step, in a fixed order (wheels, then sensors; then the IR floor), so a batched vector env
-        # drawing from each sub-environment's generator reproduces this environment bit for bit.
-        normals = rng.standard_normal((n, 2 + self._sense_draws))
-        floor = rng.random((n, 4))
-        noise = 1.0 + self.terrain_noise * normals[:, :2] + self._drift
-        self._wheels[:] = command * self.full_speed_mps * np.clip(noise, 0.0, MAX_SPEED_FACTOR)
-        before = self.pose.copy()
-        g = self._grid
-        core.build_grid(self.pose, self.active, *g.arrays)
-        core.move(self.pose, self.active, self._wheels, self._move_params, self._walls, self._circles, *g.arrays,
-                  self._proposal, self._blocked)  # fmt: skip
-        self.num_cycles += 1
-        self._powers = command * self.active[:, None]
-        obs = self._sense(normals[:, 2:], floor)
-        terminated = np.zeros(n, dtype=np.uint8)
-        account(self.pose, before, self.active, self._blocked, self._clearance, self.goal[None], self.n_robots,
-                np.array([self.num_cycles]), self._account_params, self._track, self._rewards, terminated)  # fmt: skip
-        self._update_metrics()
-        terminated = terminated.astype(bool)
+        batch = self.batch
+        batch.step(command)
+        obs = batch.observations.copy()
         truncate = self.num_cycles >= self.max_cycles
         agents = self.agents
         index = [self.agent_name_mapping[a] for a in agents]
-        reward = self._rewards.sum(axis=1).tolist()
-        term = terminated.tolist()
+        reward = batch.rewards.sum(axis=1).tolist()
+        term = (batch.terminated > 0).tolist()
         observations = {a: obs[i] for a, i in zip(agents, index, strict=True)}
         rewards = {a: reward[i] for a, i in zip(agents, index, strict=True)}
         terminations = {a: term[i] for a, i in zip(agents, index, strict=True)}
         truncations = {a: truncate and not term[i] for a, i in zip(agents, index, strict=True)}
         infos = self._infos(index)
-        self.active[terminated] = 0
         self.agents = [] if truncate else [a for a, i in zip(agents, index, strict=True) if not term[i]]
         if self.render_mode == "human":
             self.render()
@@ -406,12 +338,12 @@ class SwarmEnv(ParallelEnv):
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict of agent -> action, got {show(actions)}")
         rows = [self.agent_name_mapping.get(agent) for agent in actions]
-        if any(i is None or not self.active[i] for i in rows):
-            bad = next(a for a, i in zip(actions, rows, strict=True) if i is None or not self.active[i])
+        live = self.batch.active.tolist()
+        if any(i is None or not live[i] for i in rows):
+            bad = next(a for a, i in zip(actions, rows, strict=True) if i is None or not live[i])
             raise ValueError(f"action for {show(bad)}, which is not a live agent of this episode")
-        command = np.zeros((self.n_robots, 2))
         if not rows:
-            return command
+            return np.zeros((self.n_robots, 2))
         # Each action's own dtype: numpy would promote a bool action among float ones to float.
         dtypes = {getattr(action, "dtype", None) for action in actions.values()}  # usually one
         values = None
@@ -424,6 +356,9 @@ class SwarmEnv(ParallelEnv):
                 values = None  # NaN fails the range test too
         if values is None:
             values = np.stack([self.check_agent_action(agent, action) for agent, action in actions.items()])
+        if rows == self._every_agent:  # every robot, in order (the common case)
+            return values.astype(np.float64)
+        command = np.zeros((self.n_robots, 2))
         command[rows] = values
         return command
 
@@ -461,123 +396,67 @@ class SwarmEnv(ParallelEnv):
             self._renderer.close()
             self._renderer = None
 
-    # --- metrics ----------------------------------------------------------------------------------------------
+    # --- metrics and info -------------------------------------------------------------------------------------
     def episode_metrics(self) -> dict[str, float]:
         """The swarm's metrics so far: fraction of robots at the goal, contact events (all robots), mean time to
         the goal (robots not there count the time so far), smallest clearance, robots stopped short of the goal,
-        and (formation) the mean formation error over the steps."""
-        metrics = {
-            "success_rate": float(self._track[:, ARRIVED].mean()),
-            "collisions": float(self._track[:, COLLISIONS].sum()),
-            "time_to_goal_s": float(self._track[:, TIME_TO_GOAL].mean()),
-            "min_clearance_cm": float(100.0 * self._track[:, MIN_CLEARANCE].min()),
-            "stopped": float(self._stopped().sum()),
-        }
-        if self.formation:
-            steps = self._formation_steps
-            metrics["formation_error"] = self._formation_total / steps if steps else 0.0
-        return metrics
-
-    def _stopped(self) -> np.ndarray:
-        window = max(1, round(STOPPED_WINDOW_S / self.control_period_s))
-        return (self._track[:, STILL] >= window) & (self._track[:, ARRIVED] == 0)
-
-    def _update_metrics(self) -> None:
-        if self.formation:
-            live = self.active.astype(bool)
-            per_robot, swarm = self._formation_error()
-            self._formation_now = per_robot.copy()
-            self._formation_sum += np.where(live, per_robot, 0.0)
-            self._formation_total += float(swarm)
-            self._formation_steps += 1
-            if self.num_cycles:
-                self._rewards[:, 3] = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
-
-    # --- sensing ----------------------------------------------------------------------------------------------
-    def _sense(self, normals: np.ndarray, floor: np.ndarray) -> np.ndarray:
-        """Run the sensing kernel and build every robot's observation row (a fresh array) with the noise draws
-        ``normals`` ``(N, 11 + 2k)`` and ``floor`` ``(N, 4)`` (see :func:`polyenvs.swarm.sensors.write_observations`)."""
-        g = self._grid
-        core.build_grid(self.pose, self.active, *g.arrays)
-        core.sense(self.pose, self.active, self._all_rows, self._sense_params, self._angles, self._walls, self._circles, *g.arrays,
-                   self._beams, self._nb_index, self._nb_range, self._clearance)  # fmt: skip
-        obs = np.empty((self.n_robots, self._obs_size), dtype=np.float32)
-        ir.write_observations(self.pose, self.active, self._beams, self._nb_index, self._nb_range, self.goal[None],
-                              self.n_robots, self._powers, normals, floor, self._observe_params, self._leader_at,
-                              obs)  # fmt: skip
-        return obs
+        then the task's own (its ``terms_class.metric_names``)."""
+        return {name: float(value[0]) for name, value in self.batch.env_metrics().items()}
 
     def _infos(self, index) -> dict:
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
-        terms and the robot's episode metrics (a nested ``episode_metrics`` dict, or with ``flat_info`` the keys
-        ``episode_<metric>``). Built from per-step columns (fresh arrays; rows are views of them)."""
-        stopped = self._stopped()
-        columns = [
-            list(self.pose.copy()),
-            self._track[:, COLLISIONS].astype(np.int64).tolist(),
-            self._track[:, DISTANCE].tolist(),
-            list(np.minimum(100.0 * self._beams, ir.IR_MAX_CM)),
-            list(100.0 * self._powers),
-            np.degrees(self._track[:, TURN]).tolist(),
-            stopped.tolist(),
-            *self._rewards.T.tolist(),
-        ]
-        metric_columns = [
-            self._track[:, ARRIVED].tolist(),
-            self._track[:, COLLISIONS].tolist(),
-            self._track[:, TIME_TO_GOAL].tolist(),
-            (100.0 * self._track[:, MIN_CLEARANCE]).tolist(),
-            stopped.astype(np.float64).tolist(),
-        ]
-        if self.formation:
-            columns.append(self._formation_now.tolist())
-            metric_columns.append((self._formation_sum / max(self.num_cycles, 1)).tolist())
+        terms, the task's keys and the robot's episode metrics (a nested ``episode_metrics`` dict, or with
+        ``flat_info`` the keys ``episode_<metric>``). Built from per-step columns (fresh arrays; rows are views of
+        them)."""
+        info, metrics = self.batch.robot_columns(fresh=False)
+        columns = [value.tolist() if value.ndim == 1 else list(value) for value in info.values()]
+        metric_columns = [value.tolist() for value in metrics.values()]
         index = list(index)
         if len(index) != self.n_robots:  # a subset: select the rows of every column first
             columns = [[column[i] for i in index] for column in columns]
             metric_columns = [[column[i] for i in index] for column in metric_columns]
-        keys, metric_keys = self._info_keys, self.metric_names
+        keys, metric_keys = tuple(info), tuple(metrics)
         names = self.possible_agents
         if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
             keys = (*keys, *(f"episode_{name}" for name in metric_keys))
             rows = zip(*columns, *metric_columns, strict=True)
             return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
-        infos = {}
-        for i, row, metric_row in zip(
-            index, zip(*columns, strict=True), zip(*metric_columns, strict=True), strict=True
-        ):
-            info = dict(zip(keys, row, strict=True))
-            info["episode_metrics"] = dict(zip(metric_keys, metric_row, strict=True))
-            infos[names[i]] = info
-        return infos
-
-    @property
-    def _info_keys(self) -> tuple[str, ...]:
-        keys = ("pose", "collisions", "distance_to_goal_m", "nearest_obstacle_cm", "motor_powers", "turning_angle_deg",
-                "stopped", *(f"reward_{name}" for name in self.reward_names))  # fmt: skip
-        return (*keys, "formation_error") if self.formation else keys
+        nested = [dict(zip(metric_keys, row, strict=True)) for row in zip(*metric_columns, strict=True)]
+        keys = (*keys, "episode_metrics")
+        rows = zip(*columns, nested, strict=True)
+        return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
 
 
-def observation_structure(n_neighbours: int, formation: bool) -> dict[str, tuple[int, int]]:
+def observation_parts(n_neighbours: int, task_parts: dict | None = None) -> dict[str, tuple[float, ...]]:
+    """Name -> the lower bounds of its columns (every upper bound is 1), in observation order: the family's
+    ``ir`` (4), ``light`` (bearing / pi, intensity), ``neighbours`` (range, bearing, mask per slot), then the
+    task's own parts (``TaskTerms.observation_parts``), then ``powers`` (the last motor powers)."""
+    parts = {"ir": (0.0,) * 4, "light": (-1.0, 0.0), "neighbours": (0.0, -1.0, 0.0) * n_neighbours}
+    for name, lows in (task_parts or {}).items():
+        if name in parts or name == "powers":
+            raise ValueError(f"observation part {name!r} is the family's own")
+        parts[name] = tuple(lows)
+    parts["powers"] = (-1.0, -1.0)
+    return parts
+
+
+def observation_structure(n_neighbours: int, task_parts: dict | None = None) -> dict[str, tuple[int, int]]:
     """Name -> (start, stop) of each part of a robot's observation (the baselines read it, not magic indices)."""
-    k = n_neighbours
-    structure = {"ir": (0, 4), "light": (4, 6), "neighbours": (6, 6 + 3 * k)}
-    size = 6 + 3 * k
-    if formation:
-        structure["leader"] = (size, size + 3)
-        structure["is_leader"] = (size + 3, size + 4)
-        size += 4
-    structure["powers"] = (size, size + 2)
+    structure, start = {}, 0
+    for name, lows in observation_parts(n_neighbours, task_parts).items():
+        structure[name] = (start, start + len(lows))
+        start += len(lows)
     return structure
 
 
-def structure_for(dim: int) -> dict[str, tuple[int, int]]:
-    """The observation structure of a ``dim``-long observation (plain: 8 + 3k, formation: 12 + 3k)."""
-    formation = (dim - 8) % 3 != 0
-    k = (dim - (12 if formation else 8)) // 3
-    if k < 1 or (dim - (12 if formation else 8)) % 3:
+def structure_for(dim: int, task_parts: dict | None = None) -> dict[str, tuple[int, int]]:
+    """The observation structure of a ``dim``-long observation with the task's own ``task_parts`` (none: the
+    family's parts only, 8 + 3k long); ``ValueError`` if no number of neighbour slots fits."""
+    extra = sum(len(lows) for lows in (task_parts or {}).values())
+    k, rest = divmod(dim - 8 - extra, 3)
+    if k < 1 or rest:
         raise ValueError(f"an observation of length {dim} is not a swarm robot's")
-    return observation_structure(k, formation)
+    return observation_structure(k, task_parts)
 
 
 def _copy_box(box: spaces.Box) -> spaces.Box:

@@ -11,10 +11,25 @@ import numpy as np
 
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
+from polyenvs.swarm.sensors import wrap_angle
 
-__all__ = ["FormationEnv", "MAX_CYCLES", "N_ROBOTS", "env", "parallel_env", "raw_env"]
+__all__ = [
+    "FORMATION_PENALTY",
+    "FormationEnv",
+    "FormationTerms",
+    "LEADER",
+    "MAX_CYCLES",
+    "N_ROBOTS",
+    "OBSERVATION_PARTS",
+    "env",
+    "formation_error",
+    "parallel_env",
+    "raw_env",
+    "write_leader",
+]
 
 #: Defaults: what ``parallel_env()`` builds and what the commands evaluate (the registry row adds nothing).
 N_ROBOTS = 7
@@ -26,6 +41,14 @@ OBSTACLE_RADIUS_M = (0.15, 0.3)
 GAP_M = 0.8
 #: The lattice spacing R (m) a formation accepts.
 SPACING_RANGE_M = (0.5, 3.0)
+#: Reward weight (*ours*): per unit of a robot's own formation error, per step.
+FORMATION_PENALTY = 0.1
+#: The robot of each environment that broadcasts (AP-lite's leader-follower form): ``robot_0``.
+LEADER = 0
+#: The formation's observation parts (name -> lower bounds; upper bounds 1), between the family's ``neighbours``
+#: and ``powers``: ``leader`` (range / comm_range, bearing / pi, mask: the leader's broadcast, if in range) and
+#: ``is_leader`` (1 for the leader).
+OBSERVATION_PARTS = {"leader": (0.0, -1.0, 0.0), "is_leader": (0.0,)}
 
 
 def default_goal_radius(spacing_m: float) -> float:
@@ -38,6 +61,124 @@ def default_comm_range(spacing_m: float) -> float:
     """``comm_range_m`` when not given: the swarm's 3 m, or the springs' reach 1.5 R where that is farther
     (R above 2 m), so every accepted spacing works with the defaults."""
     return max(DEFAULT_COMM_RANGE_M, 1.5 * spacing_m)
+
+
+@njit(cache=True)
+def write_leader(pose, active, todo, normals, per, params, at, out):
+    """The formation's observation parts of every row in ``todo``: ``leader`` at columns ``at .. at + 2`` (range
+    / comm_range, bearing / pi, mask: the leader's broadcast, if within comm_range) and ``is_leader`` at ``at + 3``
+    (the family has zeroed them). ``normals``: ``(N, 2)`` the bearing's and the range's noise draws; ``params``:
+    ``[range_noise_m, bearing_noise_rad, comm_range_m]``; ``per``: robots per environment, whose leader is its
+    row :data:`LEADER`. A compiled-kernel boundary: its arrays are positional, as numba takes them."""
+    range_noise, bearing_noise, comm = params[0], params[1], params[2]
+    for i in range(out.shape[0]):
+        if not todo[i] or not active[i]:
+            continue
+        leader = (i // per) * per + LEADER
+        if i == leader:
+            out[i, at + 3] = 1.0
+        elif active[leader]:
+            x, y, h = pose[i, 0], pose[i, 1], pose[i, 2]
+            lx, ly = pose[leader, 0], pose[leader, 1]
+            d = math.hypot(lx - x, ly - y)
+            if d <= comm:
+                bearing = math.atan2(ly - y, lx - x) - h + bearing_noise * normals[i, 0]
+                out[i, at] = min(max(d + range_noise * normals[i, 1], 0.0), comm) / comm
+                out[i, at + 1] = wrap_angle(bearing) / math.pi
+                out[i, at + 2] = 1.0
+
+
+@njit(cache=True)
+def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):
+    """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode, for E environments of
+    N robots (``pairs`` index one environment's robots): the mean per robot over its pairs (``per_robot``,
+    ``(E * N,)``) and each environment's mean over its pairs (``swarm``, ``(E,)``; 0 without such pairs)."""
+    n_envs = swarm.shape[0]
+    per = pose.shape[0] // n_envs
+    per_robot[:] = 0.0
+    count[:] = 0.0
+    for e in range(n_envs):
+        base = e * per
+        total, pairs_in = 0.0, 0
+        for p in range(pairs.shape[0]):
+            i, j = base + pairs[p, 0], base + pairs[p, 1]
+            if active[i] and active[j]:
+                err = abs(math.hypot(pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]) - spacing) / spacing
+                per_robot[i] += err
+                per_robot[j] += err
+                count[i] += 1.0
+                count[j] += 1.0
+                total += err
+                pairs_in += 1
+        swarm[e] = total / pairs_in if pairs_in else 0.0
+    for i in range(per_robot.shape[0]):
+        if count[i] > 0:
+            per_robot[i] /= count[i]
+
+
+class FormationTerms(TaskTerms):
+    """What the formation adds to the family, for a whole batch: the leader's broadcast in the observation, the
+    ``formation`` reward term (-0.1 x a robot's own error), the ``formation_error`` metric (per robot: its mean
+    error over the steps; per environment: the mean over the steps of the swarm's error) and info key (a robot's
+    own error now). The first readings after a reset count as a step of the sums, not of the reward."""
+
+    observation_parts = OBSERVATION_PARTS
+    reward_names = ("formation",)
+    metric_names = ("formation_error",)
+    info_names = ("formation_error",)
+
+    def __init__(self, task: FormationEnv, batch):
+        super().__init__(task, batch)
+        rows, envs = batch.n_rows, batch.n_envs
+        self.pairs, self.spacing_m = task.pairs, task.spacing_m
+        self.leader_at = batch.structure["leader"][0]
+        self.leader_params = np.array([task.range_noise_m, math.radians(task.bearing_noise_deg), task.comm_range_m])
+        #: Each robot's error now, its sum over the steps, and each environment's sum of the swarm's error.
+        self.per_robot, self.robot_sum, self.swarm_sum = np.zeros(rows), np.zeros(rows), np.zeros(envs)
+        self._scratch = np.zeros(rows), np.zeros(rows), np.zeros(envs)  # per robot, pairs per robot, swarm
+        self._reward_column = batch.reward_column("formation")
+
+    def observe(self, live, todo, normals, out) -> None:
+        own = normals[:, -TASK_NORMALS:]
+        write_leader(self.batch.pose, live, todo, own, self.batch.n_robots, self.leader_params, self.leader_at, out)
+
+    def _errors(self, live) -> tuple[np.ndarray, np.ndarray]:
+        per_robot, count, swarm = self._scratch
+        formation_error(self.batch.pose, live, self.pairs, self.spacing_m, per_robot, count, swarm)
+        return per_robot, swarm
+
+    def score(self, live, rows, envs) -> None:
+        per_robot, swarm = self._errors(live)
+        reward = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
+        if rows is None:  # every row stepped
+            self.per_robot[:] = per_robot
+            self.batch.rewards[:, self._reward_column] = reward
+            self.robot_sum += np.where(live, per_robot, 0.0)
+            self.swarm_sum += swarm
+        else:
+            self.per_robot[rows] = per_robot[rows]
+            self.batch.rewards[rows, self._reward_column] = reward[rows]
+            self.robot_sum[rows] += np.where(live, per_robot, 0.0)[rows]
+            self.swarm_sum[envs] += swarm[envs]
+
+    def restart(self, rows, envs) -> None:
+        active = self.batch.active
+        per_robot, swarm = self._errors(active)
+        self.per_robot[rows] = per_robot[rows]
+        self.robot_sum[rows] = np.where(active, per_robot, 0.0)[rows]
+        self.swarm_sum[envs] = swarm[envs]
+
+    def env_metrics(self) -> dict[str, np.ndarray]:
+        return {"formation_error": self.swarm_sum / (self.batch.cycles + 1)}
+
+    def robot_metrics(self) -> dict[str, np.ndarray]:
+        cycles = self.batch.cycles
+        if len(cycles) == 1:  # the common case of a PettingZoo step, in one division
+            return {"formation_error": self.robot_sum / max(int(cycles[0]), 1)}
+        return {"formation_error": self.robot_sum / np.maximum(np.repeat(cycles, self.batch.n_robots), 1)}
+
+    def robot_info(self) -> dict[str, np.ndarray]:
+        return {"formation_error": self.per_robot.copy()}
 
 
 class FormationEnv(SwarmEnv):
@@ -89,9 +230,9 @@ class FormationEnv(SwarmEnv):
 
     metadata = {**SwarmEnv.metadata, "name": "formation_v0"}
     default_platform = "maxelbot"
-    formation = True
-    reward_names = ("progress", "collision", "arrival", "formation")
-    metric_names = (*SwarmEnv.metric_names, "formation_error")
+    terms_class = FormationTerms
+    #: The robot that broadcasts (drawn in its own colour).
+    leader = LEADER
 
     def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = 5,
                  goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
@@ -111,15 +252,13 @@ class FormationEnv(SwarmEnv):
         self.lattice = hex_lattice(self.n_robots, self.spacing_m)
         self.pairs = lattice_pairs(self.lattice, self.spacing_m)
         self._lattice_radius = float(np.hypot(*self.lattice.T).max())
-        self._per_robot = np.zeros(self.n_robots)
-        self._pair_count = np.zeros(self.n_robots)
 
     def _fixed_layout(self) -> Layout:
         extent = self._lattice_radius
         length, width = FIELD_LENGTH_M + 2 * extent, max(FIELD_WIDTH_M, 2 * extent + 4.0)
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
 
-    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+    def sample_episode(self, rng: np.random.Generator) -> Episode:
         n = self.n_robots
         _, _, length, width = self.layout.bounds
         centre = np.array([1.5 + self._lattice_radius, width / 2])
@@ -130,39 +269,6 @@ class FormationEnv(SwarmEnv):
         region = (centre[0] + self._lattice_radius + 1.0, 0.6, length - 2.0, width - 0.6)
         circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
-
-    def _formation_error(self):
-        swarm = np.zeros(1)
-        formation_error(self.pose, self.active, self.pairs, self.spacing_m, self._per_robot, self._pair_count, swarm)
-        return self._per_robot, float(swarm[0])
-
-
-@njit(cache=True)
-def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):
-    """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode, for E environments of
-    N robots (``pairs`` index one environment's robots): the mean per robot over its pairs (``per_robot``,
-    ``(E * N,)``) and each environment's mean over its pairs (``swarm``, ``(E,)``; 0 without such pairs)."""
-    n_envs = swarm.shape[0]
-    per = pose.shape[0] // n_envs
-    per_robot[:] = 0.0
-    count[:] = 0.0
-    for e in range(n_envs):
-        base = e * per
-        total, pairs_in = 0.0, 0
-        for p in range(pairs.shape[0]):
-            i, j = base + pairs[p, 0], base + pairs[p, 1]
-            if active[i] and active[j]:
-                err = abs(math.hypot(pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]) - spacing) / spacing
-                per_robot[i] += err
-                per_robot[j] += err
-                count[i] += 1.0
-                count[j] += 1.0
-                total += err
-                pairs_in += 1
-        swarm[e] = total / pairs_in if pairs_in else 0.0
-    for i in range(per_robot.shape[0]):
-        if count[i] > 0:
-            per_robot[i] /= count[i]
 
 
 parallel_env, raw_env, env = module_constructors(FormationEnv)

@@ -94,7 +94,7 @@ class ObstacleFieldEnv(SwarmEnv):
         length, width = FIELD_LENGTH_M + side, max(FIELD_WIDTH_M, side + 3.0)
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
 
-    def _sample_episode(self, rng: np.random.Generator) -> Episode:
+    def sample_episode(self, rng: np.random.Generator) -> Episode:
         n = self.n_robots
         columns, side = self._block()
         _, _, length, width = self.layout.bounds

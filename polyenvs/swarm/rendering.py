@@ -10,7 +10,7 @@ import numpy as np
 
 from polyenvs.core.raster import Canvas
 from polyenvs.core.window import FrameRenderer
-from polyenvs.swarm.env import BEAM_M
+from polyenvs.swarm.batch import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
 
@@ -55,12 +55,13 @@ class SwarmRenderer(FrameRenderer):
             angle = pose[live, 2:3] + np.radians(env.sensor_angles_deg)[None, :]
             unit = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
             start = pose[live, None, :2] + radius * unit
-            hit = np.isfinite(env._beams[live])
-            length = np.where(hit, env._beams[live], BEAM_M)[..., None]
+            hit = np.isfinite(env.beams[live])
+            length = np.where(hit, env.beams[live], BEAM_M)[..., None]
             colours = np.where(hit.reshape(-1, 1), BEAM_HIT, BEAM_NONE)
             canvas.lines(start.reshape(-1, 2), (start + length * unit).reshape(-1, 2), colours, width_px=1.0)
+        leader = getattr(env, "leader", None)  # a task whose robot broadcasts names it
         for i in live.tolist():
-            canvas.disc(pose[i, :2], radius, LEADER if (env.formation and i == 0) else BODY)
+            canvas.disc(pose[i, :2], radius, LEADER if i == leader else BODY)
         if len(live):
             tip = pose[live, :2] + radius * np.column_stack([np.cos(pose[live, 2]), np.sin(pose[live, 2])])
             canvas.lines(pose[live, :2], tip, HEADING, width_px=2.0)

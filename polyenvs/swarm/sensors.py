@@ -33,6 +33,7 @@ __all__ = [
     "raw_reading",
     "raw_from_observation",
     "x80pro_from_raw",
+    "wrap_angle",
     "write_observations",
     "x80pro_reading",
 ]
@@ -134,26 +135,30 @@ def raw_from_observation(observation, ir_scale: str):
 
 
 @njit(cache=True, inline="always")
-def _wrap(angle):
+def wrap_angle(angle):
+    """``angle`` (rad) wrapped into [-pi, pi]."""
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
 @njit(cache=True)
-def write_observations(pose, active, beams, nb_index, nb_range, goals, per, powers, normals, floor, params, leader_at,
+def write_observations(pose, active, todo, beams, nb_index, nb_range, goals, per, powers, normals, floor, params,
                        out):  # fmt: skip
-    """Every robot's observation row, written into ``out`` ``(N, D)`` float32 (rows of inactive robots are 0).
+    """The family's part of every robot's observation row in ``todo``, written into ``out`` ``(N, D)`` float32
+    (rows of inactive robots are 0; rows not in ``todo`` are left as they are). A compiled-kernel boundary: its
+    arrays are positional, as numba takes them.
 
     Layout (``env.observation_structure``): IR 0-3, light 4-5, neighbours 6.. (range / comm, bearing / pi, mask
-    per slot), then, when ``leader_at`` >= 0, the leader (range, bearing, mask) and ``is_leader`` there, and the
-    last powers in the last two columns.
+    per slot), and the last powers in the last two columns; the columns between (a task's own parts) are zeroed
+    here and written by the task.
 
     Args:
+        todo: ``(N,)`` uint8: the rows to write.
         goals: ``(E, 2)`` each environment's light; ``per``: robots per environment (row i is in environment
-            ``i // per``, whose leader is row ``(i // per) * per``).
+            ``i // per``).
         beams: ``(N, 4)`` true beam distances (m, ``inf`` for nothing within reach).
         nb_index, nb_range: ``(N, k)`` the trilateration neighbours from :func:`polyenvs.swarm.core.sense`.
-        normals: ``(N, 11 + 2k)`` standard normals: IR (distance, raw) x 4, light bearing, k ranges, k bearings,
-            leader bearing and range. ``floor``: ``(N, 4)`` uniforms for the IR noise floor.
+        normals: ``(N, 9 + 2k + ...)`` standard normals: IR (distance, raw) x 4, light bearing, k ranges, k
+            bearings (then the task's, unread here). ``floor``: ``(N, 4)`` uniforms for the IR noise floor.
         params: ``[ir_noise, ir_raw_sd, light_noise_rad, range_noise_m, bearing_noise_rad, comm_range_m,
             x80pro (0/1), light_reference_m]``.
     """
@@ -162,6 +167,8 @@ def write_observations(pose, active, beams, nb_index, nb_range, goals, per, powe
     ir_noise, raw_sd, light_noise, range_noise = params[0], params[1], params[2], params[3]
     bearing_noise, comm, x80, reference = params[4], params[5], params[6] > 0.5, params[7]
     for i in range(n):
+        if not todo[i]:
+            continue
         for c in range(width):
             out[i, c] = 0.0
         if not active[i]:
@@ -173,7 +180,7 @@ def write_observations(pose, active, beams, nb_index, nb_range, goals, per, powe
             out[i, s] = x80pro_reading(raw) / X80PRO_NOTHING if x80 else raw / MAXELBOT_RAW_MAX
         e = i // per
         gx, gy = goals[e, 0] - x, goals[e, 1] - y
-        out[i, 4] = _wrap(math.atan2(gy, gx) - h + light_noise * normals[i, 8]) / math.pi
+        out[i, 4] = wrap_angle(math.atan2(gy, gx) - h + light_noise * normals[i, 8]) / math.pi
         d = math.hypot(gx, gy) / reference
         out[i, 5] = 1.0 / (1.0 + d * d)
         for q in range(k):
@@ -183,19 +190,7 @@ def write_observations(pose, active, beams, nb_index, nb_range, goals, per, powe
             measured = min(max(nb_range[i, q] + range_noise * normals[i, 9 + q], 0.0), comm)
             bearing = math.atan2(pose[j, 1] - y, pose[j, 0] - x) - h + bearing_noise * normals[i, 9 + k + q]
             out[i, 6 + 3 * q] = measured / comm
-            out[i, 7 + 3 * q] = _wrap(bearing) / math.pi
+            out[i, 7 + 3 * q] = wrap_angle(bearing) / math.pi
             out[i, 8 + 3 * q] = 1.0
-        if leader_at >= 0:
-            leader = e * per
-            if i == leader:
-                out[i, leader_at + 3] = 1.0
-            elif active[leader]:
-                lx, ly = pose[leader, 0], pose[leader, 1]
-                d = math.hypot(lx - x, ly - y)
-                if d <= comm:
-                    bearing = math.atan2(ly - y, lx - x) - h + bearing_noise * normals[i, 9 + 2 * k]
-                    out[i, leader_at] = min(max(d + range_noise * normals[i, 10 + 2 * k], 0.0), comm) / comm
-                    out[i, leader_at + 1] = _wrap(bearing) / math.pi
-                    out[i, leader_at + 2] = 1.0
         out[i, width - 2] = powers[i, 0]
         out[i, width - 1] = powers[i, 1]

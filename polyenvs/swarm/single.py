@@ -8,9 +8,10 @@ from gymnasium.error import ResetNeeded
 
 from polyenvs.core.validation import check_options
 from polyenvs.swarm.corridor_v0 import CorridorEnv
+from polyenvs.swarm.env import SwarmEnv
 from polyenvs.swarm.obstacle_field_v0 import ObstacleFieldEnv
 
-__all__ = ["APLiteCorridorEnv", "APLiteObstacleFieldEnv"]
+__all__ = ["APLiteCorridorEnv", "APLiteObstacleFieldEnv", "single_robot_swarm"]
 
 #: The time limit is the registry's ``max_episode_steps``. The swarm inside has a cap of its own (``max_cycles``
 #: must be a number), far above any time limit; an episode run that long ends as a truncation (``truncated=True``),
@@ -18,16 +19,20 @@ __all__ = ["APLiteCorridorEnv", "APLiteObstacleFieldEnv"]
 _NO_LIMIT = 1_000_000
 
 
+def single_robot_swarm(swarm_class: type[SwarmEnv], kwargs: dict) -> SwarmEnv:
+    """The swarm of one robot inside a single-robot id (and its vector env): ``n_robots`` and ``max_cycles`` are
+    fixed (the time limit is ``max_episode_steps``)."""
+    if "n_robots" in kwargs or "max_cycles" in kwargs:
+        raise ValueError("n_robots and max_cycles are fixed in the single-robot environment (use max_episode_steps)")
+    return swarm_class(n_robots=1, max_cycles=_NO_LIMIT, **kwargs)
+
+
 class _SingleRobot(gym.Env):
-    swarm_class: type = CorridorEnv
+    swarm_class: type[SwarmEnv] = CorridorEnv
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
     def __init__(self, **kwargs):
-        if "n_robots" in kwargs or "max_cycles" in kwargs:
-            raise ValueError(
-                "n_robots and max_cycles are fixed in the single-robot environment (use max_episode_steps)"
-            )
-        self.swarm = self.swarm_class(n_robots=1, max_cycles=_NO_LIMIT, **kwargs)
+        self.swarm = single_robot_swarm(self.swarm_class, kwargs)
         self.render_mode = self.swarm.render_mode
         self.metadata = {**self.metadata, "render_fps": self.swarm.metadata["render_fps"]}
         self.observation_space = self.swarm.observation_space("robot_0")
