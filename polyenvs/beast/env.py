@@ -77,6 +77,29 @@ def _rotation_angle(q0: np.ndarray, q1: np.ndarray) -> float:
     return 2.0 * math.acos(min(1.0, abs(float(np.dot(q0, q1)))))
 
 
+def _check_physics(physics) -> dict:
+    """``physics=``: None or a dict of :class:`polyenvs.beast.model.BeastModelParams` fields."""
+    if physics is None:
+        return {}
+    if not isinstance(physics, dict):
+        raise ValueError(f"physics must be a dict of model parameters, got {show(physics)}")
+    unknown = sorted(set(physics) - set(PHYSICS_KEYS))
+    if unknown:
+        raise ValueError(f"physics has unknown parameter(s) {unknown}; expected some of {list(PHYSICS_KEYS)}")
+    return physics
+
+
+def _check_rendering(render_mode, modes, width, height) -> None:
+    if render_mode is not None:
+        check_choice("render_mode", render_mode, modes)
+        if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+            # Headless: Gymnasium's renderer would try a GLFW window and fail; EGL renders off-screen.
+            os.environ["MUJOCO_GL"] = "egl"
+    for name, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, int) or not 16 <= value <= 4096:
+            raise ValueError(f"{name} must be an integer in [16, 4096], got {show(value)}")
+
+
 class TumbleCounter:
     """Support changes that are tumbles, from the foot-contact bits.
 
@@ -150,6 +173,7 @@ class BeastEnv(MujocoEnv):
 
     def __init__(
         self,
+        *,
         polyhedron: str = "tetrahedron",
         privileged: bool = False,
         disabled_limbs=(),
@@ -168,21 +192,8 @@ class BeastEnv(MujocoEnv):
         sensing = SensorParams(backlash_deg, tilt_threshold_deg, ctrl_cost_weight)
         self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
-        if physics is None:
-            physics = {}
-        if not isinstance(physics, dict):
-            raise ValueError(f"physics must be a dict of model parameters, got {show(physics)}")
-        unknown = sorted(set(physics) - set(PHYSICS_KEYS))
-        if unknown:
-            raise ValueError(f"physics has unknown parameter(s) {unknown}; expected some of {list(PHYSICS_KEYS)}")
-        if render_mode is not None:
-            check_choice("render_mode", render_mode, self.metadata["render_modes"])
-            if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-                # Headless: Gymnasium's renderer would try a GLFW window and fail; EGL renders off-screen.
-                os.environ["MUJOCO_GL"] = "egl"
-        for name, value in (("width", width), ("height", height)):
-            if isinstance(value, bool) or not isinstance(value, int) or not 16 <= value <= 4096:
-                raise ValueError(f"{name} must be an integer in [16, 4096], got {show(value)}")
+        physics = _check_physics(physics)
+        _check_rendering(render_mode, self.metadata["render_modes"], width, height)
         params = M.BeastModelParams(polyhedron=polyhedron, control=control, locked_limbs=disabled_limbs, **physics)
         frame_skip = round(CONTROL_DT / params.timestep)
         if not math.isclose(frame_skip * params.timestep, CONTROL_DT, rel_tol=1e-9):
@@ -211,10 +222,14 @@ class BeastEnv(MujocoEnv):
                 camera_name="track",
             )
         self.fullpath = None  # generated, not a file
-        nj = self.n_joints
+        self._init_buffers(size, limits)
+
+    def _init_buffers(self, size: int, limits: np.ndarray) -> None:
+        """The packed arrays the sensor kernel and the actuation read and write every step."""
+        params, nj = self.params, self.n_joints
         self._joints = np.zeros((S.N_JOINT_ROWS, nj))
         self._joints[S.LIMIT_LOW], self._joints[S.LIMIT_HIGH] = limits[:, 0], limits[:, 1]
-        if control == "position":
+        if self.control == "position":
             self._joints[S.LOW], self._joints[S.SPAN] = limits[:, 0], limits[:, 1] - limits[:, 0]
         else:
             self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
@@ -230,7 +245,7 @@ class BeastEnv(MujocoEnv):
             1.0 / CONTROL_DT,
             math.sin(math.radians(self.tilt_threshold_deg)),
             float(self.privileged),
-            1.0 / (params.torque_limit**2 * self.n_joints),
+            1.0 / (params.torque_limit**2 * nj),
         ]
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._unstable = False
