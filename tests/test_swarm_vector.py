@@ -10,7 +10,7 @@ from gymnasium.vector import AutoresetMode
 from baselines.swarm import APLiteGoalSeeking
 from polyenvs.registry import REGISTRY
 from polyenvs.swarm.vector import SingleRobotVectorEnv
-from tests.test_buckybot_vector import _assert_same
+from tests.vector_helpers import assert_same as _assert_same
 
 IDS = [e.id for e in REGISTRY if e.kind == "gymnasium" and e.family == "swarm"]
 
@@ -28,10 +28,9 @@ def test_make_vec_defaults_to_the_native_vector_env(env_id):
 
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 @pytest.mark.parametrize("env_id", IDS)
-def test_native_vector_env_matches_sync_vector_env(env_id, mode):
-    """Sub-env i reset with seed s is gym.make(id) reset with seed s + i, bit for bit, through autoresets, in both
-    of Gymnasium's autoreset modes (same-step: with final_obs and final_info). The goal-seeking baseline with noise
-    drives: robots arrive (terminated) and run out of time (truncated)."""
+def test_native_vector_env_matches_sync_vector_env_as_robots_arrive(env_id, mode):
+    """The registry-wide parity test (tests/test_envs_shared.py) drives at random; here the goal-seeking baseline
+    with noise drives, so robots arrive (terminated) and others run out of time (truncated)."""
     make = {"num_envs": 4, "max_episode_steps": 200}
     if env_id.endswith("ObstacleField-v0"):
         make.update(n_obstacles=0, goal_radius_m=1.5)
@@ -41,8 +40,7 @@ def test_native_vector_env_matches_sync_vector_env(env_id, mode):
     obs, info = native.reset(seed=11)
     _assert_same((obs, info), sync.reset(seed=11), "reset")
     platform = native.task.platform
-    policy = APLiteGoalSeeking(native.single_observation_space, native.single_action_space,
-                               ir_scale=platform.ir_scale, sensors=platform.controller_sensors)  # fmt: skip
+    policy = APLiteGoalSeeking(native.single_observation_space, native.single_action_space, platform=platform.name)
     rng = np.random.default_rng(0)
     state, terminated, truncated = None, 0, 0
     for t in range(450):
