@@ -115,7 +115,9 @@ def actuate(action, joints, ctrl):
 
 @njit(cache=True)
 def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs):
-    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged.
+    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged. A
+    compiled-kernel boundary: MjData's views and the packed ``joints`` / ``misc`` arrays are positional, as numba
+    takes them.
 
     ``joints[MOTOR]`` is each encoder's motor-side angle, dragged along by the joint across the backlash band;
     ``joints[READING]`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.

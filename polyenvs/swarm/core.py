@@ -114,6 +114,8 @@ def _ray_circle(ox, oy, dx, dy, cx, cy, r, best):
 
 @njit(cache=True, inline="always")
 def _ray_segment(ox, oy, dx, dy, x0, y0, x1, y1, best):
+    """The smaller of ``best`` and the distance along the ray (o, d) to segment (x0, y0)-(x1, y1). Scalars, inlined
+    into the compiled beam loop: a compiled-kernel boundary (packing them would cost a tuple per wall)."""
     ex, ey = x1 - x0, y1 - y0
     denom = dx * ey - dy * ex
     if denom == 0.0:
@@ -128,7 +130,8 @@ def _ray_segment(ox, oy, dx, dy, x0, y0, x1, y1, best):
 
 @njit(cache=True)
 def move(pose, active, wheels, params, walls, circles, geometry, shape, start, items, cell_of, proposal, blocked):
-    """Advance every active robot by one control period; ``blocked[i]`` = 1 where a contact refused the move.
+    """Advance every active robot by one control period; ``blocked[i]`` = 1 where a contact refused the move. A
+    compiled-kernel boundary: its arrays are positional, as numba takes them.
 
     Args:
         wheels: ``(N, 2)`` left and right wheel speeds (m/s).
@@ -201,7 +204,8 @@ def move(pose, active, wheels, params, walls, circles, geometry, shape, start, i
 @njit(cache=True)
 def sense(pose, active, todo, params, angles, walls, circles, geometry, shape, start, items, cell_of, beams,
           nb_index, nb_range, clearance):  # fmt: skip
-    """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance.
+    """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance. A
+    compiled-kernel boundary: its arrays are positional, as numba takes them (one call senses the whole batch).
 
     Args:
         todo: ``(N,)`` uint8: the rows to sense (a vector env re-senses only the environments it has just reset);
