@@ -28,14 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from polyenvs.evaluation import (
-    InputError,
-    atomic_path,
-    evaluate,
-    iqm_with_stratified_ci,
-    write_json_atomic,
-    write_text_atomic,
-)
+from polyenvs.errors import InputError
+from polyenvs.evaluation import evaluate
+from polyenvs.files import atomic_path, write_json_atomic, write_text_atomic
+from polyenvs.statistics import iqm_with_stratified_ci
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",

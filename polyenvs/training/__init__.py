@@ -6,7 +6,7 @@
 - :mod:`polyenvs.training.algos`: the algorithms ``train`` knows and the action spaces each accepts.
 - :mod:`polyenvs.training.callbacks`: TensorBoard logging of the task metrics of finished episodes.
 - :mod:`polyenvs.training.train`: :func:`~polyenvs.training.train.train`, one run into one output directory.
-- :mod:`polyenvs.training.command`: the ``polyenvs train`` subcommand (``add_parser``, ``run``).
+- the ``polyenvs train`` subcommand is :mod:`polyenvs.commands.train`.
 
 Nothing here is imported by ``import polyenvs``; the modules import torch and Stable-Baselines3 only when used.
 

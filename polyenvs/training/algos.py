@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from gymnasium import spaces
 
-from polyenvs.evaluation import InputError
+from polyenvs.errors import InputError
 
 __all__ = ["ALGOS", "AlgoInfo", "algo_class", "check_action_space", "get_algo"]
 
@@ -38,7 +38,7 @@ ALGOS: dict[str, AlgoInfo] = {
 
 
 def get_algo(name: str) -> AlgoInfo:
-    """The table row of ``name``; an unknown name raises :class:`~polyenvs.evaluation.InputError`."""
+    """The table row of ``name``; an unknown name raises :class:`~polyenvs.errors.InputError`."""
     if not isinstance(name, str) or name not in ALGOS:
         raise InputError(f"unknown algorithm {name!r}; expected one of {', '.join(ALGOS)}")
     return ALGOS[name]
@@ -55,7 +55,7 @@ def algo_class(name: str) -> type:
 
 
 def check_action_space(name: str, env_id: str, action_space: spaces.Space) -> None:
-    """Raise :class:`~polyenvs.evaluation.InputError` where ``name`` cannot act in ``action_space``."""
+    """Raise :class:`~polyenvs.errors.InputError` where ``name`` cannot act in ``action_space``."""
     info = get_algo(name)
     if not isinstance(action_space, info.action_spaces):
         fits = [a for a, i in ALGOS.items() if isinstance(action_space, i.action_spaces)]

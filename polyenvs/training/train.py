@@ -33,16 +33,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import (
-    MAX_N_ENVS,
-    MAX_SEED,
-    MAX_TIMESTEPS,
-    InputError,
-    check_count,
-    check_writable_directory,
-    temp_path_for,
-    write_json_atomic,
-)
+from polyenvs.errors import InputError, check_count
+from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
+from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = [
@@ -65,7 +58,7 @@ TENSORBOARD_DIR = "tb"
 LOCK_FILE = ".training.lock.tmp"
 #: What a run writes: removed when a run is trained again from the start (anything else is left alone).
 _RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR)
-#: Temporary files of atomic writes (polyenvs.evaluation.temp_path_for) and the lock: not a run's content.
+#: Temporary files of atomic writes (polyenvs.files.temp_path_for) and the lock: not a run's content.
 _TEMPORARY = re.compile(r"\..+\.tmp(\..*)?")
 
 

@@ -43,7 +43,7 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
-from polyenvs.evaluation import InputError
+from polyenvs.errors import InputError
 
 __all__ = [
     "NativeVecEnvAdapter",
@@ -270,7 +270,7 @@ def make_training_vec_env(
     ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``), or ``"auto"``: native where
     the id has a native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and
     the native env is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first reset seeds sub-env ``i`` with ``seed + i``.
-    Bad ``env_kwargs`` raise :class:`~polyenvs.evaluation.InputError`.
+    Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
     """
     import polyenvs  # noqa: F401
     from polyenvs.evaluation import make_env

@@ -3,11 +3,8 @@
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
 [--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress]``
 
-Every flag is checked before any work: a bad value raises :class:`~polyenvs.evaluation.InputError`, which the
-command line prints as one line (exit 2). Wired into ``polyenvs.cli`` with::
-
-    from polyenvs.training.command import add_parser as add_train_parser
-    add_train_parser(sub)
+Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
+command line prints as one line (exit 2).
 """
 
 from __future__ import annotations
@@ -17,16 +14,9 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import (
-    MAX_N_ENVS,
-    MAX_SEED,
-    MAX_TIMESTEPS,
-    InputError,
-    add_progress_flag,
-    int_flag,
-    is_terminal,
-    parse_json_object,
-)
+from polyenvs.commands.flags import add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.errors import InputError
+from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 
 __all__ = ["add_parser", "default_out_dir", "run"]
 
