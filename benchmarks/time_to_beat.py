@@ -111,12 +111,13 @@ def time_to_beat(
     from polyenvs.errors import check_count
     from polyenvs.evaluation import evaluate
     from polyenvs.leaderboard import EVAL_SEED
+    from polyenvs.registry import bare_id
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.vec_adapter import make_training_vec_env
 
     budget, chunk = check_count("budget", budget, 1), check_count("chunk", chunk, 1)
     eval_seed = EVAL_SEED if eval_seed is None else eval_seed
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
 
     start = time.perf_counter()
     paper = evaluate(env_id, paper_policy, episodes=episodes, seed=eval_seed)

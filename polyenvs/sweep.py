@@ -31,6 +31,7 @@ from typing import Any
 
 from polyenvs.errors import InputError
 from polyenvs.files import check_writable_directory
+from polyenvs.registry import bare_id, slug
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = [
@@ -161,10 +162,6 @@ def run_job(job: Job) -> dict[str, Any]:
 # -------------------------------------------------------------------------------------------------- checking
 
 
-def _slug(env_id: str) -> str:
-    return env_id.replace("/", "__")
-
-
 def plan_jobs(
     envs: list[str],
     algos: list[str],
@@ -181,16 +178,16 @@ def plan_jobs(
     Raises :class:`InputError` (one line) for anything that cannot work, before any job starts.
     """
     import polyenvs  # noqa: F401  (registers the ids)
+    from baselines.algorithms import check_action_space, get_algo
     from polyenvs.evaluation import make_env
     from polyenvs.registry import ALL_IDS
     from polyenvs.rollout import agent_spaces
-    from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.train import check_out_dir
 
     ids = []
     for env_id in envs:
-        bare = env_id.split(":", 1)[-1]
+        bare = bare_id(env_id)
         if bare not in ALL_IDS:
             raise InputError(f"--envs: unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
         ids.append(bare)
@@ -227,14 +224,14 @@ def plan_jobs(
     for env_id in dict.fromkeys(ids):
         for algo in dict.fromkeys(algos):
             for seed in dict.fromkeys(seeds):
-                out_dir = out / "agents" / _slug(env_id) / algo / f"seed{seed}"
+                out_dir = out / "agents" / slug(env_id) / algo / f"seed{seed}"
                 try:  # an interrupted run is resumed; a directory the sweep cannot use stops it before any job
                     check_out_dir(out_dir, env_id, algo, seed, resume=True)
                 except InputError as exc:
                     message = str(exc).replace("; choose another --out or remove it", "; remove it")
                     message = message.replace("; choose another --out, or --overwrite to replace it", "; remove it")
                     raise InputError(message) from None
-                result = out / "results" / f"{_slug(env_id)}__agent__{algo}__seed{seed}.json"
+                result = out / "results" / f"{slug(env_id)}__agent__{algo}__seed{seed}.json"
                 jobs.append(
                     Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result),
                         checkpoint_every)

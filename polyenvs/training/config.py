@@ -41,6 +41,7 @@ from typing import Any
 
 from polyenvs.errors import InputError
 from polyenvs.limits import MAX_N_ENVS, MAX_TIMESTEPS
+from polyenvs.registry import bare_id
 
 __all__ = [
     "META_KEYS",
@@ -181,11 +182,11 @@ def load_config(path: str | Path, env_id: str, algo: str) -> TrainConfig:
     Raises :class:`~polyenvs.errors.InputError` for a missing file or entry, an unknown key (with the nearest
     known one), a value of the wrong type, or a Python-like string outside the allowed syntax.
     """
-    from polyenvs.training.algos import algo_class, get_algo
+    from baselines.algorithms import algo_class, get_algo
 
     get_algo(algo)
     path = Path(path)
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
     document = load_config_file(path)
     if env_id not in document:
         known = ", ".join(str(k) for k in document) or "none"

@@ -36,6 +36,7 @@ from typing import Any
 from polyenvs.errors import InputError, check_count
 from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
+from polyenvs.registry import bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = [
@@ -88,7 +89,7 @@ def finished_run(out_dir: str | Path, env_id: str, algo: str, seed: int) -> dict
     if (
         run is not None
         and run.get("completed") is True
-        and (run.get("env_id"), run.get("algo"), run.get("seed")) == (env_id.split(":", 1)[-1], algo, seed)
+        and (run.get("env_id"), run.get("algo"), run.get("seed")) == (bare_id(env_id), algo, seed)
         and (Path(out_dir) / MODEL_FILE).is_file()
     ):
         return run
@@ -150,7 +151,7 @@ def _training_lock(out_dir: Path) -> Iterator[None]:
 
 
 def _same_job(run: dict[str, Any], env_id: str, algo: str, seed: int) -> bool:
-    return (run.get("env_id"), run.get("algo"), run.get("seed")) == (env_id.split(":", 1)[-1], algo, seed)
+    return (run.get("env_id"), run.get("algo"), run.get("seed")) == (bare_id(env_id), algo, seed)
 
 
 def _progress(run: dict[str, Any], out_dir: Path) -> str:
@@ -370,16 +371,16 @@ def train(
         TrainingInterrupted: after Ctrl-C, once the partial model is saved.
     """
     import polyenvs  # noqa: F401  (registers the ids)
+    from baselines.algorithms import check_action_space, get_algo
     from polyenvs.evaluation import make_env
     from polyenvs.rollout import agent_spaces
-    from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
 
     # ---- everything the caller could get wrong, before any work
     get_algo(algo)
     if not isinstance(env_id, str):
         raise InputError(f"env_id must be a string, got {env_id!r}")
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
     seed = check_count("seed", seed, 0, MAX_SEED)
     if timesteps is not None:
         timesteps = check_count("timesteps", timesteps, 1, MAX_TIMESTEPS)
@@ -443,7 +444,7 @@ def train(
     import torch
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    from polyenvs.training.algos import algo_class
+    from baselines.algorithms import algo_class
     from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
     from polyenvs.training.vec_adapter import make_training_vec_env
 

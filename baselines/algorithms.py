@@ -1,4 +1,8 @@
-"""The algorithms ``polyenvs train`` knows: their classes (imported on use) and the action spaces they accept."""
+"""The Stable-Baselines3 / sb3-contrib algorithms polyenvs knows: one table for training and for loading models.
+
+``polyenvs train`` builds a row's class; :mod:`baselines.trained` loads a saved model with it (the names are those
+of run.json and ``benchmarks/agents/<env>/<algo>/``). The classes are imported on use (they import torch).
+"""
 
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ class AlgoInfo:
     kind: str
 
 
+#: algorithm name -> its row, in the order tables and searches list them (ppo, dqn, maskable_ppo, sac, td3).
 ALGOS: dict[str, AlgoInfo] = {
     a.name: a
     for a in (
