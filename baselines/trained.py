@@ -34,8 +34,10 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from baselines.algorithms import ALGOS
+from polyenvs.registry import bare_id
+
 __all__ = [
-    "ALGORITHMS",
     "TrainedModelError",
     "TrainedPolicy",
     "is_model_path",
@@ -45,14 +47,6 @@ __all__ = [
     "resolve_model_files",
 ]
 
-#: algorithm name (as in run.json and ``benchmarks/agents/<env>/<algo>/``) -> (module, class).
-ALGORITHMS: dict[str, tuple[str, str]] = {
-    "ppo": ("stable_baselines3", "PPO"),
-    "dqn": ("stable_baselines3", "DQN"),
-    "maskable_ppo": ("sb3_contrib", "MaskablePPO"),
-    "sac": ("stable_baselines3", "SAC"),
-    "td3": ("stable_baselines3", "TD3"),
-}
 #: The module of a saved policy class -> the algorithm to try first when no run.json says which.
 _POLICY_MODULES = {
     "sb3_contrib.common.maskable.policies": "maskable_ppo",
@@ -116,8 +110,8 @@ def read_run_info(run_file: Path | None) -> dict[str, Any]:
     if not isinstance(info, dict):
         raise TrainedModelError(f"{run_file}: must be a JSON object")
     algo = info.get("algo")
-    if algo is not None and algo not in ALGORITHMS:
-        raise TrainedModelError(f"{run_file}: unknown algo {algo!r}; known: {', '.join(ALGORITHMS)}")
+    if algo is not None and algo not in ALGOS:
+        raise TrainedModelError(f"{run_file}: unknown algo {algo!r}; known: {', '.join(ALGOS)}")
     return info
 
 
@@ -131,7 +125,7 @@ def model_checksum(model_file: Path, normalize_file: Path | None = None) -> str:
 
 
 def _bare_id(env_id: str | None) -> str | None:
-    return None if env_id is None else str(env_id).split(":", 1)[-1]
+    return None if env_id is None else bare_id(str(env_id))
 
 
 def _space_text(space: spaces.Space) -> str:
@@ -154,7 +148,7 @@ def _same_space(a: spaces.Space, b: spaces.Space) -> bool:
 
 
 def _algorithm_class(algo: str):
-    module_name, class_name = ALGORITHMS[algo]
+    module_name, class_name = ALGOS[algo].module, ALGOS[algo].class_name
     try:
         module = __import__(module_name, fromlist=[class_name])
     except ImportError:
@@ -195,7 +189,7 @@ def _load_model(model_file: Path, algo: str | None):
         order = [algo]
     else:
         hint = _saved_policy_algo(model_file)
-        order = ([hint] if hint else []) + [a for a in ALGORITHMS if a != hint]
+        order = ([hint] if hint else []) + [a for a in ALGOS if a != hint]
     failures = []
     for name in order:
         try:

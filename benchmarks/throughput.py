@@ -147,7 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(section)
 
     if not args.no_write:
-        from polyenvs.evaluation import write_text_atomic
+        from polyenvs.files import write_text_atomic
 
         command = " ".join(["python -m benchmarks.throughput", *(sys.argv[1:] if argv is None else argv)])
         report = format_report(

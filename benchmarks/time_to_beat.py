@@ -77,7 +77,7 @@ class TimeToBeat:
 
 
 def _returns_iqm(document: Mapping[str, Any]) -> tuple[float, float]:
-    from polyenvs.evaluation import interquartile_mean
+    from polyenvs.statistics import interquartile_mean
 
     returns = [episode["return"] for episode in document["episodes"]]
     return interquartile_mean(returns), float(sum(returns) / len(returns))
@@ -108,14 +108,16 @@ def time_to_beat(
     from stable_baselines3.common.vec_env import VecNormalize
 
     import polyenvs  # noqa: F401  (registers the ids)
-    from polyenvs.evaluation import check_count, evaluate
+    from polyenvs.errors import check_count
+    from polyenvs.evaluation import evaluate
     from polyenvs.leaderboard import EVAL_SEED
+    from polyenvs.registry import bare_id
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.vec_adapter import make_training_vec_env
 
     budget, chunk = check_count("budget", budget, 1), check_count("chunk", chunk, 1)
     eval_seed = EVAL_SEED if eval_seed is None else eval_seed
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
 
     start = time.perf_counter()
     paper = evaluate(env_id, paper_policy, episodes=episodes, seed=eval_seed)
@@ -211,7 +213,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from polyenvs.evaluation import InputError
+    from polyenvs.errors import InputError
 
     def progress(c: Chunk, paper_iqm: float) -> None:
         print(

@@ -28,14 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from polyenvs.evaluation import (
-    InputError,
-    atomic_path,
-    evaluate,
-    iqm_with_stratified_ci,
-    write_json_atomic,
-    write_text_atomic,
-)
+from polyenvs.errors import InputError
+from polyenvs.evaluation import evaluate
+from polyenvs.files import atomic_path, write_json_atomic, write_text_atomic
+from polyenvs.registry import bare_id, slug
+from polyenvs.statistics import iqm_with_stratified_ci
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
@@ -90,19 +87,15 @@ def provenance() -> dict:
     }
 
 
-def _slug(env_id: str) -> str:
-    return env_id.replace("/", "__")
-
-
 def result_path(results_dir: Path, env_id: str, policy: str) -> Path:
     """``<results_dir>/<env id with / as __>__<policy>.json``; an agent's ``policy`` here is its :attr:`Agent.key`."""
-    return Path(results_dir) / f"{_slug(env_id)}__{policy}.json"
+    return Path(results_dir) / f"{slug(env_id)}__{policy}.json"
 
 
 def plot_path(table: Path, env_id: str) -> Path:
     """The PNG beside the Markdown table: ``<table stem>_<env id with / as __>.png``."""
     table = Path(table)
-    return table.parent / f"{table.stem}_{_slug(env_id)}.png"
+    return table.parent / f"{table.stem}_{slug(env_id)}.png"
 
 
 def leaderboard_policies(env_id: str) -> list[str]:
@@ -165,17 +158,19 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     """
     if agents_dir is None:
         return []
+    from baselines.algorithms import ALGOS
+
     trained = _trained()
-    base = Path(agents_dir) / _slug(env_id)
+    base = Path(agents_dir) / slug(env_id)
     if not base.is_dir():
         return []
     agents = []
-    order = {name: i for i, name in enumerate(trained.ALGORITHMS)}  # ppo, dqn, maskable_ppo, sac, td3
+    order = {name: i for i, name in enumerate(ALGOS)}  # ppo, dqn, maskable_ppo, sac, td3
     algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
     for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(p.name, len(order)), p.name)):
         algo = algo_dir.name
-        if algo not in trained.ALGORITHMS:
-            raise InputError(f"{algo_dir}: unknown algorithm directory; known: {', '.join(trained.ALGORITHMS)}")
+        if algo not in ALGOS:
+            raise InputError(f"{algo_dir}: unknown algorithm directory; known: {', '.join(ALGOS)}")
         seed_dirs = [p for p in algo_dir.iterdir() if p.is_dir() and not p.name.startswith(".")]
         for seed_dir in sorted(seed_dirs, key=lambda p: (_seed_number(p), p.name)):
             seed = _seed_number(seed_dir)
@@ -187,7 +182,7 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
             except trained.TrainedModelError as exc:
                 raise InputError(str(exc)) from None
             for what, found, expected in (
-                ("env_id", str(run.get("env_id", "")).split(":", 1)[-1], env_id),
+                ("env_id", bare_id(str(run.get("env_id", ""))), env_id),
                 ("algo", run.get("algo"), algo),
                 ("seed", run.get("seed"), seed),
             ):
@@ -250,7 +245,7 @@ def agent_from_path(path: str) -> Agent:
     algo = run.get("algo") or "model"
     seed = run.get("seed") if isinstance(run.get("seed"), int) else None
     slug = re.sub(r"[^A-Za-z0-9._-]+", "_", str(path)).strip("_.") or "model"
-    return Agent(str(env_id).split(":", 1)[-1], algo, str(path), str(path), f"agent__{slug}", seed, run)
+    return Agent(bare_id(str(env_id)), algo, str(path), str(path), f"agent__{slug}", seed, run)
 
 
 def _check_agent(agent: Agent, envs: dict) -> str:

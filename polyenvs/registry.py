@@ -282,6 +282,11 @@ def bare_id(env_id: str) -> str:
     return env_id.split(":", 1)[-1]
 
 
+def slug(env_id: str) -> str:
+    """``env_id`` as one path component, ``/`` as ``__`` (agent directories and result files are named so)."""
+    return bare_id(env_id).replace("/", "__")
+
+
 def entry(env_id: str) -> EnvEntry | ParallelEnvEntry:
     """The registry row of ``env_id`` (a Gymnasium id, ``polyenvs:`` prefix allowed, or a module path)."""
     env_id = bare_id(env_id)

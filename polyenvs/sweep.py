@@ -15,7 +15,8 @@ resumed from its last saved model (``train(resume=True)``: the checkpoint every 
 timesteps, or what Ctrl-C saved), or trained again from the start if it saved none; its run.json lists the
 timesteps it resumed at (``resumed_at``).
 
-Every flag is checked before any job starts (one-line :class:`~polyenvs.evaluation.InputError`, exit 2). A failing
+Every flag is checked before any job starts (one-line :class:`~polyenvs.errors.InputError`, exit 2; the flags are
+:mod:`polyenvs.commands.sweep`'s). A failing
 job is reported with its error in one line and the command exits 1 once the others finish; Ctrl-C stops the jobs
 (a run interrupted mid-training keeps its partial model, ``run.json``: completed false, which a re-run resumes) and
 exits 130.
@@ -23,26 +24,28 @@ exits 130.
 
 from __future__ import annotations
 
-import argparse
-import os
 import shlex
-import sys
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import (
-    MAX_EPISODES,
-    MAX_JOBS,
-    MAX_SEED,
-    MAX_TIMESTEPS,
-    InputError,
-    check_writable_directory,
-)
+from polyenvs.errors import InputError
+from polyenvs.files import check_writable_directory
+from polyenvs.registry import bare_id, slug
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
-__all__ = ["DEFAULT_SWEEP_DIR", "Job", "add_parser", "done_before", "plan_jobs", "run", "run_job", "run_sweep"]
+__all__ = [
+    "BACKENDS",
+    "DEFAULT_SWEEP_DIR",
+    "Job",
+    "describe_result",
+    "done_before",
+    "import_ray",
+    "plan_jobs",
+    "run_job",
+    "run_sweep",
+    "summary_table",
+]
 
 #: Where ``polyenvs sweep`` writes by default (gitignored, like every run's output).
 DEFAULT_SWEEP_DIR = Path("runs/sweep")
@@ -100,8 +103,10 @@ def run_job(job: Job) -> dict[str, Any]:
     Runs in a worker process. Returns ``{"job", "trained", "train_s", "evaluated", "iqm", "mean", "episodes"}``,
     or ``{"job", "error"}`` with the error in one line; Ctrl-C propagates.
     """
-    from polyenvs.evaluation import evaluate, interquartile_mean, write_json_atomic
+    from polyenvs.evaluation import evaluate
+    from polyenvs.files import write_json_atomic
     from polyenvs.leaderboard import EVAL_SEED, load_result, provenance
+    from polyenvs.statistics import interquartile_mean
     from polyenvs.training.train import finished_run, read_run, train
 
     _init_worker()
@@ -157,10 +162,6 @@ def run_job(job: Job) -> dict[str, Any]:
 # -------------------------------------------------------------------------------------------------- checking
 
 
-def _slug(env_id: str) -> str:
-    return env_id.replace("/", "__")
-
-
 def plan_jobs(
     envs: list[str],
     algos: list[str],
@@ -177,16 +178,16 @@ def plan_jobs(
     Raises :class:`InputError` (one line) for anything that cannot work, before any job starts.
     """
     import polyenvs  # noqa: F401  (registers the ids)
+    from baselines.algorithms import check_action_space, get_algo
     from polyenvs.evaluation import make_env
     from polyenvs.registry import ALL_IDS
     from polyenvs.rollout import agent_spaces
-    from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.train import check_out_dir
 
     ids = []
     for env_id in envs:
-        bare = env_id.split(":", 1)[-1]
+        bare = bare_id(env_id)
         if bare not in ALL_IDS:
             raise InputError(f"--envs: unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
         ids.append(bare)
@@ -223,14 +224,14 @@ def plan_jobs(
     for env_id in dict.fromkeys(ids):
         for algo in dict.fromkeys(algos):
             for seed in dict.fromkeys(seeds):
-                out_dir = out / "agents" / _slug(env_id) / algo / f"seed{seed}"
+                out_dir = out / "agents" / slug(env_id) / algo / f"seed{seed}"
                 try:  # an interrupted run is resumed; a directory the sweep cannot use stops it before any job
                     check_out_dir(out_dir, env_id, algo, seed, resume=True)
                 except InputError as exc:
                     message = str(exc).replace("; choose another --out or remove it", "; remove it")
                     message = message.replace("; choose another --out, or --overwrite to replace it", "; remove it")
                     raise InputError(message) from None
-                result = out / "results" / f"{_slug(env_id)}__agent__{algo}__seed{seed}.json"
+                result = out / "results" / f"{slug(env_id)}__agent__{algo}__seed{seed}.json"
                 jobs.append(
                     Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result),
                         checkpoint_every)
@@ -241,7 +242,7 @@ def plan_jobs(
 # ------------------------------------------------------------------------------------------------- backends
 
 
-def _import_ray():
+def import_ray():
     try:
         import ray
     except ImportError:
@@ -273,7 +274,7 @@ def _run_local(jobs: list[Job], workers: int, report) -> None:
 
 
 def _run_ray(jobs: list[Job], workers: int, address: str | None, report) -> None:
-    ray = _import_ray()
+    ray = import_ray()
     started = not ray.is_initialized()
     if started:
         if address is None:
@@ -313,7 +314,7 @@ def _format_table(header: list[str], rows: list[list[str]]) -> list[str]:
     return ["  ".join(f"{c:<{w}}" for c, w in zip(r, widths, strict=True)).rstrip() for r in cells]
 
 
-def _describe(result: dict) -> str:
+def describe_result(result: dict) -> str:
     job = result["job"]
     name = f"{job['env_id']} {job['algo']} seed{job['seed']}"
     if "error" in result:
@@ -330,8 +331,8 @@ def _describe(result: dict) -> str:
 
 def done_before(job: Job) -> dict[str, Any] | None:
     """:func:`run_job`'s result for a job whose run is finished and whose result file is usable, else None."""
-    from polyenvs.evaluation import interquartile_mean
     from polyenvs.leaderboard import load_result
+    from polyenvs.statistics import interquartile_mean
     from polyenvs.training.train import finished_run
 
     if finished_run(job.out_dir, job.env_id, job.algo, job.seed) is None:
@@ -364,7 +365,7 @@ def run_sweep(
     def report(result: dict) -> None:
         job = result["job"]
         results[(job["env_id"], job["algo"], job["seed"])] = result
-        printer(_describe(result))
+        printer(describe_result(result))
 
     todo = []
     for job in jobs:
@@ -395,105 +396,3 @@ def summary_table(results: list[dict]) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------------- command line
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``sweep`` subcommand to an ``argparse`` subparsers object; ``args.func`` is :func:`run`."""
-    p = subparsers.add_parser(
-        "sweep",
-        help="train and evaluate every (environment, algorithm, seed) in parallel (needs polyenvs[train])",
-        description="Train every (environment, algorithm, seed) and evaluate it on the leaderboard's seeds, as "
-        "independent jobs on a local process pool (--jobs workers) or on Ray (--backend ray; needs "
-        "polyenvs[distributed]). Writes OUT/agents/<env>/<algo>/seed<N>/ (as benchmarks/agents) and "
-        "OUT/results/<env>__agent__<algo>__seed<N>.json; a re-run skips finished jobs and resumes interrupted ones "
-        "(from their last checkpoint, or from the start if they saved none). On a Ray cluster OUT must be on a "
-        "file system every node shares.",
-    )
-    p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids (polyenvs list)")
-    p.add_argument("--algos", nargs="+", required=True, metavar="ALGO", help="algorithms (ppo, maskable_ppo, ...)")
-    p.add_argument("--seeds", nargs="+", required=True, metavar="S", help=f"training seeds, 0 to {MAX_SEED}")
-    p.add_argument(
-        "--timesteps", default=None, help=f"training steps per job, 1 to {MAX_TIMESTEPS:,} (default: the config's)"
-    )
-    p.add_argument(
-        "--config-dir",
-        default=None,
-        help="directory of <algo>.yml configs (default: the configs shipped with polyenvs)",
-    )
-    p.add_argument("--backend", default="local", help="local (a process pool, default) or ray")
-    p.add_argument(
-        "--address", default=None, help="with --backend ray: a running cluster's address (ray://... or auto)"
-    )
-    p.add_argument(
-        "--jobs", default=None, help=f"parallel jobs, 1 to {MAX_JOBS} (default: the CPU count; a local Ray's CPUs)"
-    )
-    p.add_argument("--out", default=str(DEFAULT_SWEEP_DIR), help=f"output directory (default {DEFAULT_SWEEP_DIR})")
-    p.add_argument(
-        "--checkpoint-every",
-        default=str(DEFAULT_CHECKPOINT_EVERY),
-        help="save each job's model every this many timesteps, so that a re-run after a kill resumes from there; "
-        f"0: only at the end and on Ctrl-C (default {DEFAULT_CHECKPOINT_EVERY})",
-    )
-    p.add_argument("--episodes", default="10", help=f"evaluation episodes per job, 1 to {MAX_EPISODES} (default 10)")
-    p.set_defaults(func=run)
-    return p
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run ``polyenvs sweep`` for parsed ``args``: 0 when every job finished, 1 if any failed, 130 after Ctrl-C."""
-    from polyenvs.evaluation import int_flag
-
-    seeds = [int_flag("--seeds", s, 0, MAX_SEED) for s in args.seeds]
-    timesteps = int_flag("--timesteps", args.timesteps, 1, MAX_TIMESTEPS)
-    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
-    checkpoint_every = int_flag("--checkpoint-every", args.checkpoint_every, 0, MAX_TIMESTEPS)
-    workers = (
-        int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else min(os.cpu_count() or 1, MAX_JOBS)
-    )
-    if args.backend not in BACKENDS:
-        raise InputError(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
-    if args.address is not None and args.backend != "ray":
-        raise InputError("--address joins a Ray cluster: it needs --backend ray")
-    if args.backend == "ray":
-        _import_ray()
-    jobs = plan_jobs(
-        args.envs,
-        args.algos,
-        seeds,
-        out=Path(args.out),
-        config_dir=Path(args.config_dir) if args.config_dir is not None else None,
-        timesteps=timesteps,
-        episodes=episodes,
-        checkpoint_every=checkpoint_every,
-    )
-    where = f"Ray ({args.address or f'a local instance, {workers} CPUs'})" if args.backend == "ray" else None
-    print(f"{len(jobs)} job{'s' if len(jobs) != 1 else ''} on {where or f'{min(workers, len(jobs))} local workers'}")
-    from polyenvs.training.train import interrupted_note
-
-    for job in jobs:
-        note = interrupted_note(job.out_dir)
-        if note is not None:
-            print(f"{job.name}: {note}")
-    results: list[dict] = []
-    start = time.monotonic()
-    try:
-        results = run_sweep(jobs, backend=args.backend, workers=workers, address=args.address)
-    except KeyboardInterrupt:
-        print(
-            "polyenvs sweep: interrupted; finished jobs are kept (a re-run skips them); a run stopped mid-training "
-            "keeps its partial model (run.json: completed false), which a re-run resumes",
-            file=sys.stderr,
-        )
-        return 130
-    print()
-    for line in summary_table(results):
-        print(line)
-    failed = [r for r in results if "error" in r]
-    print(f"{len(results) - len(failed)} of {len(jobs)} jobs finished in {time.monotonic() - start:.1f} s; "
-          f"agents in {Path(args.out) / 'agents'}, results in {Path(args.out) / 'results'}")  # fmt: skip
-    if failed:
-        print(f"polyenvs sweep: {len(failed)} job{'s' if len(failed) != 1 else ''} failed:", file=sys.stderr)
-        for r in failed:
-            print(f"  {_describe(r)}", file=sys.stderr)
-        return 1
-    return 0

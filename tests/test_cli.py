@@ -19,7 +19,8 @@ import pytest
 
 import polyenvs
 from baselines import make_policy
-from polyenvs.cli import ProgressBar, main
+from polyenvs.cli import main
+from polyenvs.commands.flags import ProgressBar
 from tests.cli_helpers import run_main
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -16,7 +16,9 @@ import polyenvs.localization.runner
 import polyenvs.rollout
 import polyenvs.sweep
 from polyenvs.cli import build_parser
-from polyenvs.evaluation import (
+from polyenvs.commands.flags import int_flag
+from polyenvs.errors import InputError
+from polyenvs.limits import (
     MAX_BUMPS,
     MAX_EPISODES,
     MAX_JOBS,
@@ -26,8 +28,6 @@ from polyenvs.evaluation import (
     MAX_SEED,
     MAX_STEPS,
     MAX_TIMESTEPS,
-    InputError,
-    int_flag,
 )
 from tests.cli_helpers import run_main
 

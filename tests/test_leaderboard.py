@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 import polyenvs
-import polyenvs.evaluation
+import polyenvs.files
 import polyenvs.leaderboard
 from polyenvs.cli import main
 from polyenvs.leaderboard import load_result, result_path
@@ -120,7 +120,7 @@ def test_temporary_names_are_hidden_predictable_and_gitignored(tmp_path, monkeyp
         renamed.append((Path(src), Path(dst)))
         real_replace(src, dst)
 
-    monkeypatch.setattr(polyenvs.evaluation.os, "replace", spy)
+    monkeypatch.setattr(polyenvs.files.os, "replace", spy)
     assert main(leaderboard(tmp_path, "--episodes", "1", "--only", "Goal")) == 0
     assert {dst.name for _, dst in renamed} == {*GOAL_FILES, "LEADERBOARD.md", GOAL_PLOT}
     for src, dst in renamed:
@@ -155,9 +155,9 @@ def test_write_text_atomic_keeps_the_old_file_when_writing_fails(tmp_path, monke
     def fail(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(polyenvs.evaluation.os, "replace", fail)
+    monkeypatch.setattr(polyenvs.files.os, "replace", fail)
     with pytest.raises(OSError, match="disk full"):
-        polyenvs.evaluation.write_text_atomic(target, "new")
+        polyenvs.files.write_text_atomic(target, "new")
     assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["table.md"]
 
 

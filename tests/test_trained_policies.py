@@ -23,7 +23,9 @@ import polyenvs
 import polyenvs.evaluation
 import polyenvs.leaderboard
 from polyenvs.cli import main
-from polyenvs.evaluation import evaluate, interquartile_mean, iqm_with_ci, iqm_with_stratified_ci, policy_action
+from polyenvs.evaluation import evaluate
+from polyenvs.rollout import policy_action
+from polyenvs.statistics import interquartile_mean, iqm_with_ci, iqm_with_stratified_ci
 from tests.cli_helpers import run_main
 
 sb3 = pytest.importorskip("stable_baselines3")

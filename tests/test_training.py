@@ -21,7 +21,7 @@ contrib = pytest.importorskip("sb3_contrib")
 
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 
-from polyenvs.evaluation import InputError  # noqa: E402
+from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.training.train import TrainingInterrupted, train  # noqa: E402
 
 WALL = "polyenvs/BuckybotWallFollow-v0"

@@ -13,7 +13,7 @@ from pettingzoo import ParallelEnv  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
 import polyenvs  # noqa: E402
-from polyenvs.evaluation import InputError  # noqa: E402
+from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.training.vec_adapter import (  # noqa: E402
     NativeVecEnvAdapter,
     ParallelVecEnvAdapter,

@@ -19,8 +19,8 @@ pytest.importorskip("sb3_contrib")
 
 import polyenvs.training.train as train_module  # noqa: E402
 import polyenvs.training.vec_adapter as adapter_module  # noqa: E402
-from polyenvs.evaluation import InputError  # noqa: E402
-from polyenvs.training.command import add_parser, default_out_dir  # noqa: E402
+from polyenvs.commands.train import add_parser, default_out_dir  # noqa: E402
+from polyenvs.errors import InputError  # noqa: E402
 
 WALL = "polyenvs/BuckybotWallFollow-v0"
 ROOT = Path(__file__).resolve().parents[1]

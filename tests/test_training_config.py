@@ -16,7 +16,7 @@ from stable_baselines3.common.utils import LinearSchedule  # noqa: E402
 from torch import nn  # noqa: E402
 
 import polyenvs  # noqa: E402
-from polyenvs.evaluation import InputError  # noqa: E402
+from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.training.config import jsonable, load_config, parse_python_value  # noqa: E402
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"

@@ -110,7 +110,7 @@ def convergence_plot(document: dict, width: int = 760, height: int = 420) -> np.
 def write_png(path, image: np.ndarray) -> None:
     """Write ``image`` as a PNG, atomically."""
     from polyenvs.core.raster import png_bytes
-    from polyenvs.evaluation import atomic_path
+    from polyenvs.files import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_bytes(png_bytes(image))

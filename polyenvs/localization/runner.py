@@ -54,10 +54,12 @@ def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: 
                  policy: str = "paper", progress=None):  # fmt: skip
     """``(context, [RunLog])``: ``runs`` rollouts of ``env_id`` until ``bumps`` bumps each.
 
-    Raises :class:`polyenvs.evaluation.InputError` for an unknown id or policy, bad keyword arguments, or an
+    Raises :class:`polyenvs.errors.InputError` for an unknown id or policy, bad keyword arguments, or an
     environment that cannot produce localization logs.
     """
-    from polyenvs.evaluation import InputError, make_agent, make_env, policy_action
+    from polyenvs.errors import InputError
+    from polyenvs.evaluation import make_agent, make_env
+    from polyenvs.rollout import policy_action
 
     env = make_env(env_id, env_kwargs)
     raw = env.unwrapped  # no time limit: a run ends at its bump count

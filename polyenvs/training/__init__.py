@@ -3,10 +3,10 @@
 - :mod:`polyenvs.training.vec_adapter`: an SB3 ``VecEnv`` over a native Gymnasium vector env (same-step autoreset),
   and :func:`~polyenvs.training.vec_adapter.make_training_vec_env`, which picks it or SB3's ``DummyVecEnv``.
 - :mod:`polyenvs.training.config`: RL Zoo-format YAML configs (``configs/<algo>.yml``), parsed safely.
-- :mod:`polyenvs.training.algos`: the algorithms ``train`` knows and the action spaces each accepts.
+- the algorithms ``train`` knows and the action spaces each accepts are :mod:`baselines.algorithms`'s table.
 - :mod:`polyenvs.training.callbacks`: TensorBoard logging of the task metrics of finished episodes.
 - :mod:`polyenvs.training.train`: :func:`~polyenvs.training.train.train`, one run into one output directory.
-- :mod:`polyenvs.training.command`: the ``polyenvs train`` subcommand (``add_parser``, ``run``).
+- the ``polyenvs train`` subcommand is :mod:`polyenvs.commands.train`.
 
 Nothing here is imported by ``import polyenvs``; the modules import torch and Stable-Baselines3 only when used.
 

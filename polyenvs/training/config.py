@@ -24,7 +24,7 @@ it), so this reader takes exactly the forms RL Zoo takes: a Python-like string o
 wrapper's keyword arguments, other ``*_kwargs``: RL Zoo passes them on as they are). The strings are parsed from
 their syntax tree: literals, lists, tuples, dicts, ``dict(...)`` and activation or optimizer classes by name
 (``nn.Tanh``, ``th.nn.ReLU``, ``torch.optim.Adam``), nothing else. Every problem raises
-:class:`~polyenvs.evaluation.InputError` with a one-line message naming the file, the id and the key.
+:class:`~polyenvs.errors.InputError` with a one-line message naming the file, the id and the key.
 """
 
 from __future__ import annotations
@@ -39,7 +39,9 @@ from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import MAX_N_ENVS, MAX_TIMESTEPS, InputError
+from polyenvs.errors import InputError
+from polyenvs.limits import MAX_N_ENVS, MAX_TIMESTEPS
+from polyenvs.registry import bare_id
 
 __all__ = [
     "META_KEYS",
@@ -177,14 +179,14 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
 def load_config(path: str | Path, env_id: str, algo: str) -> TrainConfig:
     """Load ``env_id``'s entry of the config file ``path`` for ``algo`` (``"ppo"``, ``"dqn"``, ...), checked.
 
-    Raises :class:`~polyenvs.evaluation.InputError` for a missing file or entry, an unknown key (with the nearest
+    Raises :class:`~polyenvs.errors.InputError` for a missing file or entry, an unknown key (with the nearest
     known one), a value of the wrong type, or a Python-like string outside the allowed syntax.
     """
-    from polyenvs.training.algos import algo_class, get_algo
+    from baselines.algorithms import algo_class, get_algo
 
     get_algo(algo)
     path = Path(path)
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
     document = load_config_file(path)
     if env_id not in document:
         known = ", ".join(str(k) for k in document) or "none"

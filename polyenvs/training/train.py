@@ -33,16 +33,10 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from polyenvs.evaluation import (
-    MAX_N_ENVS,
-    MAX_SEED,
-    MAX_TIMESTEPS,
-    InputError,
-    check_count,
-    check_writable_directory,
-    temp_path_for,
-    write_json_atomic,
-)
+from polyenvs.errors import InputError, check_count
+from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
+from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
+from polyenvs.registry import bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = [
@@ -65,7 +59,7 @@ TENSORBOARD_DIR = "tb"
 LOCK_FILE = ".training.lock.tmp"
 #: What a run writes: removed when a run is trained again from the start (anything else is left alone).
 _RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR)
-#: Temporary files of atomic writes (polyenvs.evaluation.temp_path_for) and the lock: not a run's content.
+#: Temporary files of atomic writes (polyenvs.files.temp_path_for) and the lock: not a run's content.
 _TEMPORARY = re.compile(r"\..+\.tmp(\..*)?")
 
 
@@ -95,7 +89,7 @@ def finished_run(out_dir: str | Path, env_id: str, algo: str, seed: int) -> dict
     if (
         run is not None
         and run.get("completed") is True
-        and (run.get("env_id"), run.get("algo"), run.get("seed")) == (env_id.split(":", 1)[-1], algo, seed)
+        and (run.get("env_id"), run.get("algo"), run.get("seed")) == (bare_id(env_id), algo, seed)
         and (Path(out_dir) / MODEL_FILE).is_file()
     ):
         return run
@@ -157,7 +151,7 @@ def _training_lock(out_dir: Path) -> Iterator[None]:
 
 
 def _same_job(run: dict[str, Any], env_id: str, algo: str, seed: int) -> bool:
-    return (run.get("env_id"), run.get("algo"), run.get("seed")) == (env_id.split(":", 1)[-1], algo, seed)
+    return (run.get("env_id"), run.get("algo"), run.get("seed")) == (bare_id(env_id), algo, seed)
 
 
 def _progress(run: dict[str, Any], out_dir: Path) -> str:
@@ -377,16 +371,16 @@ def train(
         TrainingInterrupted: after Ctrl-C, once the partial model is saved.
     """
     import polyenvs  # noqa: F401  (registers the ids)
+    from baselines.algorithms import check_action_space, get_algo
     from polyenvs.evaluation import make_env
     from polyenvs.rollout import agent_spaces
-    from polyenvs.training.algos import check_action_space, get_algo
     from polyenvs.training.config import default_config_path, load_config
 
     # ---- everything the caller could get wrong, before any work
     get_algo(algo)
     if not isinstance(env_id, str):
         raise InputError(f"env_id must be a string, got {env_id!r}")
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
     seed = check_count("seed", seed, 0, MAX_SEED)
     if timesteps is not None:
         timesteps = check_count("timesteps", timesteps, 1, MAX_TIMESTEPS)
@@ -450,7 +444,7 @@ def train(
     import torch
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    from polyenvs.training.algos import algo_class
+    from baselines.algorithms import algo_class
     from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
     from polyenvs.training.vec_adapter import make_training_vec_env
 

@@ -43,7 +43,8 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
-from polyenvs.evaluation import InputError
+from polyenvs.errors import InputError
+from polyenvs.registry import bare_id
 
 __all__ = [
     "NativeVecEnvAdapter",
@@ -217,7 +218,7 @@ def has_native_vector_env(env_id: str) -> bool:
     import polyenvs  # noqa: F401  (registers the ids)
 
     try:
-        spec = gym.spec(env_id.split(":", 1)[-1])
+        spec = gym.spec(bare_id(env_id))
     except gym.error.Error:
         return False
     return spec.vector_entry_point is not None
@@ -229,7 +230,7 @@ def make_native_vector_env(env_id: str, num_envs: int, env_kwargs: dict | None =
     import polyenvs  # noqa: F401
 
     return gym.make_vec(
-        env_id.split(":", 1)[-1],
+        bare_id(env_id),
         num_envs=num_envs,
         vectorization_mode="vector_entry_point",
         autoreset_mode=AutoresetMode.SAME_STEP,
@@ -270,13 +271,13 @@ def make_training_vec_env(
     ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``), or ``"auto"``: native where
     the id has a native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and
     the native env is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first reset seeds sub-env ``i`` with ``seed + i``.
-    Bad ``env_kwargs`` raise :class:`~polyenvs.evaluation.InputError`.
+    Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
     """
     import polyenvs  # noqa: F401
     from polyenvs.evaluation import make_env
     from polyenvs.rollout import is_parallel
 
-    env_id = env_id.split(":", 1)[-1]
+    env_id = bare_id(env_id)
     if env_id not in gym.registry:
         probe = make_env(env_id, env_kwargs)
         if is_parallel(probe):

@@ -8,11 +8,7 @@ Rolls out ``R`` seeded logs of the cart (the paper's random bounce) until ``K`` 
 on the same logs and prints the convergence table (median and quartiles of the position error after each bump,
 heading error, failure rates); writes ``DIR/localization.json`` and the curves ``DIR/convergence.png``. Every
 flag and the output directory are checked before any work: a bad value raises
-:class:`~polyenvs.evaluation.InputError`, which the command line prints as one line (exit 2). Wired into
-``polyenvs.cli`` with::
-
-    from polyenvs.localization.command import add_parser as add_localize_parser
-    add_localize_parser(sub)
+:class:`~polyenvs.errors.InputError`, which the command line prints as one line (exit 2).
 """
 
 from __future__ import annotations
@@ -23,18 +19,10 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import (
-    MAX_BUMPS,
-    MAX_PARTICLES,
-    MAX_RUNS,
-    MAX_SEED,
-    InputError,
-    add_progress_flag,
-    check_writable_directory,
-    int_flag,
-    is_terminal,
-    parse_json_object,
-)
+from polyenvs.commands.flags import ProgressBar, add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.errors import InputError
+from polyenvs.files import check_writable_directory
+from polyenvs.limits import MAX_BUMPS, MAX_PARTICLES, MAX_RUNS, MAX_SEED
 from polyenvs.localization import DEFAULT_ENV_ID
 
 __all__ = ["DEFAULT_ENV_ID", "add_parser", "run"]
@@ -110,8 +98,6 @@ def run(args: argparse.Namespace) -> int:
     check_writable_directory(out_dir, "--out")
     progress_on = args.progress if args.progress is not None else is_terminal(sys.stderr)
 
-    from polyenvs.cli import ProgressBar
-
     bar = ProgressBar(unit="runs", enabled=progress_on)
     bar.start(runs * (1 + len(names)), label="logs")
     start = time.monotonic()
@@ -136,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         document["estimators"][name] = summary
     bar.close()
     document["wall_clock_s"] = round(time.monotonic() - start, 2)
-    from polyenvs.evaluation import write_json_atomic
+    from polyenvs.files import write_json_atomic
 
     json_path, png_path = out_dir / "localization.json", out_dir / "convergence.png"
     write_json_atomic(json_path, document)

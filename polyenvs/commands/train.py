@@ -3,11 +3,8 @@
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
 [--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress]``
 
-Every flag is checked before any work: a bad value raises :class:`~polyenvs.evaluation.InputError`, which the
-command line prints as one line (exit 2). Wired into ``polyenvs.cli`` with::
-
-    from polyenvs.training.command import add_parser as add_train_parser
-    add_train_parser(sub)
+Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
+command line prints as one line (exit 2).
 """
 
 from __future__ import annotations
@@ -17,16 +14,10 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.evaluation import (
-    MAX_N_ENVS,
-    MAX_SEED,
-    MAX_TIMESTEPS,
-    InputError,
-    add_progress_flag,
-    int_flag,
-    is_terminal,
-    parse_json_object,
-)
+from polyenvs.commands.flags import add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.errors import InputError
+from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
+from polyenvs.registry import bare_id
 
 __all__ = ["add_parser", "default_out_dir", "run"]
 
@@ -36,12 +27,12 @@ DEFAULT_TRAIN_DIR = Path("runs/train")
 
 def default_out_dir(env_id: str, algo: str, seed: int) -> Path:
     """``runs/train/<EnvName>/<algo>/seed<S>`` (``EnvName``: the id without its namespace)."""
-    return DEFAULT_TRAIN_DIR / env_id.split(":", 1)[-1].split("/")[-1] / algo / f"seed{seed}"
+    return DEFAULT_TRAIN_DIR / bare_id(env_id).split("/")[-1] / algo / f"seed{seed}"
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``train`` subcommand to an ``argparse`` subparsers object; ``args.func`` is :func:`run`."""
-    from polyenvs.training.algos import ALGOS
+    from baselines.algorithms import ALGOS
     from polyenvs.training.train import DEFAULT_CHECKPOINT_EVERY
 
     p = subparsers.add_parser(
@@ -95,7 +86,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs train`` for parsed ``args``; 0 when trained (or already finished), 130 after Ctrl-C."""
-    from polyenvs.training.algos import get_algo
+    from baselines.algorithms import get_algo
 
     get_algo(args.algo)
     timesteps = int_flag("--timesteps", args.timesteps, 1, MAX_TIMESTEPS)

@@ -1,4 +1,8 @@
-"""The algorithms ``polyenvs train`` knows: their classes (imported on use) and the action spaces they accept."""
+"""The Stable-Baselines3 / sb3-contrib algorithms polyenvs knows: one table for training and for loading models.
+
+``polyenvs train`` builds a row's class; :mod:`baselines.trained` loads a saved model with it (the names are those
+of run.json and ``benchmarks/agents/<env>/<algo>/``). The classes are imported on use (they import torch).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,7 @@ from dataclasses import dataclass
 
 from gymnasium import spaces
 
-from polyenvs.evaluation import InputError
+from polyenvs.errors import InputError
 
 __all__ = ["ALGOS", "AlgoInfo", "algo_class", "check_action_space", "get_algo"]
 
@@ -23,6 +27,7 @@ class AlgoInfo:
     kind: str
 
 
+#: algorithm name -> its row, in the order tables and searches list them (ppo, dqn, maskable_ppo, sac, td3).
 ALGOS: dict[str, AlgoInfo] = {
     a.name: a
     for a in (
@@ -38,7 +43,7 @@ ALGOS: dict[str, AlgoInfo] = {
 
 
 def get_algo(name: str) -> AlgoInfo:
-    """The table row of ``name``; an unknown name raises :class:`~polyenvs.evaluation.InputError`."""
+    """The table row of ``name``; an unknown name raises :class:`~polyenvs.errors.InputError`."""
     if not isinstance(name, str) or name not in ALGOS:
         raise InputError(f"unknown algorithm {name!r}; expected one of {', '.join(ALGOS)}")
     return ALGOS[name]
@@ -55,7 +60,7 @@ def algo_class(name: str) -> type:
 
 
 def check_action_space(name: str, env_id: str, action_space: spaces.Space) -> None:
-    """Raise :class:`~polyenvs.evaluation.InputError` where ``name`` cannot act in ``action_space``."""
+    """Raise :class:`~polyenvs.errors.InputError` where ``name`` cannot act in ``action_space``."""
     info = get_algo(name)
     if not isinstance(action_space, info.action_spaces):
         fits = [a for a, i in ALGOS.items() if isinstance(action_space, i.action_spaces)]

@@ -1,0 +1,197 @@
+"""``polyenvs leaderboard``: evaluate every baseline and trained agent on every environment; write the table and plots."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
+from polyenvs.files import check_writable_directory
+from polyenvs.leaderboard import DEFAULT_AGENTS_DIR
+from polyenvs.limits import MAX_EPISODES
+
+__all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
+
+#: Where ``polyenvs leaderboard`` writes by default: untracked and gitignored, so a run leaves ``git status`` clean.
+DEFAULT_LEADERBOARD_DIR = Path("runs/leaderboard")
+#: The committed reference results, rewritten only by ``polyenvs leaderboard --update-reference``.
+REFERENCE_RESULTS_DIR = Path("benchmarks/results")
+REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "leaderboard",
+        help="evaluate every baseline and trained agent on every environment; write the table and plots",
+        description=f"Evaluate random, every hand baseline and every committed trained agent "
+        f"({DEFAULT_AGENTS_DIR}/<env>/<algo>/seed<N>/, in the current directory or else in the checkout polyenvs runs "
+        f"from; a line says which and what it holds) on every environment and write the table, with one PNG per "
+        f"environment beside it. By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
+        f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
+    )
+    p.add_argument(
+        "--episodes", default=None, help=f"episodes per policy, 1 to {MAX_EPISODES} (default 50, 5 with --quick)"
+    )
+    p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
+    p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
+    p.add_argument(
+        "--results-dir", default=None, help=f"where result files go (default {DEFAULT_LEADERBOARD_DIR}/results)"
+    )
+    p.add_argument(
+        "--output", default=None, help=f"the Markdown table (default {DEFAULT_LEADERBOARD_DIR}/LEADERBOARD.md)"
+    )
+    p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
+    p.add_argument(
+        "--agents-dir",
+        default=None,
+        help=f"trained agents to evaluate, as <env id with / as __>/<algo>/seed<N>/ (default {DEFAULT_AGENTS_DIR} here, "
+        "else in the checkout polyenvs runs from)",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        metavar="PATH",
+        help="also evaluate this trained model (a training directory or a .zip with a run.json beside it naming "
+        "its environment); its row is labelled by the path; repeatable",
+    )
+    p.add_argument(
+        "--update-reference",
+        action="store_true",
+        help=f"re-evaluate and overwrite the committed reference results ({REFERENCE_RESULTS_DIR}/, "
+        f"{REFERENCE_TABLE}) with the full protocol; run from the repository root",
+    )
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from polyenvs.leaderboard import (
+        PROTOCOL_EPISODES,
+        agents_line,
+        default_agents_dirs,
+        plot_path,
+        run_leaderboard,
+        stored_results,
+        write_leaderboard,
+    )
+    from polyenvs.registry import ALL_IDS
+
+    # Everything the user could get wrong is checked here, before the first evaluation.
+    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    if episodes is None:
+        episodes = 5 if args.quick else PROTOCOL_EPISODES
+    if args.update_reference:
+        if args.quick or episodes != PROTOCOL_EPISODES:
+            raise CliError(
+                f"--update-reference writes the committed reference results, which use {PROTOCOL_EPISODES} "
+                "episodes: do not combine it with --quick or --episodes"
+            )
+        if args.results_dir is not None or args.output is not None:
+            raise CliError(
+                f"--update-reference writes {REFERENCE_RESULTS_DIR} and {REFERENCE_TABLE}: "
+                "do not combine it with --results-dir or --output"
+            )
+        if args.agents_dir is not None or args.policy:
+            raise CliError(
+                f"--update-reference evaluates the committed agents in {DEFAULT_AGENTS_DIR}: "
+                "do not combine it with --agents-dir or --policy"
+            )
+        if not REFERENCE_RESULTS_DIR.is_dir():
+            raise CliError(
+                f"--update-reference: no {REFERENCE_RESULTS_DIR} directory here; run it from the repository root"
+            )
+        results_dir, output = REFERENCE_RESULTS_DIR, REFERENCE_TABLE
+    else:
+        results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
+        output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
+    if args.agents_dir is not None:
+        agents_dir, looked = Path(args.agents_dir), [Path(args.agents_dir)]
+        if not agents_dir.is_dir():
+            raise CliError(f"--agents-dir {agents_dir}: no such directory")
+    elif args.update_reference:
+        agents_dir, looked = DEFAULT_AGENTS_DIR, [DEFAULT_AGENTS_DIR]
+    else:
+        looked = default_agents_dirs()
+        agents_dir = next((d for d in looked if d.is_dir()), None)
+    env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
+    if not env_ids:
+        raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
+    missing = _missing_extras(env_ids)  # found now, not after the environments before them were evaluated
+    if missing and (args.update_reference or len(missing) == len(env_ids)):
+        why = "--update-reference evaluates every environment: " if args.update_reference else ""
+        raise CliError(f"{why}{_missing_line(missing)}")
+    env_ids = [e for e in env_ids if e not in missing]
+    agents_found = agents_line(agents_dir, env_ids, looked)  # a malformed agent directory: one line, here
+    check_writable_directory(results_dir, "--results-dir")
+    check_output_file(output, "--output")
+    if results_dir.absolute() == output.absolute():
+        raise CliError(f"--output {output} is the results directory")
+    for env_id in env_ids:  # the plots go beside the table
+        check_output_file(plot_path(output, env_id), "--output")
+
+    bar = ProgressBar("episodes")
+
+    def plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
+        if missing:
+            bar.message(f"left out: {_missing_line(missing)}")
+        bar.message(agents_found)
+        bar.start(total)
+
+    try:
+        selected = run_leaderboard(
+            env_ids,
+            episodes,
+            results_dir,
+            redo=args.redo or args.update_reference,
+            progress=bar.message,
+            on_plan=plan,
+            on_episode=lambda _: bar.advance(),
+            agents_dir=agents_dir,
+            extra_agents=args.policy or (),
+        )
+    finally:
+        bar.close()
+    # The table shows every environment with results in the directory, not only the ones just evaluated.
+    others = stored_results(
+        [e for e in ALL_IDS if e not in env_ids], results_dir, progress=bar.message, agents_dir=agents_dir
+    )
+    order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
+    documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
+    text = write_leaderboard(documents, output)
+    print(text)
+    plots = sorted({plot_path(output, d["env_id"]).name for d in documents})
+    print(
+        f"wrote {output} ({len(documents)} results from {results_dir}) and {len(plots)} plot"
+        f"{'s' if len(plots) != 1 else ''} beside it",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _missing_extras(env_ids: list[str]) -> dict[str, str]:
+    """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
+    from polyenvs.errors import InputError
+    from polyenvs.evaluation import make_env
+    from polyenvs.registry import entry
+
+    missing = {}
+    for env_id in env_ids:
+        extra = entry(env_id).extra
+        if extra is None:
+            continue
+        try:
+            make_env(env_id).close()
+        except InputError as exc:
+            if not isinstance(exc.__cause__, ModuleNotFoundError):
+                raise
+            missing[env_id] = extra
+    return missing
+
+
+def _missing_line(missing: dict[str, str]) -> str:
+    extras = " ".join(f'"polyenvs[{e}]"' for e in dict.fromkeys(missing.values()))
+    return (
+        f"{', '.join(missing)} need{'s' if len(missing) == 1 else ''} packages that are not installed: "
+        f"pip install {extras}"
+    )
