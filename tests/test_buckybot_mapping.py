@@ -9,8 +9,9 @@ import sys
 import numpy as np
 import pytest
 
+from benchmarks.buckybot_analysis import main, paper_explorer
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.analysis import Figure8Run, figure8_maps, main, render_figure8, wall_cells, write_png
+from polyenvs.buckybot.analysis import Figure8Run, figure8_maps, render_figure8, wall_cells, write_png
 from polyenvs.buckybot.mapping import (
     OccupancyGrid,
     known_bits,
@@ -284,7 +285,10 @@ def test_bit_planes_that_skip_known_beams_change_nothing_even_on_degenerate_beam
 @pytest.fixture(scope="module")
 def runs() -> list[Figure8Run]:
     """The explorer baseline in the office with the paper's noise, twelve seeds, 600 tips (up to 56 m) each."""
-    return [figure8_maps(seed=seed, floor_plan="office", max_steps=600, noise_scale=1.0) for seed in range(12)]
+    return [
+        figure8_maps(paper_explorer(), seed=seed, floor_plan="office", max_steps=600, noise_scale=1.0)
+        for seed in range(12)
+    ]
 
 
 def test_the_runs_use_only_what_the_environment_publishes(runs):

@@ -8,14 +8,14 @@ the path, and a straight-ish walk spreads about 35 cm; the paper's pair comes ba
 Figure 8 replays the actuator sequence without noise to place the sensed obstacles and shows the result beside
 the true positions. :func:`figure8_maps` runs the explorer baseline in BuckybotExplore-v0 and builds both
 occupancy grids from what the environment publishes (the observation, ``info["pose"]`` and
-``info["dead_reckoned_pose"]``); :func:`render_figure8` draws them side by side::
+``info["dead_reckoned_pose"]``); :func:`render_figure8` draws them side by side. The policy is passed in (an
+environment package imports no policy); the command that runs the paper's explorer is on top, in benchmarks::
 
-    python -m polyenvs.buckybot.analysis figure8 --output docs/buckybot_figure8.png
+    python -m benchmarks.buckybot_analysis figure8 --output docs/buckybot_figure8.png
 """
 
 from __future__ import annotations
 
-import argparse
 import struct
 import sys
 import zlib
@@ -39,7 +39,7 @@ __all__ = [
     "dead_reckoning_monte_carlo",
     "decode_observation",
     "figure8_maps",
-    "main",
+    "figure8_summary",
     "render_figure8",
     "wall_cells",
     "write_png",
@@ -197,13 +197,13 @@ def wall_cells(grid: OccupancyGrid, plan: FloorPlan) -> np.ndarray:
 
 
 def figure8_maps(
+    agent,
     seed: int = 0,
     floor_plan="office",
     max_steps: int = 1000,
     cell_cm: float = 10.0,
     noise_scale: float = 1.0,
     margin_cm: float = 150.0,
-    policy: str = "paper",
     **env_kwargs,
 ) -> Figure8Run:
     """Run one seeded exploration episode and build the true-pose and the dead-reckoned occupancy grids.
@@ -212,20 +212,20 @@ def figure8_maps(
     ``observation_structure``), ``info["pose"]`` and ``info["dead_reckoned_pose"]``.
 
     Args:
-        seed: seeds the environment's reset (start pose, noise) and the policy.
+        agent: the policy that explores (``predict`` as Stable-Baselines3's; the paper's is
+            ``baselines.make_policy("paper", EXPLORE_ENV_ID, ...)``).
+        seed: seeds the environment's reset (start pose, noise).
         floor_plan: a built-in plan name or a list of segments (not ``"random"``: the walls must be known).
         max_steps: stop after this many tips if the episode has not ended.
         cell_cm: grid cell size.
         noise_scale: tipping noise (1 = the paper's measurements); range noise is the paper's unless
             ``range_noise_scale`` is passed.
         margin_cm: grid extent beyond the plan's walls, so points placed from a drifted pose still land on it.
-        policy: a ``baselines.make_policy`` name for BuckybotExplore-v0 (default: the paper's explorer).
         env_kwargs: passed to ``gymnasium.make``.
     """
     import gymnasium as gym
 
     import polyenvs  # noqa: F401  (registers the environments)
-    from baselines import make_policy
 
     plan = make_floor_plan(floor_plan)
     if plan is None:
@@ -233,10 +233,6 @@ def figure8_maps(
     env = gym.make(
         EXPLORE_ENV_ID, floor_plan=floor_plan, noise_scale=noise_scale, max_episode_steps=max_steps, **env_kwargs
     )
-    try:
-        agent = make_policy(policy, EXPLORE_ENV_ID, env.observation_space, env.action_space, seed=seed)
-    except ValueError:  # hand baselines take no seed
-        agent = make_policy(policy, EXPLORE_ENV_ID, env.observation_space, env.action_space)
     structure = env.unwrapped.observation_structure
     obs, info = env.reset(seed=seed)
     records = [(obs, info)]
@@ -346,7 +342,8 @@ def write_png(path, image: np.ndarray) -> None:
         iio.imwrite(path, image, extension=".png")
 
 
-def _figure8_summary(run: Figure8Run) -> str:
+def figure8_summary(run: Figure8Run) -> str:
+    """What the two maps show, as lines of text (tips, distance, fit to the walls, placement error by distance)."""
     gaps = run.placement_gaps_cm()
     cell = run.true_map.cell_cm
     (own_true, near_true), (own_dr, near_dr) = run.map_fit(run.true_map), run.map_fit(run.dead_reckoned_map)
@@ -363,33 +360,5 @@ def _figure8_summary(run: Figure8Run) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m polyenvs.buckybot.analysis", description=__doc__.split("\n")[0])
-    commands = parser.add_subparsers(dest="command", required=True)
-    fig = commands.add_parser("figure8", help="the paper's Figure 8: true-pose and dead-reckoned maps side by side")
-    fig.add_argument("--output", default="docs/buckybot_figure8.png", help="PNG to write")
-    fig.add_argument("--seed", type=int, default=0)
-    fig.add_argument("--floor-plan", default="office")
-    fig.add_argument("--steps", type=int, default=1000, help="most tips to run")
-    fig.add_argument("--cell-cm", type=float, default=10.0)
-    mc = commands.add_parser("monte-carlo", help="the paper's 100-tip dead-reckoning Monte Carlo")
-    mc.add_argument("--runs", type=int, default=2000)
-    mc.add_argument("--tips", type=int, default=100)
-    mc.add_argument("--heading-sd-deg", type=float, default=TipModel.heading_sd_deg)
-    args = parser.parse_args(argv)
-    if args.command == "figure8":
-        run = figure8_maps(seed=args.seed, floor_plan=args.floor_plan, max_steps=args.steps, cell_cm=args.cell_cm)
-        write_png(args.output, render_figure8(run))
-        print(f"wrote {args.output}")
-        print(_figure8_summary(run))
-    else:
-        result = dead_reckoning_monte_carlo(
-            args.runs, args.tips, tip_model=TipModel(heading_sd_deg=args.heading_sd_deg)
-        )
-        print(result)
-        print(f"paper: position sd {PAPER_MONTE_CARLO[0]} cm, heading sd {PAPER_MONTE_CARLO[1]} deg")
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit("moved: python -m benchmarks.buckybot_analysis (figure8 | monte-carlo), from the repository root")
