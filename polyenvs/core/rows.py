@@ -54,6 +54,7 @@ __all__ = [
     "RowsEnv",
     "RowsVectorEnv",
     "check_autoreset_mode",
+    "check_vector_arguments",
     "copy_generator",
     "only_rows",
     "vector_convention",
@@ -73,6 +74,15 @@ def check_autoreset_mode(value) -> AutoresetMode:
     if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
         raise ValueError(f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {show(value)}")
     return mode
+
+
+def check_vector_arguments(num_envs, max_episode_steps, autoreset_mode) -> tuple[int, int | None, AutoresetMode]:
+    """The arguments every native vector env takes, checked: ``num_envs`` in [1, 1e6], ``max_episode_steps``
+    None or >= 1, ``autoreset_mode`` (:func:`check_autoreset_mode`)."""
+    num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+    if max_episode_steps is not None:
+        max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+    return num_envs, max_episode_steps, check_autoreset_mode(autoreset_mode)
 
 
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
@@ -242,10 +252,9 @@ class RowsVectorEnv(VectorEnv):
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **kwargs,
     ):
-        num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
-        autoreset_mode = check_autoreset_mode(autoreset_mode)
-        if max_episode_steps is not None:
-            max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
+            num_envs, max_episode_steps, autoreset_mode
+        )
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
         # The class built with num_envs rows: the same validation, spaces and kernels as the single env.

@@ -22,8 +22,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from polyenvs.core.rows import check_autoreset_mode, only_rows, vector_convention
-from polyenvs.core.validation import check_int, check_options, real_array, show
+from polyenvs.core.rows import check_vector_arguments, only_rows, vector_convention
+from polyenvs.core.validation import check_options, real_array, show
 from polyenvs.swarm.batch import SwarmBatch
 from polyenvs.swarm.corridor_v0 import CorridorEnv
 from polyenvs.swarm.env import SwarmEnv
@@ -56,10 +56,9 @@ class SingleRobotVectorEnv(VectorEnv):
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **kwargs,
     ):
-        num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
-        autoreset_mode = check_autoreset_mode(autoreset_mode)
-        if max_episode_steps is not None:
-            max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
+        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
+            num_envs, max_episode_steps, autoreset_mode
+        )
         if render_mode is not None:
             raise ValueError(
                 f"render_mode: this vector env does not render (render gym.make(id)), got {show(render_mode)}"
