@@ -302,6 +302,7 @@ def load_result(
 def run_leaderboard(
     env_ids: list[str],
     episodes: int,
+    *,
     results_dir: Path,
     redo: bool = False,
     progress: Callable[[str], None] = print,

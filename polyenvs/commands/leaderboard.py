@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
@@ -65,19 +66,32 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def run(args: argparse.Namespace) -> int:
-    from polyenvs.leaderboard import (
-        PROTOCOL_EPISODES,
-        agents_line,
-        default_agents_dirs,
-        plot_path,
-        run_leaderboard,
-        stored_results,
-        write_leaderboard,
-    )
-    from polyenvs.registry import ALL_IDS
+@dataclass
+class _Plan:
+    """What ``polyenvs leaderboard`` evaluates and writes, from its checked flags."""
 
+    episodes: int
+    results_dir: Path
+    output: Path
+    agents_dir: Path | None
+    env_ids: list[str]
+    missing: dict[str, str]
+    agents_found: str
+
+
+def run(args: argparse.Namespace) -> int:
     # Everything the user could get wrong is checked here, before the first evaluation.
+    plan = _plan(args)
+    bar = ProgressBar("episodes")
+    selected = _evaluate(args, plan, bar)
+    _write_table(plan, selected, bar)
+    return 0
+
+
+def _episodes(args: argparse.Namespace) -> int:
+    """--episodes (or --quick's 5, else the protocol's), and --update-reference's refusals of the other flags."""
+    from polyenvs.leaderboard import PROTOCOL_EPISODES
+
     episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
     if episodes is None:
         episodes = 5 if args.quick else PROTOCOL_EPISODES
@@ -101,10 +115,22 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(
                 f"--update-reference: no {REFERENCE_RESULTS_DIR} directory here; run it from the repository root"
             )
-        results_dir, output = REFERENCE_RESULTS_DIR, REFERENCE_TABLE
-    else:
-        results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
-        output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
+    return episodes
+
+
+def _outputs(args: argparse.Namespace) -> tuple[Path, Path]:
+    """The results directory and the table: the committed ones with --update-reference."""
+    if args.update_reference:
+        return REFERENCE_RESULTS_DIR, REFERENCE_TABLE
+    results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
+    output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
+    return results_dir, output
+
+
+def _agents(args: argparse.Namespace) -> tuple[Path | None, list[Path]]:
+    """The agents directory (None: none found) and the directories looked in."""
+    from polyenvs.leaderboard import default_agents_dirs
+
     if args.agents_dir is not None:
         agents_dir, looked = Path(args.agents_dir), [Path(args.agents_dir)]
         if not agents_dir.is_dir():
@@ -114,6 +140,17 @@ def run(args: argparse.Namespace) -> int:
     else:
         looked = default_agents_dirs()
         agents_dir = next((d for d in looked if d.is_dir()), None)
+    return agents_dir, looked
+
+
+def _plan(args: argparse.Namespace) -> _Plan:
+    """Check every flag (CliError, one line) and say what is evaluated and where it is written."""
+    from polyenvs.leaderboard import agents_line, plot_path
+    from polyenvs.registry import ALL_IDS
+
+    episodes = _episodes(args)
+    results_dir, output = _outputs(args)
+    agents_dir, looked = _agents(args)
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
@@ -129,44 +166,57 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--output {output} is the results directory")
     for env_id in env_ids:  # the plots go beside the table
         check_output_file(plot_path(output, env_id), "--output")
+    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found)
 
-    bar = ProgressBar("episodes")
 
-    def plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
-        if missing:
-            bar.message(f"left out: {_missing_line(missing)}")
-        bar.message(agents_found)
+def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
+    """Evaluate what ``plan`` says (reusing stored results unless --redo) on ``bar``, which it closes."""
+    from polyenvs.leaderboard import run_leaderboard
+
+    def on_plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
+        if plan.missing:
+            bar.message(f"left out: {_missing_line(plan.missing)}")
+        bar.message(plan.agents_found)
         bar.start(total)
 
     try:
-        selected = run_leaderboard(
-            env_ids,
-            episodes,
-            results_dir,
+        return run_leaderboard(
+            plan.env_ids,
+            plan.episodes,
+            results_dir=plan.results_dir,
             redo=args.redo or args.update_reference,
             progress=bar.message,
-            on_plan=plan,
+            on_plan=on_plan,
             on_episode=lambda _: bar.advance(),
-            agents_dir=agents_dir,
+            agents_dir=plan.agents_dir,
             extra_agents=args.policy or (),
         )
     finally:
         bar.close()
+
+
+def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
+    """Write the table (and its plots) of ``selected`` and every other environment's stored results; print it."""
+    from polyenvs.leaderboard import plot_path, stored_results, write_leaderboard
+    from polyenvs.registry import ALL_IDS
+
     # The table shows every environment with results in the directory, not only the ones just evaluated.
     others = stored_results(
-        [e for e in ALL_IDS if e not in env_ids], results_dir, progress=bar.message, agents_dir=agents_dir
+        [e for e in ALL_IDS if e not in plan.env_ids],
+        plan.results_dir,
+        progress=bar.message,
+        agents_dir=plan.agents_dir,
     )
     order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
     documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
-    text = write_leaderboard(documents, output)
+    text = write_leaderboard(documents, plan.output)
     print(text)
-    plots = sorted({plot_path(output, d["env_id"]).name for d in documents})
+    plots = sorted({plot_path(plan.output, d["env_id"]).name for d in documents})
     print(
-        f"wrote {output} ({len(documents)} results from {results_dir}) and {len(plots)} plot"
+        f"wrote {plan.output} ({len(documents)} results from {plan.results_dir}) and {len(plots)} plot"
         f"{'s' if len(plots) != 1 else ''} beside it",
         file=sys.stderr,
     )
-    return 0
 
 
 def _missing_extras(env_ids: list[str]) -> dict[str, str]:

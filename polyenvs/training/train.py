@@ -30,6 +30,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -371,53 +372,126 @@ def train(
         TrainingInterrupted: after Ctrl-C, once the partial model is saved.
     """
     import polyenvs  # noqa: F401  (registers the ids)
-    from baselines.algorithms import check_action_space, get_algo
-    from polyenvs.evaluation import make_env
-    from polyenvs.rollout import agent_spaces
-    from polyenvs.training.config import default_config_path, load_config
 
-    # ---- everything the caller could get wrong, before any work
-    get_algo(algo)
+    request = _check_request(
+        _Request(
+            env_id=env_id, algo=algo, config=config, timesteps=timesteps, seed=seed, n_envs=n_envs,
+            env_kwargs=env_kwargs, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
+            command=command, vec_env=vec_env, device=device, verbose=verbose, callbacks=callbacks, resume=resume,
+            overwrite=overwrite, checkpoint_every=checkpoint_every,
+        )
+    )  # fmt: skip
+    out_dir = request.out_dir
+    action = check_out_dir(out_dir, request.env_id, algo, request.seed, resume=resume, overwrite=overwrite)
+    if action == "finished":
+        return out_dir
+    job = _plan(request, action)
+    model, interrupted = _build_and_train(job)
+    if interrupted:
+        raise TrainingInterrupted(out_dir, int(model.num_timesteps))
+    return out_dir
+
+
+@dataclass
+class _Request:
+    """:func:`train`'s arguments (checked by :func:`_check_request`)."""
+
+    env_id: str
+    algo: str
+    config: str | Path | None
+    timesteps: int | None
+    seed: int
+    n_envs: int | None
+    env_kwargs: dict | None
+    out_dir: Path
+    progress_bar: bool
+    tensorboard: bool
+    command: str | None
+    vec_env: str
+    device: str
+    verbose: int
+    callbacks: Sequence[Any]
+    resume: bool
+    overwrite: bool
+    checkpoint_every: int
+
+
+@dataclass
+class _Job:
+    """One run to train: the request, its config, the run.json to write and the interrupted run it resumes."""
+
+    request: _Request
+    cfg: Any
+    wrappers: list
+    run: dict[str, Any]
+    previous: dict[str, Any] | None
+
+
+def _check_request(request: _Request) -> _Request:
+    """The request with its arguments checked (InputError, one line) and normalised, before any work."""
+    from baselines.algorithms import get_algo
+
+    get_algo(request.algo)
+    env_id = request.env_id
     if not isinstance(env_id, str):
         raise InputError(f"env_id must be a string, got {env_id!r}")
     env_id = bare_id(env_id)
-    seed = check_count("seed", seed, 0, MAX_SEED)
+    seed = check_count("seed", request.seed, 0, MAX_SEED)
+    timesteps, n_envs = request.timesteps, request.n_envs
     if timesteps is not None:
         timesteps = check_count("timesteps", timesteps, 1, MAX_TIMESTEPS)
     if n_envs is not None:
         n_envs = check_count("n_envs", n_envs, 1, MAX_N_ENVS)
-    checkpoint_every = check_count("checkpoint_every", checkpoint_every, 0, MAX_TIMESTEPS)
+    checkpoint_every = check_count("checkpoint_every", request.checkpoint_every, 0, MAX_TIMESTEPS)
+    env_kwargs = request.env_kwargs
     if env_kwargs is not None and not isinstance(env_kwargs, dict):
         raise InputError(f"env_kwargs must be a dict, got {env_kwargs!r}")
     env_kwargs = dict(env_kwargs or {})
-    if vec_env not in ("auto", "native", "dummy"):
-        raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
-    out_dir = Path(out_dir)
-    action = check_out_dir(out_dir, env_id, algo, seed, resume=resume, overwrite=overwrite)
-    if action == "finished":
-        return out_dir
+    if request.vec_env not in ("auto", "native", "dummy"):
+        raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {request.vec_env!r}")
+    return replace(
+        request,
+        env_id=env_id,
+        seed=seed,
+        timesteps=timesteps,
+        n_envs=n_envs,
+        checkpoint_every=checkpoint_every,
+        env_kwargs=env_kwargs,
+        out_dir=Path(request.out_dir),
+    )
+
+
+def _plan(request: _Request, action: str) -> _Job:
+    """Check the environment, the config and (``action == "resume"``) the run to resume; the run.json to write."""
+    from baselines.algorithms import check_action_space
+    from polyenvs.evaluation import make_env
+    from polyenvs.rollout import agent_spaces
+    from polyenvs.training.config import default_config_path, load_config
+
+    env_id, algo, out_dir, env_kwargs = request.env_id, request.algo, request.out_dir, request.env_kwargs
     probe = make_env(env_id, env_kwargs)  # an unknown id or bad keyword arguments raise InputError here
     try:
         check_action_space(algo, env_id, agent_spaces(probe)[1])  # a parallel env's: one robot's
     finally:
         probe.close()
-    config_path = Path(config) if config is not None else default_config_path(algo)
+    config_path = Path(request.config) if request.config is not None else default_config_path(algo)
     cfg = load_config(config_path, env_id, algo)
     if cfg.env_kwargs:  # the config's keywords under the command line's: check them together
         env_kwargs = {**cfg.env_kwargs, **env_kwargs}
         make_env(env_id, env_kwargs).close()
-    _check_extras(progress_bar, tensorboard)
+    _check_extras(request.progress_bar, request.tensorboard)
     wrappers = cfg.wrapper_callables()
-    n_envs = n_envs if n_envs is not None else cfg.n_envs
-    requested = timesteps if timesteps is not None else cfg.n_timesteps
-    if vec_env == "native" and wrappers:
+    n_envs = request.n_envs if request.n_envs is not None else cfg.n_envs
+    requested = request.timesteps if request.timesteps is not None else cfg.n_timesteps
+    if request.vec_env == "native" and wrappers:
         raise InputError(f"{cfg.path}: {env_id}: env_wrapper wraps single envs: it needs vec_env='dummy' or 'auto'")
     hyperparams = cfg.resolved()
     hyperparams.update(n_envs=n_envs, n_timesteps=requested)
+    command = request.command
     run: dict[str, Any] = {
         "env_id": env_id,
         "algo": algo,
-        "seed": seed,
+        "seed": request.seed,
         "timesteps": 0,
         "requested_timesteps": requested,
         "n_envs": n_envs,
@@ -439,102 +513,144 @@ def train(
                 f"cannot resume {out_dir}: it has a model but no {VECNORMALIZE_FILE} (the config normalises); "
                 "--overwrite to train it again from the start"
             )
+    return _Job(request=request, cfg=cfg, wrappers=wrappers, run=run, previous=previous)
 
-    # ---- the environments and the model
+
+def _build_and_train(job: _Job) -> tuple[Any, bool]:
+    """Build the training vector env and the model (or load the one to resume), train it, save it; close the env.
+
+    Returns the model and whether Ctrl-C interrupted training."""
     import torch
-    from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    from baselines.algorithms import algo_class
-    from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
     from polyenvs.training.vec_adapter import make_training_vec_env
 
+    request, run = job.request, job.run
     torch.set_num_threads(1)  # small MLPs: more threads only contend (intermittently 10-100x slower on 2 cores)
-    venv = make_training_vec_env(env_id, n_envs, seed=seed, env_kwargs=env_kwargs, wrappers=wrappers, vec_env=vec_env)
+    venv = make_training_vec_env(
+        request.env_id, run["n_envs"], seed=request.seed, env_kwargs=run["env_kwargs"], wrappers=job.wrappers,
+        vec_env=request.vec_env,
+    )  # fmt: skip
     try:
         run["vec_env"] = type(_innermost(venv)).__name__
-        if cfg.frame_stack is not None:
-            venv = VecFrameStack(venv, cfg.frame_stack)
-        if cfg.normalize and previous is not None:
-            venv = VecNormalize.load(str(out_dir / VECNORMALIZE_FILE), venv)
-            venv.training = True
-        elif cfg.normalize:
-            venv = VecNormalize(venv, **cfg.normalize_kwargs)
-        cls = algo_class(algo)
-        tensorboard_log = str(out_dir / TENSORBOARD_DIR) if tensorboard else None
-        if previous is not None:
-            try:
-                model = cls.load(out_dir / MODEL_FILE, env=venv, device=device, verbose=verbose,
-                                 tensorboard_log=tensorboard_log)  # fmt: skip
-            except (OSError, ValueError, KeyError, RuntimeError) as exc:
-                message = " ".join(str(exc).split()) or type(exc).__name__
-                raise InputError(
-                    f"cannot resume {out_dir}: its {MODEL_FILE} does not load ({message}); --overwrite to train it "
-                    "again from the start"
-                ) from exc
-            model.set_random_seed(seed)
-            marked = getattr(model.get_vec_normalize_env(), "saved_at_timesteps", model.num_timesteps)
-            if marked != model.num_timesteps:  # the process died between the two renames: vanishingly rare
-                raise InputError(
-                    f"cannot resume {out_dir}: its {MODEL_FILE} ({model.num_timesteps} timesteps) and "
-                    f"{VECNORMALIZE_FILE} ({marked}) were saved apart; --overwrite to train it again from the start"
-                )
-        else:
-            try:
-                model = cls(
-                    cfg.policy, venv, seed=seed, device=device, verbose=verbose, tensorboard_log=tensorboard_log,
-                    **cfg.hyperparams,
-                )  # fmt: skip
-            except (AssertionError, ValueError, TypeError) as exc:
-                message = " ".join(str(exc).split()) or type(exc).__name__
-                raise InputError(
-                    f"{cfg.path}: {env_id}: {cls.__name__} rejected the hyperparameters: {message}"
-                ) from exc
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with _training_lock(out_dir):
-            _remove_temporaries(out_dir)
-            if previous is not None:
-                run.update(
-                    command=previous.get("command", run["command"]),
-                    resumed_at=[*previous.get("resumed_at", []), int(model.num_timesteps)],
-                    timesteps=int(model.num_timesteps),
-                    wall_clock_s=float(previous.get("wall_clock_s", 0.0)),
-                )
-            else:
-                _clear_run(out_dir)  # an interrupted run trained again, or one overwritten
-            write_json_atomic(out_dir / RUN_FILE, run)
-            trained_before = float(run["wall_clock_s"])
-
-            # ---- training
-            metrics = EpisodeMetricsCallback()
-            start = time.monotonic()
-            checkpoints = (
-                [CheckpointCallback(checkpoint_every, lambda: _save(model, out_dir, run, trained_before, start))]
-                if checkpoint_every
-                else []
-            )
-            interrupted = False
-            remaining = requested - int(model.num_timesteps)
-            try:
-                if remaining > 0:
-                    model.learn(
-                        total_timesteps=remaining,
-                        callback=[metrics, *checkpoints, *callbacks],
-                        progress_bar=progress_bar,
-                        tb_log_name=cls.__name__,
-                        reset_num_timesteps=previous is None,
-                    )
-            except KeyboardInterrupt:
-                interrupted = True
-
-            # ---- the directory: model, statistics, then run.json (which marks it finished)
-            run.update(episode_metrics=metrics.means())
-            _save(model, out_dir, run, trained_before, start, completed=not interrupted)
+        venv = _wrap_vec_env(job, venv)
+        model = _load_model(job, venv) if job.previous is not None else _new_model(job, venv)
+        interrupted = _learn_and_save(job, model)
     finally:
         venv.close()
-    if interrupted:
-        raise TrainingInterrupted(out_dir, int(model.num_timesteps))
-    return out_dir
+    return model, interrupted
+
+
+def _wrap_vec_env(job: _Job, venv):
+    """``venv`` stacked (the config's frame_stack) and normalised (the resumed run's statistics, or new ones)."""
+    from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
+
+    cfg = job.cfg
+    if cfg.frame_stack is not None:
+        venv = VecFrameStack(venv, cfg.frame_stack)
+    if cfg.normalize and job.previous is not None:
+        venv = VecNormalize.load(str(job.request.out_dir / VECNORMALIZE_FILE), venv)
+        venv.training = True
+    elif cfg.normalize:
+        venv = VecNormalize(venv, **cfg.normalize_kwargs)
+    return venv
+
+
+def _tensorboard_log(request: _Request) -> str | None:
+    return str(request.out_dir / TENSORBOARD_DIR) if request.tensorboard else None
+
+
+def _load_model(job: _Job, venv):
+    """The interrupted run's saved model on ``venv``, reseeded; InputError if it does not load or fit its statistics."""
+    from baselines.algorithms import algo_class
+
+    request = job.request
+    out_dir = request.out_dir
+    cls = algo_class(request.algo)
+    try:
+        model = cls.load(out_dir / MODEL_FILE, env=venv, device=request.device, verbose=request.verbose,
+                         tensorboard_log=_tensorboard_log(request))  # fmt: skip
+    except (OSError, ValueError, KeyError, RuntimeError) as exc:
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        raise InputError(
+            f"cannot resume {out_dir}: its {MODEL_FILE} does not load ({message}); --overwrite to train it "
+            "again from the start"
+        ) from exc
+    model.set_random_seed(request.seed)
+    marked = getattr(model.get_vec_normalize_env(), "saved_at_timesteps", model.num_timesteps)
+    if marked != model.num_timesteps:  # the process died between the two renames: vanishingly rare
+        raise InputError(
+            f"cannot resume {out_dir}: its {MODEL_FILE} ({model.num_timesteps} timesteps) and "
+            f"{VECNORMALIZE_FILE} ({marked}) were saved apart; --overwrite to train it again from the start"
+        )
+    return model
+
+
+def _new_model(job: _Job, venv):
+    """A new model of the config's policy and hyperparameters on ``venv``; InputError if the algorithm rejects them."""
+    from baselines.algorithms import algo_class
+
+    request, cfg = job.request, job.cfg
+    cls = algo_class(request.algo)
+    try:
+        return cls(
+            cfg.policy, venv, seed=request.seed, device=request.device, verbose=request.verbose,
+            tensorboard_log=_tensorboard_log(request), **cfg.hyperparams,
+        )  # fmt: skip
+    except (AssertionError, ValueError, TypeError) as exc:
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        raise InputError(
+            f"{cfg.path}: {request.env_id}: {cls.__name__} rejected the hyperparameters: {message}"
+        ) from exc
+
+
+def _learn_and_save(job: _Job, model) -> bool:
+    """Under the directory's lock: write run.json, train (checkpoints; Ctrl-C caught), save. True if interrupted."""
+    from baselines.algorithms import algo_class
+    from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
+
+    request, run, previous = job.request, job.run, job.previous
+    out_dir = request.out_dir
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with _training_lock(out_dir):
+        _remove_temporaries(out_dir)
+        if previous is not None:
+            run.update(
+                command=previous.get("command", run["command"]),
+                resumed_at=[*previous.get("resumed_at", []), int(model.num_timesteps)],
+                timesteps=int(model.num_timesteps),
+                wall_clock_s=float(previous.get("wall_clock_s", 0.0)),
+            )
+        else:
+            _clear_run(out_dir)  # an interrupted run trained again, or one overwritten
+        write_json_atomic(out_dir / RUN_FILE, run)
+        trained_before = float(run["wall_clock_s"])
+
+        # ---- training
+        metrics = EpisodeMetricsCallback()
+        start = time.monotonic()
+        checkpoints = (
+            [CheckpointCallback(request.checkpoint_every, lambda: _save(model, out_dir, run, trained_before, start))]
+            if request.checkpoint_every
+            else []
+        )
+        interrupted = False
+        remaining = run["requested_timesteps"] - int(model.num_timesteps)
+        try:
+            if remaining > 0:
+                model.learn(
+                    total_timesteps=remaining,
+                    callback=[metrics, *checkpoints, *request.callbacks],
+                    progress_bar=request.progress_bar,
+                    tb_log_name=algo_class(request.algo).__name__,
+                    reset_num_timesteps=previous is None,
+                )
+        except KeyboardInterrupt:
+            interrupted = True
+
+        # ---- the directory: model, statistics, then run.json (which marks it finished)
+        run.update(episode_metrics=metrics.means())
+        _save(model, out_dir, run, trained_before, start, completed=not interrupted)
+    return interrupted
 
 
 def _save(model, out_dir: Path, run: dict[str, Any], trained_before: float, start: float, completed=False) -> None:
