@@ -38,13 +38,13 @@ in one compiled call.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from polyenvs.bumper.odometry import TICK_CM, odometry_step
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_in_range
+from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 
 __all__ = ["CART_PARAMETER_RANGES", "DRAWS_PER_CYCLE", "N_STATE", "CartModel", "cycle_row", "max_ticks", "place_row"]
 
@@ -71,71 +71,48 @@ _BACKOFF_CM = 1e-6
 _ON_LINE_CM = 1e-9
 _INF = math.inf
 
-#: Physical parameters: (low, high) plausible range; outside it a parameter is refused at construction.
-CART_PARAMETER_RANGES = {
-    "wheel_base_cm": (3.0, 20.0),
-    "bumper_width_cm": (4.0, 20.0),
-    "bumper_offset_cm": (3.0, 20.0),
-    "rear_cm": (1.0, 20.0),
-    "backup_cm": (1.0, 30.0),
-    "max_drive_cm": (10.0, 1000.0),
-    "mismatch_sd": (0.0, 0.1),
-    "wheel_base_sd": (0.0, 0.1),
-    "slip_sd": (0.0, 0.1),
-    "snap_prob": (0.0, 1.0),
-    "snap_max_deg": (0.0, 45.0),
-    "slide_prob": (0.0, 1.0),
-    "slide_max_deg": (0.0, 90.0),
-}
 #: Tyres add this much to the wheel base for the cart's width (the feasibility study's 6.0 cm base, 7.4 cm wide).
 TYRE_WIDTH_CM = 1.4
 #: Per-episode draws are cut at this many standard deviations, so no reachable state is unphysical.
 _DRAW_LIMIT_SD = 4.0
 
 
+_HIT_6 = "the paper's hit 6: the bumper flattens against the wall, the cart turns square to it, unseen"
+
+
+@documented
 @dataclass(frozen=True)
 class CartModel:
     """The cart's geometry and error model (cm, degrees). Paper values where it gives them, else *ours*.
 
-    Attributes:
-        wheel_base_cm: axle-centre to wheel-centre distance times two; the paper gives none (*ours*: 6.0, so
-            with tyres the cart is 7.4 cm wide, under the bumper). One tick of wheel difference turns it 1.64°.
-        bumper_width_cm: the paper's 3-inch bumper (7.62); it is also the body's width.
-        bumper_offset_cm: bumper ahead of the axle (*ours*: 7.0).
-        rear_cm: body behind the axle (*ours*: 5.0).
-        backup_cm: the back-up stage's travel (*ours*: 6.0, 35 ticks).
-        max_drive_cm: the drive stage ends here if nothing was hit.
-        mismatch_sd: per-episode relative speed difference of the motors (the paper: "not terribly well
-            matched"; *ours*: 2%); equal power drives an arc.
-        wheel_base_sd: per-episode relative error of the true wheel base against the nominal one the odometry
-            uses (*ours*: 2%; the paper found the wheel base hard to measure because of the tyres' thickness).
-        slip_sd: per-stage, per-wheel relative difference between wheel rotation and ground travel (*ours*: 1%).
-        snap_prob, snap_max_deg: a hit within ``snap_max_deg`` of head-on flattens the bumper against the wall
-            with probability ``snap_prob``: the cart turns square to the wall, unseen by the encoders (the paper's
-            hit 6; *ours*: 30%, 20°).
-        slide_prob, slide_max_deg: a more glancing hit slides with probability ``slide_prob``: the cart turns
-            towards parallel by up to ``slide_max_deg`` (*ours*: 15%, 30°).
+    {parameters}
+
+    The wheel base plus 1.4 cm of tyres must fit under the bumper (it covers the cart's whole profile). One tick of
+    wheel difference turns the default cart 1.64 degrees. Equal power drives an arc (``mismatch_sd``); a hit within
+    ``snap_max_deg`` of head-on flattens the bumper with probability ``snap_prob``, a more glancing one slides
+    towards parallel by up to ``slide_max_deg`` with probability ``slide_prob``.
     """
 
-    wheel_base_cm: float = 6.0
-    bumper_width_cm: float = 3.0 * 2.54
-    bumper_offset_cm: float = 7.0
-    rear_cm: float = 5.0
-    backup_cm: float = 6.0
-    max_drive_cm: float = 300.0
-    mismatch_sd: float = 0.02
-    wheel_base_sd: float = 0.02
-    slip_sd: float = 0.01
-    snap_prob: float = 0.3
-    snap_max_deg: float = 20.0
-    slide_prob: float = 0.15
-    slide_max_deg: float = 30.0
+    wheel_base_cm: float = parameter(6.0, 3.0, 20.0, "cm", "ours (the paper gives none): 7.4 cm wide with tyres")
+    bumper_width_cm: float = parameter(3.0 * 2.54, 4.0, 20.0, "cm", "paper: the 3-inch bumper; the body's width")
+    bumper_offset_cm: float = parameter(7.0, 3.0, 20.0, "cm", "ours: bumper ahead of the axle")
+    rear_cm: float = parameter(5.0, 1.0, 20.0, "cm", "ours: body behind the axle")
+    backup_cm: float = parameter(6.0, 1.0, 30.0, "cm", "ours: the back-up stage's travel, 35 ticks")
+    max_drive_cm: float = parameter(300.0, 10.0, 1000.0, "cm", "ours: the drive stage ends here if nothing is hit")
+    mismatch_sd: float = parameter(
+        0.02, 0.0, 0.1, "", 'ours: per-episode relative motor speed difference (paper: "not terribly well matched")'
+    )
+    wheel_base_sd: float = parameter(
+        0.02, 0.0, 0.1, "", "ours: per-episode error of the true wheel base (paper: hard to measure, thick tyres)"
+    )
+    slip_sd: float = parameter(0.01, 0.0, 0.1, "", "ours: per-stage, per-wheel slip against the encoders")
+    snap_prob: float = parameter(0.3, 0.0, 1.0, "", f"ours: {_HIT_6}")
+    snap_max_deg: float = parameter(20.0, 0.0, 45.0, "deg", "ours: the most off head-on a flattening hit is")
+    slide_prob: float = parameter(0.15, 0.0, 1.0, "", "ours: a more glancing hit slides towards parallel")
+    slide_max_deg: float = parameter(30.0, 0.0, 90.0, "deg", "ours: the most a slide turns the cart")
 
     def __post_init__(self):
-        for f in fields(self):
-            object.__setattr__(
-                self, f.name, check_in_range(f.name, getattr(self, f.name), *CART_PARAMETER_RANGES[f.name])
-            )
+        check_parameters(self)
         if self.wheel_base_cm + TYRE_WIDTH_CM > self.bumper_width_cm:
             raise ValueError(
                 f"wheel_base_cm {self.wheel_base_cm:g} plus {TYRE_WIDTH_CM} cm of tyres is wider than the bumper "
@@ -161,6 +138,10 @@ class CartModel:
         """This episode's motor mismatch and true wheel base (two normals from ``rng``, cut at 4 sd)."""
         z = np.clip(rng.standard_normal(2), -_DRAW_LIMIT_SD, _DRAW_LIMIT_SD)
         return float(self.mismatch_sd * z[0]), float(self.wheel_base_cm * (1.0 + self.wheel_base_sd * z[1]))
+
+
+#: Physical parameters: (low, high) plausible range (from the declarations above); outside it: ValueError.
+CART_PARAMETER_RANGES = parameter_ranges(CartModel)
 
 
 def max_ticks(model: CartModel) -> int:

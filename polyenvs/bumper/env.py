@@ -22,6 +22,7 @@ from polyenvs.bumper.maps import BumperMap, make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
+from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
@@ -134,6 +135,7 @@ def _step_kernel(actions, kernel):
         out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
 
 
+@documents_arguments(CartModel)
 class BumperCartExploreEnv(RowsEnv):
     """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
     wheel encoders.
@@ -179,20 +181,10 @@ class BumperCartExploreEnv(RowsEnv):
     |----------|---------|---------|
     | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
-    | wheel_base_cm | 6.0 | nominal wheel base, in [3, 20] (*ours*; the paper gives none) |
-    | bumper_width_cm | 7.62 | the paper's 3-inch bumper, in [4, 20]; the body's width |
-    | bumper_offset_cm | 7.0 | bumper ahead of the axle, in [3, 20] |
-    | rear_cm | 5.0 | body behind the axle, in [1, 20] |
-    | backup_cm | 6.0 | back-up travel, in [1, 30] |
-    | max_drive_cm | 300.0 | drive stage limit, in [10, 1000] |
-    | mismatch_sd | 0.02 | per-episode motor speed mismatch, in [0, 0.1] |
-    | wheel_base_sd | 0.02 | per-episode true wheel base error, in [0, 0.1] |
-    | slip_sd | 0.01 | per-stage wheel slip, in [0, 0.1] |
-    | snap_prob, snap_max_deg | 0.3, 20 | near head-on hits that flatten the bumper |
-    | slide_prob, slide_max_deg | 0.15, 30 | glancing hits that slide |
+    {arguments}
     | render_mode | None | "rgb_array" or "human" |
 
-    See :class:`polyenvs.bumper.cart.CartModel` for where each default comes from.
+    The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
     ## Version History
     * v0: initial version.

@@ -28,7 +28,15 @@ import dataclasses
 
 from polyenvs.core.validation import check_in_range
 
-__all__ = ["argument_rows", "check_parameters", "documented", "parameter", "parameter_ranges", "parameter_table"]
+__all__ = [
+    "argument_rows",
+    "check_parameters",
+    "documented",
+    "documents_arguments",
+    "parameter",
+    "parameter_ranges",
+    "parameter_table",
+]
 
 
 def parameter(default: float, low: float, high: float, unit: str = "", source: str = "ours") -> dataclasses.Field:
@@ -65,13 +73,28 @@ def parameter_table(cls) -> str:
     return "\n".join(rows)
 
 
+def _fill(doc: str, placeholder: str, text: str) -> str:
+    """``doc`` with ``text`` at ``placeholder``, its later lines indented as the placeholder's line is."""
+    at = doc.index(placeholder)
+    indent = doc[doc.rindex("\n", 0, at) + 1 : at]
+    return doc.replace(placeholder, text.replace("\n", "\n" + indent))
+
+
 def documented(cls):
     """Class decorator (outside ``@dataclass``): put :func:`parameter_table` where the docstring says ``{parameters}``."""
-    doc = cls.__doc__
-    line_start = doc.rindex("\n", 0, doc.index("{parameters}")) + 1
-    indent = doc[line_start : doc.index("{parameters}")]
-    cls.__doc__ = doc.replace("{parameters}", parameter_table(cls).replace("\n", "\n" + indent))
+    cls.__doc__ = _fill(cls.__doc__, "{parameters}", parameter_table(cls))
     return cls
+
+
+def documents_arguments(parameters_cls):
+    """Class decorator for an environment whose constructor takes ``parameters_cls``'s fields as keywords: put
+    :func:`argument_rows` where its docstring's Arguments table says ``{arguments}``."""
+
+    def decorate(cls):
+        cls.__doc__ = _fill(cls.__doc__, "{arguments}", argument_rows(parameters_cls, indent=""))
+        return cls
+
+    return decorate
 
 
 def argument_rows(cls, indent: str = "    ") -> str:
