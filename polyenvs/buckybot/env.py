@@ -41,8 +41,9 @@ from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
+from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.rows import RowsEnv, vector_convention
-from polyenvs.core.validation import check_action, check_in_range, check_options, show
+from polyenvs.core.validation import check_action, check_options, show
 
 __all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
 
@@ -79,18 +80,51 @@ _INT_TYPES = (int, np.int64, np.int32, np.intp)
 #: Points of the true and dead-reckoned paths kept for rendering (older points are dropped).
 TRAIL_POINTS = 2000
 
-#: Physical parameters: (low, high) plausible range. Outside it a parameter is refused at construction.
-PARAMETER_RANGES = {
-    "noise_scale": (0.0, 1.0),
-    "range_noise_scale": (0.0, 5.0),
-    "step_forward_cm": (5.0, 15.0),
-    "step_forward_sd_cm": (0.0, 2.0),
-    "step_lateral_cm": (-3.0, 3.0),
-    "step_lateral_sd_cm": (0.0, 2.0),
-    "heading_change_deg": (-10.0, 10.0),
-    "heading_sd_deg": (0.0, 10.0),
-    "body_radius_cm": (6.5, 26.0),
-}
+_TEST_RESULTS = "paper, Test Results (Vicon, 10 repetitions of all 60 tips)"
+
+
+@documented
+@dataclass(frozen=True)
+class BuckybotParams:
+    """The physical parameters every Buckybot id takes as keywords (the tip model's defaults are
+    :class:`~polyenvs.buckybot.simulator.TipModel`'s, the paper's measurements).
+
+    {parameters}
+    """
+
+    noise_scale: float = parameter(1.0, 0.0, 1.0, "", "tipping noise: 0 = the ideal lattice, 1 = the paper's")
+    range_noise_scale: float = parameter(1.0, 0.0, 5.0, "", "multiplies the eq. 6 range noise sd")
+    step_forward_cm: float = parameter(
+        TipModel.forward_mean_cm, 5.0, 15.0, "cm", f"forward step per tip, {_TEST_RESULTS}"
+    )
+    step_forward_sd_cm: float = parameter(TipModel.forward_sd_cm, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
+    step_lateral_cm: float = parameter(
+        TipModel.lateral_mean_cm, -3.0, 3.0, "cm", f"lateral step per tip, {_TEST_RESULTS}"
+    )
+    step_lateral_sd_cm: float = parameter(TipModel.lateral_sd_cm, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
+    heading_change_deg: float = parameter(
+        TipModel.heading_mean_deg, -10.0, 10.0, "deg", f"heading change per tip, {_TEST_RESULTS}"
+    )
+    heading_sd_deg: float = parameter(TipModel.heading_sd_deg, 0.0, 10.0, "deg", f"its sd, {_TEST_RESULTS}")
+    body_radius_cm: float = parameter(geo.BODY_RADIUS_CM, 6.5, 26.0, "cm", "contact radius (the 26 cm diameter)")
+
+    def __post_init__(self):
+        check_parameters(self)
+
+    def tip_model(self) -> TipModel:
+        """The tip model these parameters describe (before ``noise_scale``)."""
+        return TipModel(
+            forward_mean_cm=self.step_forward_cm,
+            forward_sd_cm=self.step_forward_sd_cm,
+            lateral_mean_cm=self.step_lateral_cm,
+            lateral_sd_cm=self.step_lateral_sd_cm,
+            heading_mean_deg=self.heading_change_deg,
+            heading_sd_deg=self.heading_sd_deg,
+        )
+
+
+#: Physical parameters: (low, high) plausible range (from :class:`BuckybotParams`). Outside it: ValueError.
+PARAMETER_RANGES = parameter_ranges(BuckybotParams)
 
 
 class PathTrail:
@@ -156,37 +190,26 @@ class BuckybotEnv(RowsEnv):
         self,
         *,
         floor_plan="rectangle",
-        noise_scale: float = 1.0,
-        range_noise_scale: float = 1.0,
-        step_forward_cm: float = 9.266,
-        step_forward_sd_cm: float = 0.105,
-        step_lateral_cm: float = -0.745,
-        step_lateral_sd_cm: float = 0.149,
-        heading_change_deg: float = 0.31,
-        heading_sd_deg: float = 0.44,
-        body_radius_cm: float = geo.BODY_RADIUS_CM,
+        noise_scale: float = BuckybotParams.noise_scale,
+        range_noise_scale: float = BuckybotParams.range_noise_scale,
+        step_forward_cm: float = BuckybotParams.step_forward_cm,
+        step_forward_sd_cm: float = BuckybotParams.step_forward_sd_cm,
+        step_lateral_cm: float = BuckybotParams.step_lateral_cm,
+        step_lateral_sd_cm: float = BuckybotParams.step_lateral_sd_cm,
+        heading_change_deg: float = BuckybotParams.heading_change_deg,
+        heading_sd_deg: float = BuckybotParams.heading_sd_deg,
+        body_radius_cm: float = BuckybotParams.body_radius_cm,
         render_mode: str | None = None,
     ):
-        given = dict(
-            noise_scale=noise_scale, range_noise_scale=range_noise_scale, step_forward_cm=step_forward_cm,
-            step_forward_sd_cm=step_forward_sd_cm, step_lateral_cm=step_lateral_cm,
-            step_lateral_sd_cm=step_lateral_sd_cm, heading_change_deg=heading_change_deg,
-            heading_sd_deg=heading_sd_deg, body_radius_cm=body_radius_cm,
+        p = BuckybotParams(
+            noise_scale, range_noise_scale, step_forward_cm, step_forward_sd_cm, step_lateral_cm, step_lateral_sd_cm,
+            heading_change_deg, heading_sd_deg, body_radius_cm,
         )  # fmt: skip
-        p = {name: check_in_range(name, value, *PARAMETER_RANGES[name]) for name, value in given.items()}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self.noise_scale, self.range_noise_scale = p["noise_scale"], p["range_noise_scale"]
-        self.body_radius_cm = p["body_radius_cm"]
-        model = TipModel(
-            forward_mean_cm=p["step_forward_cm"],
-            forward_sd_cm=p["step_forward_sd_cm"],
-            lateral_mean_cm=p["step_lateral_cm"],
-            lateral_sd_cm=p["step_lateral_sd_cm"],
-            heading_mean_deg=p["heading_change_deg"],
-            heading_sd_deg=p["heading_sd_deg"],
-        )
-        self.tip_model = model.scaled(self.noise_scale)
+        self.noise_scale, self.range_noise_scale = p.noise_scale, p.range_noise_scale
+        self.body_radius_cm = p.body_radius_cm
+        self.tip_model = p.tip_model().scaled(self.noise_scale)
         # A start this far from every wall leaves all three tips free: each lands one step away, the body needs
         # its radius.
         self.start_clearance_cm = self.body_radius_cm + geo.STEP_LENGTH_CM + 1.0

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.env import BuckybotEnv, BuckybotParams
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
 from polyenvs.buckybot.simulator import (
     A_STATE,
@@ -19,6 +19,7 @@ from polyenvs.buckybot.simulator import (
 )
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
+from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotWallFollowEnv"]
@@ -122,6 +123,7 @@ def _step_kernel(actions, kernel):
         _write_out(b, state, task, slot[w], out)
 
 
+@documents_arguments(BuckybotParams)
 class BuckybotWallFollowEnv(BuckybotEnv):
     """Follow the closest wall counter-clockwise at distance d*, with only six ultrasonic range finders.
 
@@ -190,12 +192,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     | d_star_cm | 50.0 | wall-following distance d* from the centre, in [20, 150] (the paper leaves it free; the sonar sees to 184 cm) |
     | x_s_cm | 20.0 | the paper's x_s, look-ahead along the wall and weight of progress, in [1, 100] |
     | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed, in [1, 100] |
-    | noise_scale | 1.0 | tipping noise, in [0, 1]: 0 = ideal lattice, 1 = the paper's Vicon measurements |
-    | range_noise_scale | 1.0 | multiplies the eq. 6 range noise sd, in [0, 5] |
-    | step_forward_cm, step_forward_sd_cm | 9.266, 0.105 | forward step per tip (paper, Test Results), in [5, 15] and [0, 2] |
-    | step_lateral_cm, step_lateral_sd_cm | -0.745, 0.149 | lateral step per tip (paper), in [-3, 3] and [0, 2] |
-    | heading_change_deg, heading_sd_deg | 0.31, 0.44 | heading change per tip (paper), in [-10, 10] and [0, 10] |
-    | body_radius_cm | 13.0 | contact radius (the 26 cm diameter), in [6.5, 26] |
+    {arguments}
     | render_mode | None | "rgb_array" or "human" |
 
     Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.
