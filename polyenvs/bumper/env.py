@@ -187,7 +187,9 @@ class BumperCartExploreEnv(RowsEnv):
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
+      wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
+      leaderboard's episodes (50 seeds, the paper map) are unchanged by it.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
