@@ -11,6 +11,7 @@ dictionaries are built per agent.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.validation import (
     check_action,
     check_bool,
@@ -64,22 +66,40 @@ __all__ = [
     "structure_for",
 ]
 
-#: Physical parameters: (low, high) plausible range. Outside it a parameter is refused at construction.
-PARAMETER_RANGES = {
-    "control_period_s": (0.02, 1.0),
-    "full_speed_mps": (0.05, 1.0),
-    "terrain_noise": (0.0, 0.3),
-    "ir_noise": (0.0, 0.2),
-    "ir_raw_sd": (0.0, 20.0),
-    "comm_range_m": (0.5, 10.0),
-    "range_noise_m": (0.0, 0.2),
-    "bearing_noise_deg": (0.0, 20.0),
-    "light_noise_deg": (0.0, 20.0),
-    "goal_radius_m": (0.1, 3.0),
-    "sensor_angle_deg": (-90.0, 90.0),
-}
+#: The virtual sensor angles' plausible range (deg).
+SENSOR_ANGLE_RANGE_DEG = (-90.0, 90.0)
+
+
+@documented
+@dataclass(frozen=True)
+class SwarmParams:
+    """The physical and sensing parameters every swarm task takes as keywords (a task may change a default: the
+    obstacle field's rough terrain, for instance).
+
+    {parameters}
+    """
+
+    control_period_s: float = parameter(
+        0.1, 0.02, 1.0, "s", "ours: one control step; it must move a robot less than its radius"
+    )
+    full_speed_mps: float = parameter(0.5, 0.05, 1.0, "m/s", "ours: wheel speed at full power")
+    terrain_noise: float = parameter(0.05, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step")
+    ir_noise: float = parameter(0.03, 0.0, 0.2, "", "ours: relative IR reading noise")
+    ir_raw_sd: float = parameter(2.0, 0.0, 20.0, "A/D units", "ours: raw IR reading noise")
+    comm_range_m: float = parameter(3.0, 0.5, 10.0, "m", "ours: trilateration reach")
+    range_noise_m: float = parameter(0.02, 0.0, 0.2, "m", "ours: trilateration range noise")
+    bearing_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: trilateration bearing noise")
+    light_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: light-bearing noise")
+    goal_radius_m: float = parameter(0.4, 0.1, 3.0, "m", "ours: a robot this close to the light has arrived")
+
+    def __post_init__(self):
+        check_parameters(self)
+
+
+#: Plausible range of every parameter (from :class:`SwarmParams`); outside it: ValueError.
+PARAMETER_RANGES = parameter_ranges(SwarmParams)
 #: Trilateration reach when not given (m).
-DEFAULT_COMM_RANGE_M = 3.0
+DEFAULT_COMM_RANGE_M = SwarmParams.comm_range_m
 
 #: PettingZoo's ``api_test`` and ``parallel_api_test`` check that reset takes options by calling
 #: ``reset(seed=0, options={"options": 1})``: that one key is ignored, so the swarm passes PettingZoo's own tests.
@@ -115,9 +135,7 @@ class Episode:
 
 def _check_sensor_angles(sensor_angles_deg) -> tuple[float, ...]:
     try:
-        angles = [
-            check_in_range("sensor_angles_deg", a, *PARAMETER_RANGES["sensor_angle_deg"]) for a in sensor_angles_deg
-        ]
+        angles = [check_in_range("sensor_angles_deg", a, *SENSOR_ANGLE_RANGE_DEG) for a in sensor_angles_deg]
     except TypeError:
         raise ValueError(f"sensor_angles_deg must be four angles, got {show(sensor_angles_deg)}") from None
     if len(angles) != 4 or sorted(angles) != angles:
@@ -144,17 +162,17 @@ class SwarmEnv(ParallelEnv):
         n_robots: int = 1,
         platform: str | None = None,
         max_cycles: int = 500,
-        control_period_s: float = 0.1,
-        full_speed_mps: float = 0.5,
-        terrain_noise: float = 0.05,
-        ir_noise: float = 0.03,
-        ir_raw_sd: float = 2.0,
-        comm_range_m: float = DEFAULT_COMM_RANGE_M,
+        control_period_s: float = SwarmParams.control_period_s,
+        full_speed_mps: float = SwarmParams.full_speed_mps,
+        terrain_noise: float = SwarmParams.terrain_noise,
+        ir_noise: float = SwarmParams.ir_noise,
+        ir_raw_sd: float = SwarmParams.ir_raw_sd,
+        comm_range_m: float = SwarmParams.comm_range_m,
         n_neighbours: int = 6,
-        range_noise_m: float = 0.02,
-        bearing_noise_deg: float = 2.0,
-        light_noise_deg: float = 2.0,
-        goal_radius_m: float = 0.4,
+        range_noise_m: float = SwarmParams.range_noise_m,
+        bearing_noise_deg: float = SwarmParams.bearing_noise_deg,
+        light_noise_deg: float = SwarmParams.light_noise_deg,
+        goal_radius_m: float = SwarmParams.goal_radius_m,
         sensor_angles_deg=SENSOR_ANGLES_DEG,
         terminate_on_collision: bool = False,
         flat_info: bool = False,
@@ -163,13 +181,11 @@ class SwarmEnv(ParallelEnv):
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
         self.platform = get_platform(self.default_platform if platform is None else platform)
         self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
-        given = dict(
-            control_period_s=control_period_s, full_speed_mps=full_speed_mps, terrain_noise=terrain_noise,
-            ir_noise=ir_noise, ir_raw_sd=ir_raw_sd, comm_range_m=comm_range_m, range_noise_m=range_noise_m,
-            bearing_noise_deg=bearing_noise_deg, light_noise_deg=light_noise_deg, goal_radius_m=goal_radius_m,
+        params = SwarmParams(
+            control_period_s, full_speed_mps, terrain_noise, ir_noise, ir_raw_sd, comm_range_m, range_noise_m,
+            bearing_noise_deg, light_noise_deg, goal_radius_m,
         )  # fmt: skip
-        p = {name: check_in_range(name, value, *PARAMETER_RANGES[name]) for name, value in given.items()}
-        self.__dict__.update(p)
+        self.__dict__.update(dataclasses.asdict(params))
         self.n_neighbours = check_int("n_neighbours", n_neighbours, 1, 32)
         self.sensor_angles_deg = _check_sensor_angles(sensor_angles_deg)
         self.terminate_on_collision = check_bool("terminate_on_collision", terminate_on_collision)
