@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.cli_helpers import TINY_PPO_CONFIG
+
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("sb3_contrib")
 
@@ -21,24 +23,13 @@ from polyenvs.cli import main  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 WALL = "polyenvs/BuckybotWallFollow-v0"
 SLUG = "polyenvs__BuckybotWallFollow-v0"
-TINY = """\
-polyenvs/BuckybotWallFollow-v0:
-  n_envs: 2
-  n_timesteps: 256
-  policy: 'MlpPolicy'
-  normalize: true
-  n_steps: 64
-  batch_size: 64
-  n_epochs: 1
-  policy_kwargs: "dict(net_arch=[16])"
-"""
 
 
 @pytest.fixture
 def config_dir(tmp_path) -> Path:
     directory = tmp_path / "configs"
     directory.mkdir()
-    (directory / "ppo.yml").write_text(TINY)
+    (directory / "ppo.yml").write_text(TINY_PPO_CONFIG)
     return directory
 
 

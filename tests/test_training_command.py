@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.cli_helpers import TINY_PPO_CONFIG
+
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("sb3_contrib")
 
@@ -135,18 +137,6 @@ def test_defaults():
 
 # ------------------------------------------------------------------------------------- interrupted runs
 
-TINY = f"""\
-{WALL}:
-  n_envs: 2
-  n_timesteps: 256
-  policy: 'MlpPolicy'
-  normalize: true
-  n_steps: 64
-  batch_size: 64
-  n_epochs: 1
-  policy_kwargs: "dict(net_arch=[16])"
-"""
-
 
 def test_an_interrupted_out_dir_is_one_line_naming_the_flag_to_use(tmp_path, capsys, no_work):
     out = tmp_path / "run"
@@ -188,7 +178,7 @@ def _wait_for_a_checkpoint(proc: subprocess.Popen, run_file: Path, log: Path) ->
 
 def test_kill_9_then_resume_continues_from_the_last_checkpoint_and_overwrite_starts_again(tmp_path, capsys):
     config, out, log = tmp_path / "tiny.yml", tmp_path / "run", tmp_path / "train.log"
-    config.write_text(TINY)
+    config.write_text(TINY_PPO_CONFIG)
     argv = ["train", WALL, "--algo", "ppo", "--config", str(config), "--out", str(out), "--no-progress"]
     with open(log, "w") as sink:
         proc = subprocess.Popen(
