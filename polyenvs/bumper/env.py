@@ -1,9 +1,13 @@
-"""``polyenvs/BumperCartExplore-v0``: touch as much of an unknown map's walls as possible with a bump-only cart.
+"""The bump-only cart's family base, :class:`BumperCartEnv`, and its first task, ``polyenvs/BumperCartExplore-v0``
+(touch as much of an unknown map's walls as possible).
 
 The environment is a batch of carts ("rows") like the simulator, so a native vector env is the same class with
-more rows: one compiled call steps every row, runs its cycle (:func:`polyenvs.bumper.cart.cycle_row`), scores the
-newly touched wall and writes observation, reward and metric rows into preallocated buffers. The reward term,
-the metrics and the observation's parts are declared by name here; the kernel's columns come from those names.
+more rows. The base knows no task: one compiled call cycles every row (:func:`polyenvs.bumper.cart.cycle_row`) and
+writes the cycle's log (the observation's first parts), then the task scores the rows (its own compiled kernel,
+its reward terms and metrics declared by name, the kernel's columns made from those names) and may append parts of
+its own to the observation. A task subclasses :class:`BumperCartEnv` and provides ``reward_names``,
+``metric_names``, ``out_columns``, ``task_observation_sizes`` (with ``task_observation_low`` / ``_high``) and the
+``_task_*`` hooks below; :class:`BumperCartExploreEnv` here and ``polyenvs/bumper/localize.py`` are the models.
 """
 
 from __future__ import annotations
@@ -27,16 +31,19 @@ from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
 
-__all__ = ["OBSERVATION_STRUCTURE", "BumperCartExploreEnv", "LocalizationContext"]
+__all__ = ["LOG_SIZE", "OBSERVATION_STRUCTURE", "BumperCartEnv", "BumperCartExploreEnv", "LocalizationContext"]
 
-#: The parts of the observation: name -> size. Ticks are signed encoder counts (left, right) of each stage of the
-#: cycle, in the order of the state's ``TICKS`` block; bump is 1 if the drive stage ended with the bumper tripped.
+#: The parts of the cycle's log, every task's first observation parts: name -> size. Ticks are signed encoder
+#: counts (left, right) of each stage of the cycle, in the order of the state's ``TICKS`` block; bump is 1 if the
+#: drive stage ended with the bumper tripped.
 OBSERVATION_PARTS = {"turn_ticks": 2, "drive_ticks": 2, "backup_ticks": 2, "bump": 1}
 #: The same as name -> (start, stop).
 OBSERVATION_STRUCTURE = spans(OBSERVATION_PARTS)
+#: Entries of the cycle's log.
+LOG_SIZE = OBSERVATION_STRUCTURE["bump"][1]
 _TICKS_OBS, _TICKS_END = OBSERVATION_STRUCTURE["turn_ticks"][0], OBSERVATION_STRUCTURE["backup_ticks"][1]
 _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
-#: The reward term and the metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
+#: Explore's reward term and metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("touch",)
 METRICS = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
 OUT = OutColumns(REWARD_TERMS, METRICS)
@@ -44,11 +51,10 @@ _R_TOUCH = OUT.term_column("touch")
 _M_TOUCHED, _M_BUMPS = OUT.metric_columns("wall_fraction_touched", "bumps")
 _M_ODOMETRY, _M_SLIPS = OUT.metric_columns("odometry_error_cm", "large_slips")
 _REWARD = OUT.reward
-_METRICS = OUT.metric_slice
 #: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
 TRAIL_POINTS = 3000
-# Columns of the per-row task state: touched wall fraction, bumps, large slips, cycles into the episode.
-_TOUCHED, _BUMPS, _SLIPS, _STEPS = range(4)
+# Columns of Explore's per-row task state: touched wall fraction, bumps, large slips.
+_TOUCHED, _BUMPS, _SLIPS = range(3)
 
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
@@ -76,6 +82,7 @@ class _RowReset:
     pose: np.ndarray
     mismatch: float
     wheel_base: float
+    task: Any = None  # what the task's _task_prepare drew
 
 
 @dataclass(frozen=True)
@@ -99,34 +106,51 @@ class LocalizationContext:
 
 
 @njit(cache=True)
-def _step_kernel(actions, kernel):
-    """Cycle every row that has an action and score it. ``kernel.sim = (state, walls, params, normals, cursor,
-    obs)`` and ``kernel.task = (task, touched, cell_first, cell_count, cell_share)``, as
-    :class:`BumperCartExploreEnv` packs them; ``kernel.out`` the ``_out`` table."""
-    state, walls, params, normals, cursor, obs = kernel.sim
-    task, touched, cell_first, cell_count, cell_share = kernel.task
-    out = kernel.out
+def _cycle_kernel(actions, kernel):
+    """Cycle every row that has an action and write the cycle's log into its observation row. ``kernel.sim =
+    (state, walls, params, normals, cursor, obs, cycles)``, as :class:`BumperCartEnv` packs it."""
+    state, walls, params, normals, cursor, obs, cycles = kernel.sim
     for b in range(actions.shape[0]):
         if actions[b, 1] < 0.5:
             continue  # no action: a row that was just reset neither moves nor scores
         row = state[b]
         cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls)
         cursor[b] += 1
-        fresh = 0.0
-        if row[C.BUMP] > 0.5:
-            seg = int(row[C.CONTACT_SEG])
-            count = cell_count[seg]
-            cell = cell_first[seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
-            if touched[b, cell] == 0:
-                touched[b, cell] = 1
-                fresh = cell_share[cell]
-            task[b, _BUMPS] += 1.0
-        task[b, _TOUCHED] += fresh
-        task[b, _SLIPS] += row[C.BIG_SLIP]
-        task[b, _STEPS] += 1.0
+        cycles[b] += 1.0
         for k in range(_TICKS_END - _TICKS_OBS):
             obs[b, _TICKS_OBS + k] = row[C.TICKS + k]
         obs[b, _BUMP_OBS] = row[C.BUMP]
+
+
+@njit(cache=True)
+def touch_row(b, row, touch) -> float:
+    """Row ``b``'s share of the wall newly touched by its last cycle (its state row ``row``), marking the cell and
+    counting the bump and any large slip. ``touch = (task, touched, cell_first, cell_count, cell_share)``, as
+    :class:`BumperCartExploreEnv` packs it."""
+    task, touched, cell_first, cell_count, cell_share = touch
+    fresh = 0.0
+    if row[C.BUMP] > 0.5:
+        seg = int(row[C.CONTACT_SEG])
+        count = cell_count[seg]
+        cell = cell_first[seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
+        if touched[b, cell] == 0:
+            touched[b, cell] = 1
+            fresh = cell_share[cell]
+        task[b, _BUMPS] += 1.0
+    task[b, _TOUCHED] += fresh
+    task[b, _SLIPS] += row[C.BIG_SLIP]
+    return fresh
+
+
+@njit(cache=True)
+def _touch_kernel(actions, kernel):
+    """Score every row that cycled (``kernel.task``: :meth:`BumperCartExploreEnv._task_arrays`)."""
+    state, out, task = kernel.sim[0], kernel.out, kernel.task[0]
+    for b in range(actions.shape[0]):
+        if actions[b, 1] < 0.5:
+            continue
+        row = state[b]
+        fresh = touch_row(b, row, kernel.task)
         out[b, _R_TOUCH] = 100.0 * fresh
         out[b, _M_TOUCHED] = task[b, _TOUCHED]
         out[b, _M_BUMPS] = task[b, _BUMPS]
@@ -135,74 +159,32 @@ def _step_kernel(actions, kernel):
         out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
 
 
-@documents_arguments(CartModel)
-class BumperCartExploreEnv(RowsEnv):
-    """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
-    wheel encoders.
+class BumperCartEnv(RowsEnv):
+    """Base class of the bump-only cart's tasks (see :class:`BumperCartExploreEnv` for the full documentation of
+    what they share: the cart, the cycle, the log, the starting state, the arguments).
 
-    ## Description
-    The Lego cart of Ken Dye's "Mapping with only a bumper": two unmatched motors (equal power drives an arc),
-    encoders of 0.0675 in per tick on both axles, a 3-inch bumper over one switch. One step is one cycle of the
-    paper's control loop: turn in place by the commanded angle, drive until the bumper trips (or
-    ``max_drive_cm``), back up ``backup_cm``. Driving to the bump is solved in closed form against the map's wall
-    segments (:mod:`polyenvs.bumper.cart`). Wheels slip a little on every stage and, at a bump, sometimes a lot
-    (the bumper flattens against the wall or slides), unseen by the encoders. The agent sees what the robot logged
-    and nothing else: it must build its own idea of where it is from ticks and bumps.
-
-    ## Action Space
-    ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180° (positive: counter-clockwise).
-    The controller aims it with the nominal wheel base, so the turn done differs a little. A turn must be a real
-    number (a float or integer array): complex, boolean, string and object values raise ``ValueError``.
-
-    ## Observation Space
-    ``Box((7,), float32)``: the signed encoder ticks (left, right) of the turn, the drive and the back-up, and 1.0
-    if the drive ended in a bump (``env.observation_structure``). Ticks lie in ``[-T, T]`` with ``T`` from
-    :func:`polyenvs.bumper.cart.max_ticks` (1,752 at the defaults). The reset observation is all zeros.
-
-    ## Rewards
-    ``reward_touch``: 100 x the wall length newly touched by this cycle's bump, as a fraction of the map's total
-    wall length; walls are cut into cells of at most ``cell_cm`` and a bump touches the cell of its contact point,
-    so an episode's rewards sum to at most 100.
-
-    ## Starting State
-    The cart at a uniformly random free point at least its body's reach from every wall, heading uniform; the
-    motor mismatch and the true wheel base are drawn per episode. Reset option ``pose``: ``(x_cm, y_cm,
-    heading_deg)``.
-
-    ## Episode End
-    Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
-    ``info["episode_metrics"]``: ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm`` (dead reckoning from
-    the true start against the true position: the paper's Part 2 drift), ``large_slips``. ``info`` also has the
-    true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
-    drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
-
-    ## Arguments
-    | argument | default | meaning |
-    |----------|---------|---------|
-    | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
-    | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
-    {arguments}
-    | render_mode | None | "rgb_array" or "human" |
-
-    The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
-
-    ## Version History
-    * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
-      wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
-      leaderboard's episodes (50 seeds, the paper map) are unchanged by it.
+    A task provides ``reward_names``, ``metric_names`` and ``out_columns`` (its declared names), the parts it adds
+    to the observation after the log (``task_observation_sizes``, with per-entry bounds ``task_observation_low``
+    and ``task_observation_high``), the reset options it takes (``task_option_names``) and the hooks
+    ``_task_init`` (its arrays), ``_task_arrays`` (the tuple its kernel takes), ``_task_prepare`` (draw a row's
+    task on the reset's generator, writing nothing), ``_task_commit`` (install it), ``_task_step`` (score the rows
+    that cycled, after the log is written), ``_task_info`` / ``_vector_task_info`` (its ``info`` keys) and
+    ``draw_task`` (its layer of a frame).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
-    out_columns = OUT
+    #: The task's observation parts after the log: name -> size, and the bounds of their entries in order.
+    task_observation_sizes: dict[str, int] = {}
+    task_observation_low: tuple[float, ...] = ()
+    task_observation_high: tuple[float, ...] = ()
+    #: Reset options the task takes besides ``pose``.
+    task_option_names: tuple[str, ...] = ()
 
-    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+    def __init__(self, *, map="paper", render_mode: str | None = None, **cart):
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
         if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
             raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
         self.model = CartModel(**cart)
-        self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
         self.start_clearance_cm = self.model.circumradius_cm + 0.5
         self.world = make_map(map, clearance_cm=self.start_clearance_cm)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -212,24 +194,50 @@ class BumperCartExploreEnv(RowsEnv):
         n = self._batch_size
         self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
         t = float(max_ticks(self.model))
-        self.observation_space = spaces.Box(
-            np.array([-t] * 6 + [0.0], dtype=np.float32), np.array([t] * 6 + [1.0], dtype=np.float32), dtype=np.float32
-        )
-        self.observation_structure = dict(OBSERVATION_STRUCTURE)
+        low = [-t] * 6 + [0.0, *self.task_observation_low]
+        high = [t] * 6 + [1.0, *self.task_observation_high]
+        self.observation_space = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32))
+        self.observation_structure = {**OBSERVATION_STRUCTURE, **spans(self.task_observation_sizes, LOG_SIZE)}
         # A row's action is (turn in rad, 1); the base marks a row that gets none by writing NO_ACTION (-1) over it.
         self._allocate_rows(action_dtype=np.float64, action_shape=(2,))
         self.state = np.zeros((n, C.N_STATE))
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
-        self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
-        self._cell_share = lengths / self.world.wall_length_cm
-        self._touched = np.zeros((n, len(lengths)), dtype=np.uint8)
-        self._task = np.zeros((n, 4))
-        # What the kernel takes (see _step_kernel).
-        sim = (self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor, self._observations)
-        self._pack_kernel(sim, (self._task, self._touched, self._cell_first, self._cell_count, self._cell_share))
+        self._cycles = np.zeros(n)
+        self._task_init()
+        # What the kernels take (see _cycle_kernel).
+        sim = (self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
+               self._observations, self._cycles)  # fmt: skip
+        self._pack_kernel(sim, self._task_arrays())
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
+
+    # --- the task's part ----------------------------------------------------------------------------------------
+    def _task_init(self) -> None:
+        """Allocate the task's per-row arrays (the map and the model are known)."""
+
+    def _task_arrays(self) -> tuple:
+        return ()
+
+    def _task_prepare(self, row: int, rng: np.random.Generator, options: dict, pose: np.ndarray) -> Any:
+        """Draw row ``row``'s task for the episode starting at ``pose`` on ``rng``, writing nothing (may raise)."""
+        return None
+
+    def _task_commit(self, row: int, sample: Any) -> None:
+        """Install what :meth:`_task_prepare` drew (nothing here raises)."""
+
+    def _task_step(self, actions: np.ndarray) -> None:
+        """Score the rows that cycled (``actions[b, 1] >= 0.5``) into ``_out``, after the log is written."""
+        raise NotImplementedError
+
+    def _task_info(self, row: int) -> dict[str, Any]:
+        return {}
+
+    def _vector_task_info(self) -> dict[str, np.ndarray]:
+        return {}
+
+    def draw_task(self, canvas) -> None:
+        """Draw the task's layer of row 0's frame (under the paths and the cart)."""
 
     def _make_renderer(self):
         from polyenvs.bumper.rendering import BumperRenderer
@@ -249,38 +257,43 @@ class BumperCartExploreEnv(RowsEnv):
             return {}
         if not isinstance(options, dict):
             raise ValueError(f"options must be a dict or None, got {show(options)}")
-        if set(options) - {"pose"}:
-            raise ValueError(f"unknown reset option(s) {sorted(set(options) - {'pose'})}; expected 'pose'")
-        if "pose" not in options:
-            return {}
+        allowed = ("pose", *self.task_option_names)
+        if set(options) - set(allowed):
+            raise ValueError(f"unknown reset option(s) {sorted(set(options) - set(allowed), key=str)}; expected "
+                             f"{', '.join(map(repr, allowed))}")  # fmt: skip
+        checked = {name: options[name] for name in self.task_option_names if name in options}
+        if "pose" in options:
+            checked["pose"] = self._option_pose(options["pose"])
+        return checked
+
+    def _option_pose(self, pose) -> np.ndarray:
         try:
-            x, y, heading_deg = (float(v) for v in options["pose"])
+            x, y, heading_deg = (float(v) for v in pose)
         except (TypeError, ValueError):
-            raise ValueError(
-                f"reset option 'pose' must be (x_cm, y_cm, heading_deg), got {show(options['pose'])}"
-            ) from None
+            raise ValueError(f"reset option 'pose' must be (x_cm, y_cm, heading_deg), got {show(pose)}") from None
         if not all(math.isfinite(v) for v in (x, y, heading_deg)):
-            raise ValueError(f"reset option 'pose' must be finite, got {show(options['pose'])}")
+            raise ValueError(f"reset option 'pose' must be finite, got {show(pose)}")
         clearance = float(self.world.clearance(np.array([x, y])))
         if clearance < self.start_clearance_cm:
             raise ValueError(
                 f"reset option 'pose' puts the cart {clearance:.1f} cm from a wall (at least "
                 f"{self.start_clearance_cm:.1f} cm, its body's reach, in free space)"
             )
-        return {"pose": np.array([x, y, math.radians(heading_deg)])}
+        return np.array([x, y, math.radians(heading_deg)])
 
     def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
         pose = options["pose"] if "pose" in options else self.world.sample_pose(rng, self.start_clearance_cm)
-        return _RowReset(row, rng, reseeded, pose, *self.model.draw_episode(rng))
+        mismatch, wheel_base = self.model.draw_episode(rng)
+        return _RowReset(row, rng, reseeded, pose, mismatch, wheel_base, self._task_prepare(row, rng, options, pose))
 
     def _commit_rows(self, prepared: list[_RowReset]) -> None:
         for r in prepared:
             place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
             self.streams.restart(r.row, r.rng, r.reseeded)
-            self._touched[r.row] = 0
-            self._task[r.row] = 0.0
+            self._cycles[r.row] = 0.0
             self._observations[r.row] = 0.0
             self._out[r.row] = 0.0
+            self._task_commit(r.row, r.task)
             if r.row == 0:
                 for path in self._paths:
                     path.clear()
@@ -290,13 +303,14 @@ class BumperCartExploreEnv(RowsEnv):
 
     def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
-        _step_kernel(actions, self._kernel)
+        _cycle_kernel(actions, self._kernel)
+        self._task_step(actions)
 
     def _row_generator(self, row: int) -> np.random.Generator | None:
         return self.streams.generators[row]
 
     def _row_steps(self) -> np.ndarray:
-        return self._task[:, _STEPS]
+        return self._cycles
 
     def _check_action(self, action) -> np.ndarray:
         if (
@@ -357,9 +371,9 @@ class BumperCartExploreEnv(RowsEnv):
             "pose_at_bump": poses[6:9],
             "bumped": bool(s[C.BUMP] > 0.5),
             "contact_point": s[[C.CONTACT_X, C.CONTACT_Y]],
-            "touched_cells": int(self._touched[row].sum()),
-            "reward_touch": out[_R_TOUCH],
-            "episode_metrics": dict(zip(self._metric_names, out[_METRICS], strict=True)),
+            **self._task_info(row),
+            **dict(zip(self._reward_keys, out[self.out_columns.term_slice], strict=True)),
+            "episode_metrics": dict(zip(self._metric_names, out[self.out_columns.metric_slice], strict=True)),
         }
 
     def _vector_info(self) -> dict[str, Any]:
@@ -374,8 +388,103 @@ class BumperCartExploreEnv(RowsEnv):
             "pose_at_bump": poses[:, 6:9],
             "bumped": s[:, C.BUMP] > 0.5,
             "contact_point": s[:, [C.CONTACT_X, C.CONTACT_Y]],
-            "touched_cells": self._touched.sum(axis=1, dtype=np.int64),
-            "reward_touch": scores[:, _R_TOUCH],
+            **self._vector_task_info(),
+            **{key: scores[:, j] for j, key in enumerate(self._reward_keys)},
         }
-        metrics = {name: scores[:, _METRICS.start + j] for j, name in enumerate(self._metric_names)}
+        metrics = {
+            name: scores[:, self.out_columns.metric_slice.start + j] for j, name in enumerate(self._metric_names)
+        }
         return vector_convention(values, metrics, self._batch_size)
+
+
+@documents_arguments(CartModel)
+class BumperCartExploreEnv(BumperCartEnv):
+    """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
+    wheel encoders.
+
+    ## Description
+    The Lego cart of Ken Dye's "Mapping with only a bumper": two unmatched motors (equal power drives an arc),
+    encoders of 0.0675 in per tick on both axles, a 3-inch bumper over one switch. One step is one cycle of the
+    paper's control loop: turn in place by the commanded angle, drive until the bumper trips (or
+    ``max_drive_cm``), back up ``backup_cm``. Driving to the bump is solved in closed form against the map's wall
+    segments (:mod:`polyenvs.bumper.cart`). Wheels slip a little on every stage and, at a bump, sometimes a lot
+    (the bumper flattens against the wall or slides), unseen by the encoders. The agent sees what the robot logged
+    and nothing else: it must build its own idea of where it is from ticks and bumps.
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180° (positive: counter-clockwise).
+    The controller aims it with the nominal wheel base, so the turn done differs a little. A turn must be a real
+    number (a float or integer array): complex, boolean, string and object values raise ``ValueError``.
+
+    ## Observation Space
+    ``Box((7,), float32)``: the signed encoder ticks (left, right) of the turn, the drive and the back-up, and 1.0
+    if the drive ended in a bump (``env.observation_structure``). Ticks lie in ``[-T, T]`` with ``T`` from
+    :func:`polyenvs.bumper.cart.max_ticks` (1,752 at the defaults). The reset observation is all zeros.
+
+    ## Rewards
+    ``reward_touch``: 100 x the wall length newly touched by this cycle's bump, as a fraction of the map's total
+    wall length; walls are cut into cells of at most ``cell_cm`` and a bump touches the cell of its contact point,
+    so an episode's rewards sum to at most 100.
+
+    ## Starting State
+    The cart at a uniformly random free point at least its body's reach from every wall, heading uniform; the
+    motor mismatch and the true wheel base are drawn per episode. Reset option ``pose``: ``(x_cm, y_cm,
+    heading_deg)``.
+
+    ## Episode End
+    Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
+    ``info["episode_metrics"]``: ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm`` (dead reckoning from
+    the true start against the true position: the paper's Part 2 drift), ``large_slips``. ``info`` also has the
+    true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
+    drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
+
+    ## Arguments
+    | argument | default | meaning |
+    |----------|---------|---------|
+    | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
+    | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
+    {arguments}
+    | render_mode | None | "rgb_array" or "human" |
+
+    The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
+
+    ## Version History
+    * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
+      wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
+      leaderboard's episodes (50 seeds, the paper map) are unchanged by it.
+    """
+
+    reward_names = REWARD_TERMS
+    metric_names = METRICS
+    out_columns = OUT
+
+    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+        self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
+        super().__init__(map=map, render_mode=render_mode, **cart)
+
+    def _task_init(self) -> None:
+        self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
+        self._cell_share = lengths / self.world.wall_length_cm
+        self._touched = np.zeros((self._batch_size, len(lengths)), dtype=np.uint8)
+        self._task = np.zeros((self._batch_size, 3))
+
+    def _task_arrays(self) -> tuple:
+        return (self._task, self._touched, self._cell_first, self._cell_count, self._cell_share)
+
+    def _task_commit(self, row: int, sample: Any) -> None:
+        self._touched[row] = 0
+        self._task[row] = 0.0
+
+    def _task_step(self, actions: np.ndarray) -> None:
+        _touch_kernel(actions, self._kernel)
+
+    def _task_info(self, row: int) -> dict[str, Any]:
+        return {"touched_cells": int(self._touched[row].sum())}
+
+    def _vector_task_info(self) -> dict[str, np.ndarray]:
+        return {"touched_cells": self._touched.sum(axis=1, dtype=np.int64)}
+
+    def draw_task(self, canvas) -> None:
+        from polyenvs.bumper.rendering import draw_touched_cells
+
+        draw_touched_cells(canvas, self)

@@ -15,7 +15,7 @@ from polyenvs.bumper import cart as C
 from polyenvs.core.raster import Canvas
 from polyenvs.core.window import FrameRenderer
 
-__all__ = ["BumperRenderer", "FRAME_WIDTH_PX"]
+__all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_touched_cells"]
 
 FRAME_WIDTH_PX = 480
 WALL = (30, 30, 30)
@@ -37,9 +37,22 @@ def body_outline(pose, model) -> np.ndarray:
     return np.stack([x + local[:, 0] * c - local[:, 1] * s, y + local[:, 0] * s + local[:, 1] * c], axis=-1)
 
 
+def draw_touched_cells(canvas: Canvas, env) -> None:
+    """Row 0's touched wall cells (:class:`~polyenvs.bumper.env.BumperCartExploreEnv`'s layer)."""
+    seg = env.world.segments
+    # Touched cells: each segment's cells are equal parts of it.
+    touched = np.flatnonzero(env._touched[0])
+    if len(touched):
+        owner = np.searchsorted(env._cell_first, touched, side="right") - 1
+        k = (touched - env._cell_first[owner])[:, None]
+        n = env._cell_count[owner][:, None]
+        start, vector = seg[owner, :2], seg[owner, 2:] - seg[owner, :2]
+        canvas.lines(start + vector * k / n, start + vector * (k + 1) / n, TOUCHED, width_px=5.0)
+
+
 class BumperRenderer(FrameRenderer):
-    """Renders row 0 of a :class:`~polyenvs.bumper.env.BumperCartExploreEnv`; every frame covers the map's bounds,
-    so one instance makes frames of one size."""
+    """Renders row 0 of a :class:`~polyenvs.bumper.env.BumperCartEnv` (the map, the task's layer, the paths, the
+    cart); every frame covers the map's bounds, so one instance makes frames of one size."""
 
     caption = "polyenvs bumper cart"
 
@@ -54,14 +67,7 @@ class BumperRenderer(FrameRenderer):
         world = env.world
         seg = world.segments
         canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
-        # Touched cells: each segment's cells are equal parts of it.
-        touched = np.flatnonzero(env._touched[0])
-        if len(touched):
-            owner = np.searchsorted(env._cell_first, touched, side="right") - 1
-            k = (touched - env._cell_first[owner])[:, None]
-            n = env._cell_count[owner][:, None]
-            start, vector = seg[owner, :2], seg[owner, 2:] - seg[owner, :2]
-            canvas.lines(start + vector * k / n, start + vector * (k + 1) / n, TOUCHED, width_px=5.0)
+        env.draw_task(canvas)
         true_path, dead_reckoned, bumps = (np.array(p, dtype=np.float64).reshape(-1, 2) for p in env._paths)
         if len(dead_reckoned) > 1:
             canvas.polyline(dead_reckoned, DEAD_RECKONED_PATH, width_px=1.5)
