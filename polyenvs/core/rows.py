@@ -340,7 +340,8 @@ class RowsVectorEnv(VectorEnv):
         terminated &= ~restart
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
-            truncated = (core._row_steps() >= self.max_episode_steps) & ~terminated & ~restart
+            # As Gymnasium's TimeLimit: the last allowed step is truncated even if it also terminates.
+            truncated = (core._row_steps() >= self.max_episode_steps) & ~restart
         done = terminated | truncated
         if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
             self._needs_reset = done
