@@ -1,0 +1,262 @@
+"""The paper's bump-space filter (Dye, Part 3) as compiled kernels over particle arrays: what the estimator
+:class:`polyenvs.bumper.localizers.BumpSpaceMCL` and the localization task (:mod:`polyenvs.bumper.localize`) both
+run, one copy of the paper's algorithm on the family's floor.
+
+Seed particles ``(x, y, heading)`` over the map; for each cycle move every particle by the logged odometry plus
+normally distributed heading, forward and lateral error; discard the particles that are not in the *bump space*
+(the band just inside the walls where the bumper touches a wall while the cart faces it, with a tolerance: the
+paper's ``pointinside`` on the left, middle and right of the bumper); refill to the particle count by duplicating
+the survivors evenly; repeat. The estimate is the densest cluster. No weights, no resampling noise: every random
+number is motion noise. One update (three stages, the bump-space test, the refill and the estimate) is one compiled
+call over the particle array (:func:`update_rows`: over a batch of them).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from polyenvs.bumper.maps import free_at
+from polyenvs.bumper.odometry import odometry_step
+from polyenvs.core.jit import njit
+from polyenvs.core.validation import check_in_range, check_int
+
+__all__ = ["BumpSpaceFilter", "densest_cluster", "log_index", "mcl_update", "update_rows"]
+
+#: Heading bins of the densest-cluster estimate.
+_HEADING_BINS = 8
+
+
+def log_index(context) -> tuple[np.ndarray, int]:
+    """Where a cycle's log holds the ``(3, 2)`` stage ticks (turn, drive, back-up; left, right) and the bump bit."""
+    s = context.observation_structure
+    stages = [np.arange(*s[name]) for name in ("turn_ticks", "drive_ticks", "backup_ticks")]
+    return np.stack(stages), s["bump"][0]
+
+
+# Packed filter parameters.
+_TICK, _BASE, _FRONT, _HALF, _TOL, _H0, _H1, _F0, _F1, _L0, _L1, _CELL, _GX, _GY, _NX, _NY = range(16)
+
+
+@njit(cache=True)
+def _move_particles(particles, n, a, b, noise, stage, params):
+    base = params[_BASE]
+    theta = (b - a) / base
+    nx, ny, nh = odometry_step(0.0, 0.0, 0.0, a, b, base)
+    dist = math.hypot(nx, ny)
+    ch, sh = math.cos(0.5 * nh), math.sin(0.5 * nh)
+    for i in range(n):
+        x, y, h = particles[i, 0], particles[i, 1], particles[i, 2]
+        forward = noise[i, stage, 0] * (params[_F0] + params[_F1] * dist)
+        lateral = noise[i, stage, 1] * (params[_L0] + params[_L1] * dist)
+        heading = noise[i, stage, 2] * (params[_H0] + params[_H1] * abs(theta))
+        c, s = math.cos(h), math.sin(h)
+        # Forward error along the chord, lateral across it.
+        gx, gy = nx + forward * ch - lateral * sh, ny + forward * sh + lateral * ch
+        particles[i, 0] = x + gx * c - gy * s
+        particles[i, 1] = y + gx * s + gy * c
+        particles[i, 2] = (h + nh + heading + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def _signed_clearance(x, y, walls):
+    best = math.inf
+    for k in range(walls.shape[0]):
+        along = ((x - walls[k, 0]) * walls[k, 2] + (y - walls[k, 1]) * walls[k, 3]) * walls[k, 4]
+        along = min(max(along, 0.0), 1.0)
+        dx, dy = x - walls[k, 0] - along * walls[k, 2], y - walls[k, 1] - along * walls[k, 3]
+        best = min(best, dx * dx + dy * dy)
+    d = math.sqrt(best)
+    return d if free_at(x, y, walls) else -d
+
+
+@njit(cache=True)
+def _in_bump_space(x, y, h, bump, walls, params):
+    """The paper's test on the bumper's left, middle and right points: with a bump, one of them within the
+    tolerance of a wall and none deeper than it in the wall; without, none in a wall. The axle must be free."""
+    if not free_at(x, y, walls):
+        return False
+    c, s = math.cos(h), math.sin(h)
+    front, half, tol = params[_FRONT], params[_HALF], params[_TOL]
+    nearest = math.inf
+    for j in range(3):
+        ly = (j - 1) * half
+        d = _signed_clearance(x + front * c - ly * s, y + front * s + ly * c, walls)
+        if d < -tol:
+            return False
+        nearest = min(nearest, d)
+    return nearest <= tol if bump else True
+
+
+@njit(cache=True)
+def densest_cluster(particles, n, params, counts, out):
+    """Bin the particles in (x, y, heading) cells, take the cell with the most particles in it and its 26
+    neighbours, and average the particles there (heading as a circular mean) into ``out``; returns how many
+    particles that cluster holds."""
+    cell, gx, gy = params[_CELL], params[_GX], params[_GY]
+    nx, ny = int(params[_NX]), int(params[_NY])
+    counts[:] = 0
+    bins = np.empty((n, 3), dtype=np.int64)
+    for i in range(n):
+        ix = min(max(int((particles[i, 0] - gx) / cell), 0), nx - 1)
+        iy = min(max(int((particles[i, 1] - gy) / cell), 0), ny - 1)
+        ih = int((particles[i, 2] + math.pi) / (2.0 * math.pi) * _HEADING_BINS) % _HEADING_BINS
+        bins[i, 0], bins[i, 1], bins[i, 2] = ix, iy, ih
+        counts[ix, iy, ih] += 1
+    best, bx, by, bh = -1, 0, 0, 0
+    for ix in range(nx):
+        for iy in range(ny):
+            for ih in range(_HEADING_BINS):
+                if counts[ix, iy, ih] == 0:
+                    continue
+                total = 0
+                for dx in range(-1, 2):
+                    for dy in range(-1, 2):
+                        if 0 <= ix + dx < nx and 0 <= iy + dy < ny:
+                            for dh in range(-1, 2):
+                                total += counts[ix + dx, iy + dy, (ih + dh) % _HEADING_BINS]
+                if total > best:
+                    best, bx, by, bh = total, ix, iy, ih
+    sx = sy = sc = ss = 0.0
+    m = 0
+    for i in range(n):
+        dh = (bins[i, 2] - bh) % _HEADING_BINS
+        if abs(bins[i, 0] - bx) <= 1 and abs(bins[i, 1] - by) <= 1 and (dh <= 1 or dh == _HEADING_BINS - 1):
+            sx += particles[i, 0]
+            sy += particles[i, 1]
+            sc += math.cos(particles[i, 2])
+            ss += math.sin(particles[i, 2])
+            m += 1
+    out[0], out[1], out[2] = sx / m, sy / m, math.atan2(ss, sc)
+    return m
+
+
+@njit(cache=True)
+def mcl_update(cloud, log, noise, model, out):
+    """One cycle: move by the turn and the drive, keep the bump-space particles, refill, estimate (into ``out``),
+    move by the back-up. ``out`` gets (x, y, heading) and, if it has room, the estimate cluster's particle count.
+    ``cloud = (particles, spare, counts)``: the particles, room for the survivors and the
+    estimate's bins; ``log = (ticks, bump)``: the cycle's ``(3, 2)`` stage ticks and bump bit; ``model = (params,
+    walls)``. Returns the number of survivors (0: the set emptied and was left as it was, unestimated)."""
+    particles, spare, counts = cloud
+    ticks, bump = log
+    params, walls = model
+    n = particles.shape[0]
+    tick = params[_TICK]
+    for stage in range(2):
+        _move_particles(particles, n, ticks[stage, 0] * tick, ticks[stage, 1] * tick, noise, stage, params)
+    kept = 0
+    for i in range(n):
+        if _in_bump_space(particles[i, 0], particles[i, 1], particles[i, 2], bump, walls, params):
+            spare[kept, :] = particles[i, :]
+            kept += 1
+    if kept == 0:
+        return 0
+    for i in range(n):  # duplicate the survivors evenly
+        particles[i, :] = spare[i % kept, :]
+    in_cluster = densest_cluster(particles, n, params, counts, out)
+    if out.shape[0] > 3:  # room for the cluster's particle count (the localization task observes it)
+        out[3] = in_cluster
+    _move_particles(particles, n, ticks[2, 0] * tick, ticks[2, 1] * tick, noise, 2, params)
+    return kept
+
+
+@njit(cache=True)
+def update_rows(actions, clouds, logs, model, estimates):
+    """:func:`mcl_update` for every row ``b`` with ``actions[b, 1] >= 0.5`` (a batch of localizers, one per cart,
+    sharing the model): ``clouds = (particles, noise, spare, counts)`` with ``particles (B, n, 3)``, ``noise (B, n,
+    3, 3)`` (each row's draws for this cycle) and one scratch ``spare`` and ``counts``; ``logs (B, >= 7)`` the
+    cycles' logs (ticks then bump, as ``log_index`` says: ``logs[b, ticks]`` reshaped ``(3, 2)``); ``estimates (B,
+    5)`` receives each updated row's estimate (x, y, heading), its cluster's particle count and its survivors."""
+    particles, noise, spare, counts = clouds
+    params, walls, ticks_at, bump_at = model
+    ticks = np.empty((3, 2))
+    for b in range(actions.shape[0]):
+        if actions[b, 1] < 0.5:
+            continue
+        for k in range(6):
+            ticks[k // 2, k % 2] = logs[b, ticks_at[k]]
+        kept = mcl_update((particles[b], spare, counts), (ticks, logs[b, bump_at] > 0.5), noise[b], (params, walls),
+                           estimates[b])  # fmt: skip
+        estimates[b, 4] = kept
+
+
+class BumpSpaceFilter:
+    """The filter's settings and packed model, and the particles' seeding (the estimator and the task build on it).
+
+    Args:
+        particles: particle count, in [10, 100000]; the paper found 700 or more necessary.
+        heading_sd_deg, heading_sd_frac: heading error per stage, ``sd = heading_sd_deg + heading_sd_frac x
+            |turn|`` (default 2° + 5%, from the feasibility study).
+        forward_sd_cm, forward_sd_frac: forward error per stage, ``sd = forward_sd_cm + forward_sd_frac x
+            distance`` (default 0.6 cm + 6%).
+        lateral_sd_cm, lateral_sd_frac: lateral error per stage, the same form (default 0.6 cm + 6%).
+        tolerance_cm: bump-space tolerance, the paper's ``pointinside`` tolerance (default 1.5 cm; 0.5 cm
+            empties the set far more often, a loose one blurs the map into symmetry).
+        bumper_width_cm, bumper_offset_cm: the bumper the test uses (default: the context's nominal cart).
+        cluster_cm: the densest-cluster estimate's cell (default 10 cm; heading cells are 45°).
+
+    Every argument after ``particles`` is keyword-only.
+    """
+
+    def __init__(
+        self,
+        particles: int = 1000,
+        *,
+        heading_sd_deg: float = 2.0,
+        heading_sd_frac: float = 0.05,
+        forward_sd_cm: float = 0.6,
+        forward_sd_frac: float = 0.06,
+        lateral_sd_cm: float = 0.6,
+        lateral_sd_frac: float = 0.06,
+        tolerance_cm: float = 1.5,
+        bumper_width_cm: float | None = None,
+        bumper_offset_cm: float | None = None,
+        cluster_cm: float = 10.0,
+    ):
+        self.n = check_int("particles", particles, 10, 100_000)
+        self.heading = (check_in_range("heading_sd_deg", heading_sd_deg, 0.0, 90.0),
+                        check_in_range("heading_sd_frac", heading_sd_frac, 0.0, 1.0))  # fmt: skip
+        self.forward = (check_in_range("forward_sd_cm", forward_sd_cm, 0.0, 50.0),
+                        check_in_range("forward_sd_frac", forward_sd_frac, 0.0, 1.0))  # fmt: skip
+        self.lateral = (check_in_range("lateral_sd_cm", lateral_sd_cm, 0.0, 50.0),
+                        check_in_range("lateral_sd_frac", lateral_sd_frac, 0.0, 1.0))  # fmt: skip
+        self.tolerance_cm = check_in_range("tolerance_cm", tolerance_cm, 0.0, 50.0)
+        self.bumper_width_cm = (
+            None if bumper_width_cm is None else check_in_range("bumper_width_cm", bumper_width_cm, 1.0, 50.0)
+        )
+        self.bumper_offset_cm = (
+            None if bumper_offset_cm is None else check_in_range("bumper_offset_cm", bumper_offset_cm, 0.0, 50.0)
+        )
+        self.cluster_cm = check_in_range("cluster_cm", cluster_cm, 1.0, 100.0)
+
+    def configure(self, context) -> None:
+        """Pack the filter's parameters for ``context`` (the map and the cart's nominal geometry): ``params``,
+        ``walls``, the estimate's bins ``counts`` and where a log holds the ticks and the bump bit."""
+        self.context = context
+        world = context.world
+        x0, y0, x1, y1 = world.bounds
+        nx, ny = max(1, math.ceil((x1 - x0) / self.cluster_cm)), max(1, math.ceil((y1 - y0) / self.cluster_cm))
+        width = context.bumper_width_cm if self.bumper_width_cm is None else self.bumper_width_cm
+        offset = context.bumper_offset_cm if self.bumper_offset_cm is None else self.bumper_offset_cm
+        self._tick_index, self._bump_index = log_index(context)
+        self.params = np.array([
+            context.tick_cm, context.wheel_base_cm, offset, width / 2, self.tolerance_cm,
+            math.radians(self.heading[0]), self.heading[1], *self.forward, *self.lateral, self.cluster_cm, x0, y0,
+            nx, ny,
+        ])  # fmt: skip
+        self.walls = world.walls
+        self.counts = np.zeros((nx, ny, _HEADING_BINS), dtype=np.int64)
+
+    def seed_particles(self, rng: np.random.Generator) -> np.ndarray:
+        """``(n, 3)`` particles uniform over the free space (the axle at least half the bumper's width from every
+        wall), drawn on ``rng`` (after :meth:`configure`)."""
+        world = self.context.world
+        x0, y0, x1, y1 = world.bounds
+        margin = self.params[_HALF]
+        out = np.empty((0, 3))
+        while len(out) < self.n:
+            batch = rng.random((2 * self.n, 3)) * [x1 - x0, y1 - y0, 2 * np.pi] + [x0, y0, -np.pi]
+            out = np.concatenate([out, batch[world.clearance(batch[:, :2]) >= margin]])
+        return np.ascontiguousarray(out[: self.n])
