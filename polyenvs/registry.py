@@ -208,6 +208,22 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         ),
     ),
     EnvEntry(
+        id="polyenvs/BumperCartLocalize-v0",
+        entry_point="polyenvs.bumper.localize:BumperCartLocalizeEnv",
+        vector_entry_point="polyenvs.bumper.vector:BumperCartLocalizeVectorEnv",
+        max_episode_steps=60,
+        family="bumper",
+        description="The bump-only cart localizes itself in a known map: the paper's bump-space Monte Carlo "
+        "localizer runs on its logs, the episode ends when the estimate holds within 10 cm and 30 degrees",
+        baselines=(
+            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
+            Baseline("greedy_split", "baselines.bumper:GreedySplit"),
+        ),
+        paper="random_bounce",
+        # Score (helper "board"'s field, wired at merge): cycles_to_localize, min, tie-break distance_cm, min;
+        # upper_anchor="greedy_split" (random and the paper's random bounce coincide on the cart).
+    ),
+    EnvEntry(
         id="polyenvs/APLiteCorridor-v0",
         entry_point="polyenvs.swarm.single:APLiteCorridorEnv",
         vector_entry_point="polyenvs.swarm.vector:APLiteCorridorVectorEnv",

@@ -15,7 +15,7 @@ from polyenvs.bumper import cart as C
 from polyenvs.core.raster import Canvas
 from polyenvs.core.window import FrameRenderer
 
-__all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_touched_cells"]
+__all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_belief", "draw_touched_cells"]
 
 FRAME_WIDTH_PX = 480
 WALL = (30, 30, 30)
@@ -25,6 +25,10 @@ DEAD_RECKONED_PATH = (60, 90, 220)
 BUMP = (230, 120, 0)
 BODY = (250, 190, 60)
 BUMPER = (120, 60, 0)
+PARTICLE = (150, 150, 150)
+ESTIMATE = (60, 90, 220)
+#: At most this many particles are drawn (evenly strided): more only darken the frame.
+PARTICLES_DRAWN = 600
 
 
 def body_outline(pose, model) -> np.ndarray:
@@ -48,6 +52,16 @@ def draw_touched_cells(canvas: Canvas, env) -> None:
         n = env._cell_count[owner][:, None]
         start, vector = seg[owner, :2], seg[owner, 2:] - seg[owner, :2]
         canvas.lines(start + vector * k / n, start + vector * (k + 1) / n, TOUCHED, width_px=5.0)
+
+
+def draw_belief(canvas: Canvas, particles: np.ndarray, estimate) -> None:
+    """Row 0's particles (grey) and the localizer's estimate with its heading (blue): the localization task's layer."""
+    stride = max(1, len(particles) // PARTICLES_DRAWN)
+    canvas.points(particles[::stride, :2], PARTICLE, radius_px=1.5)
+    x, y, h = estimate
+    tip = np.array([[x + 8.0 * math.cos(h), y + 8.0 * math.sin(h)]])
+    canvas.lines(np.array([[x, y]]), tip, ESTIMATE, width_px=2.0)
+    canvas.points(np.array([[x, y]]), ESTIMATE, radius_px=4.0)
 
 
 class BumperRenderer(FrameRenderer):

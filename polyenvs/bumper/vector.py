@@ -1,4 +1,4 @@
-"""Native vector environment: many bumper carts in one process, cycled by the single env's own compiled kernel.
+"""Native vector environments: many bumper carts in one process, cycled by the single env's own compiled kernels.
 
 ``gym.make_vec("polyenvs/BumperCartExplore-v0", num_envs=1024)`` builds one: :class:`BumperCartExploreEnv`
 constructed with 1024 rows behind the shared :class:`polyenvs.core.rows.RowsVectorEnv`, which gives what
@@ -8,12 +8,19 @@ constructed with 1024 rows behind the shared :class:`polyenvs.core.rows.RowsVect
 from __future__ import annotations
 
 from polyenvs.bumper.env import BumperCartExploreEnv
+from polyenvs.bumper.localize import BumperCartLocalizeEnv
 from polyenvs.core.rows import RowsVectorEnv
 
-__all__ = ["BumperCartExploreVectorEnv"]
+__all__ = ["BumperCartExploreVectorEnv", "BumperCartLocalizeVectorEnv"]
 
 
 class BumperCartExploreVectorEnv(RowsVectorEnv):
     """Vector form of :class:`~polyenvs.bumper.env.BumperCartExploreEnv` (same arguments and reset options)."""
 
     env_class = BumperCartExploreEnv
+
+
+class BumperCartLocalizeVectorEnv(RowsVectorEnv):
+    """Vector form of :class:`~polyenvs.bumper.localize.BumperCartLocalizeEnv` (same arguments and reset options)."""
+
+    env_class = BumperCartLocalizeEnv
