@@ -208,6 +208,22 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         ),
     ),
     EnvEntry(
+        id="polyenvs/BumperCartExplore-v1",
+        entry_point="polyenvs.bumper.explore_v1:BumperCartExploreV1Env",
+        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV1VectorEnv",
+        max_episode_steps=50,
+        family="bumper",
+        description="The bump-only cart touches as much wall as it can in a budget of 50 cycles; coverage is the "
+        "wall fraction touched over the most 50 cycles can touch",
+        baselines=(
+            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
+            Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
+        ),
+        paper="random_bounce",
+        # Score (helper "board"'s field, wired at merge): coverage, max, ceiling 1, tie-break bumps;
+        # upper_anchor="fixed_turn" (random and the paper's random bounce coincide on the cart).
+    ),
+    EnvEntry(
         id="polyenvs/BumperCartLocalize-v0",
         entry_point="polyenvs.bumper.localize:BumperCartLocalizeEnv",
         vector_entry_point="polyenvs.bumper.vector:BumperCartLocalizeVectorEnv",

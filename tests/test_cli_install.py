@@ -75,7 +75,7 @@ def test_train_from_any_directory_reads_the_shipped_config(installed, tmp_path):
 
 def test_the_installed_leaderboard_says_it_found_no_agents_and_why(installed, tmp_path):
     """It silently evaluated no trained agent."""
-    done = _run(installed, tmp_path, "-m", "polyenvs.cli", "leaderboard", "--only", "BumperCartExplore",
+    done = _run(installed, tmp_path, "-m", "polyenvs.cli", "leaderboard", "--only", "BumperCartExplore-v0",
                 "--episodes", "1")  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert (

@@ -357,7 +357,7 @@ def test_the_leaderboard_says_where_it_found_the_agents_from_any_directory(tmp_p
     monkeypatch.chdir(tmp_path)
     seeds = sorted((ROOT / "benchmarks" / "agents" / "polyenvs__BumperCartExplore-v0" / "ppo").iterdir())
     code, out, err = run_main(
-        ["leaderboard", "--only", "BumperCartExplore", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
+        ["leaderboard", "--only", "BumperCartExplore-v0", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
          "--output", str(tmp_path / "L.md")],
         capsys,
     )  # fmt: skip
@@ -371,7 +371,7 @@ def test_the_leaderboard_says_why_it_found_no_agents(tmp_path, monkeypatch, caps
     monkeypatch.chdir(tmp_path)
     empty = tmp_path / "agents"
     empty.mkdir()
-    argv = ["leaderboard", "--only", "BumperCartExplore", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
+    argv = ["leaderboard", "--only", "BumperCartExplore-v0", "--episodes", "1", "--results-dir", str(tmp_path / "r"),
             "--output", str(tmp_path / "L.md")]  # fmt: skip
     code, out, err = run_main([*argv, "--agents-dir", str(empty)], capsys)
     assert code == 0, err

@@ -7,7 +7,11 @@ Paper: Ken Dye, "Mapping with only a bumper" (``../shared/seeds/001_*.txt``).
 | ``odometry`` | the paper's arc odometry from left and right wheel travels, derived in its docstring |
 | ``maps`` | polygonal maps: the paper's arena, mazes, user polygons |
 | ``cart`` | the batched, closed-form cycle simulator (turn, drive to the bump, back up) |
-| ``env``, ``vector`` | ``polyenvs/BumperCartExplore-v0`` and its native vector env |
+| ``env`` | the family base (:class:`~polyenvs.bumper.env.BumperCartEnv`: cycle, log, resets) and ``polyenvs/BumperCartExplore-v0`` |
+| ``explore_v1`` | ``polyenvs/BumperCartExplore-v1``: a budget of cycles, coverage against its upper bound |
+| ``localize`` | ``polyenvs/BumperCartLocalize-v0``: active localization with the paper's filter inside the environment |
+| ``vector`` | their native vector envs |
+| ``bump_space`` | the paper's bump-space filter as compiled kernels (the estimator and the localization task run it) |
 | ``localizers`` | dead reckoning and the paper's bump-space Monte Carlo localizer (estimators for ``polyenvs localize``) |
 | ``rendering`` | top-down frames |
 """

@@ -53,8 +53,8 @@ _M_ODOMETRY, _M_SLIPS = OUT.metric_columns("odometry_error_cm", "large_slips")
 _REWARD = OUT.reward
 #: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
 TRAIL_POINTS = 3000
-# Columns of Explore's per-row task state: touched wall fraction, bumps, large slips.
-_TOUCHED, _BUMPS, _SLIPS = range(3)
+#: Columns of Explore's per-row task state (what :func:`touch_row` counts): touched wall fraction, bumps, large slips.
+TOUCHED, BUMPS, SLIPS = range(3)
 
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
@@ -136,9 +136,9 @@ def touch_row(b, row, touch) -> float:
         if touched[b, cell] == 0:
             touched[b, cell] = 1
             fresh = cell_share[cell]
-        task[b, _BUMPS] += 1.0
-    task[b, _TOUCHED] += fresh
-    task[b, _SLIPS] += row[C.BIG_SLIP]
+        task[b, BUMPS] += 1.0
+    task[b, TOUCHED] += fresh
+    task[b, SLIPS] += row[C.BIG_SLIP]
     return fresh
 
 
@@ -152,10 +152,10 @@ def _touch_kernel(actions, kernel):
         row = state[b]
         fresh = touch_row(b, row, kernel.task)
         out[b, _R_TOUCH] = 100.0 * fresh
-        out[b, _M_TOUCHED] = task[b, _TOUCHED]
-        out[b, _M_BUMPS] = task[b, _BUMPS]
+        out[b, _M_TOUCHED] = task[b, TOUCHED]
+        out[b, _M_BUMPS] = task[b, BUMPS]
         out[b, _M_ODOMETRY] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
-        out[b, _M_SLIPS] = task[b, _SLIPS]
+        out[b, _M_SLIPS] = task[b, SLIPS]
         out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
 
 
