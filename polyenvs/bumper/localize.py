@@ -21,6 +21,7 @@ from polyenvs.bumper import cart as C
 from polyenvs.bumper.bump_space import BumpSpaceFilter, densest_cluster, log_index, update_rows
 from polyenvs.bumper.cart import CartModel
 from polyenvs.bumper.env import LOG_SIZE, OBSERVATION_STRUCTURE, BumperCartEnv
+from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
 from polyenvs.core.parameters import argument_rows, check_parameters, documents_arguments, parameter
@@ -77,7 +78,7 @@ class LocalizeParams:
         100,
         20000,
         "particles",
-        "paper: 'only good for 700 or more'; ours 3000: the feasibility study's reliable filter (see Episode End)",
+        "paper: 'only good for 700 or more'; ours 3000: the feasibility study's reliable filter (see Description)",
     )
     position_tolerance_cm: float = parameter(
         10.0, 1.0, 100.0, "cm", "issue 16 and `polyenvs localize`'s convergence: within 10 cm of the true pose"
@@ -282,7 +283,7 @@ class BumperCartLocalizeEnv(BumperCartEnv):
         x0, y0, x1, y1 = self.world.bounds
         self._task_params = np.array([
             self.task.position_tolerance_cm, math.radians(self.task.heading_tolerance_deg), self.task.hold_cycles,
-            x0, y0, x1 - x0, y1 - y0, math.hypot(x1 - x0, y1 - y0), n, self.localizer.params[0],
+            x0, y0, x1 - x0, y1 - y0, math.hypot(x1 - x0, y1 - y0), n, TICK_CM,
         ])  # fmt: skip
         self._state = np.zeros((rows, 6))
         self._estimates = np.zeros((rows, 5))
