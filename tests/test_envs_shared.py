@@ -16,7 +16,8 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 
 import polyenvs
-from polyenvs.registry import REGISTRY
+from polyenvs.core.rows import RowsEnv
+from polyenvs.registry import REGISTRY, import_attribute
 from tests.vector_helpers import assert_native_matches_sync
 
 ENV_IDS = polyenvs.ENV_IDS
@@ -302,6 +303,27 @@ def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
     for _ in range(5):
         action = envs.action_space.sample()
         assert np.array_equal(envs.step(action)[0], twin.step(action)[0])
+
+
+def _env_class(env_id: str) -> type:
+    return import_attribute(gym.spec(env_id).entry_point)
+
+
+ROWS_IDS = [env_id for env_id in ENV_IDS if issubclass(_env_class(env_id), RowsEnv)]
+
+
+@pytest.mark.parametrize("env_id", ROWS_IDS)
+def test_rows_envs_check_num_rows_and_leave_many_rows_to_the_vector_env(env_id):
+    """The rows protocol's ``num_rows``: checked by name; an instance of many rows is a vector env's core, and its
+    own Gymnasium ``reset`` refuses to run one row of it."""
+    cls = _env_class(env_id)
+    for bad in (0, 1.5, True, 10**7):
+        with pytest.raises(ValueError, match="num_rows"):
+            cls(num_rows=bad)
+    core = cls(num_rows=3)
+    assert core._observations.shape[0] == 3
+    with pytest.raises(TypeError, match="RowsVectorEnv"):
+        core.reset(seed=0)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

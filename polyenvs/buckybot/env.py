@@ -200,7 +200,9 @@ class BuckybotEnv(RowsEnv):
         heading_sd_deg: float = BuckybotParams.heading_sd_deg,
         body_radius_cm: float = BuckybotParams.body_radius_cm,
         render_mode: str | None = None,
+        num_rows: int = 1,
     ):
+        self._use_rows(num_rows)
         p = BuckybotParams(
             noise_scale, range_noise_scale, step_forward_cm, step_forward_sd_cm, step_lateral_cm, step_lateral_sd_cm,
             heading_change_deg, heading_sd_deg, body_radius_cm,

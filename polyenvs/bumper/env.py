@@ -183,6 +183,7 @@ class BumperCartExploreEnv(RowsEnv):
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
@@ -197,7 +198,8 @@ class BumperCartExploreEnv(RowsEnv):
     metric_names = METRICS
     out_columns = OUT
 
-    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, num_rows: int = 1, **cart):
+        self._use_rows(num_rows)
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
         if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
             raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")

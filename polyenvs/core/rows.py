@@ -3,7 +3,13 @@ batch of many, so a family's equations exist once, in compiled kernels over pack
 
 :class:`RowsEnv` is the single-agent Gymnasium surface; :class:`RowsVectorEnv` builds the same class with
 ``num_envs`` rows behind Gymnasium's ``VectorEnv`` API. A family subclasses :class:`RowsEnv` (Buckybot:
-:class:`polyenvs.buckybot.env.BuckybotEnv`) and provides
+:class:`polyenvs.buckybot.env.BuckybotEnv`; the cart: :class:`polyenvs.bumper.env.BumperCartExploreEnv`) and provides
+what follows. The hooks are underscore names, as Gymnasium's ``MujocoEnv`` hooks (``_get_obs``) are: they are the
+protocol between a family and this base, documented here, not calls for users.
+
+- a keyword-only constructor argument ``num_rows: int = 1``, passed first to :meth:`RowsEnv._use_rows`: the rows
+  the instance simulates; ``gym.make`` builds one, :class:`RowsVectorEnv` builds ``num_envs`` (``cls(num_rows=n,
+  **kwargs)``, the same validation, spaces and kernels as the single env);
 
 - ``out_columns``: the named columns (:class:`polyenvs.core.columns.OutColumns`) of the ``_out`` table its kernels
   write, reward terms, metrics, reward and terminated, from the task's declared names (``reward_names`` and
@@ -60,6 +66,9 @@ __all__ = [
     "vector_convention",
 ]
 
+#: The most rows one instance simulates (a vector env's ``num_envs`` has the same bound).
+MAX_ROWS = 1_000_000
+
 #: The action a row gets in the step that restarted it (next-step autoreset): it neither moves nor scores.
 NO_ACTION = -1
 
@@ -79,7 +88,7 @@ def check_autoreset_mode(value) -> AutoresetMode:
 def check_vector_arguments(num_envs, max_episode_steps, autoreset_mode) -> tuple[int, int | None, AutoresetMode]:
     """The arguments every native vector env takes, checked: ``num_envs`` in [1, 1e6], ``max_episode_steps``
     None or >= 1, ``autoreset_mode`` (:func:`check_autoreset_mode`)."""
-    num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+    num_envs = check_int("num_envs", num_envs, 1, MAX_ROWS)
     if max_episode_steps is not None:
         max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
     return num_envs, max_episode_steps, check_autoreset_mode(autoreset_mode)
@@ -98,12 +107,17 @@ class RowsEnv(gym.Env):
     metric_names: tuple[str, ...] = ()
     #: The columns of the ``_out`` table the kernels write, made from those names by the task's module.
     out_columns: OutColumns = OutColumns((), ())
-    #: Rows this instance simulates: 1 for ``gym.make``; :class:`RowsVectorEnv` builds the class with more.
+    #: Rows this instance simulates (its ``num_rows``): 1 for ``gym.make``; :class:`RowsVectorEnv` builds more.
     _batch_size = 1
 
     @property
     def all_metric_names(self) -> tuple[str, ...]:
         return self.metric_names
+
+    def _use_rows(self, num_rows) -> None:
+        """Simulate ``num_rows`` rows (checked: an integer in [1, 1,000,000]); a family's constructor calls this
+        before it allocates anything."""
+        self._batch_size = check_int("num_rows", num_rows, 1, MAX_ROWS)
 
     def _allocate_rows(self, action_dtype=np.int64, action_shape: tuple[int, ...] = ()) -> None:
         """The arrays the kernels write: observation rows and ``_out`` (the columns of ``out_columns``: reward
@@ -183,6 +197,8 @@ class RowsEnv(gym.Env):
 
     # --- Gymnasium API ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        if self._batch_size != 1:
+            raise TypeError(f"an env of num_rows={self._batch_size} is driven by a RowsVectorEnv, not reset() itself")
         options = self._check_options(options)
         if seed is not None:
             rng, used_seed = seeding.np_random(seed)
@@ -257,10 +273,8 @@ class RowsVectorEnv(VectorEnv):
         )
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
-        # The class built with num_envs rows: the same validation, spaces and kernels as the single env.
-        core = self.env_class.__new__(self.env_class)
-        core._batch_size = num_envs
-        core.__init__(render_mode=render_mode, **kwargs)
+        # The class itself with num_envs rows: the same validation, spaces and kernels as the single env.
+        core = self.env_class(num_rows=num_envs, render_mode=render_mode, **kwargs)
         self._core = core
         self.metadata = {
             **self.metadata,
