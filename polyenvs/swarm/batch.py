@@ -314,9 +314,9 @@ class SwarmBatch:
         wheels = command * self.full_speed_mps * noise
         before = self.pose.copy()
         grid = self._grid_arrays
-        core.build_grid(self.pose, live, *grid)
-        core.move(self.pose, live, wheels, self.move_params, self.walls, self.circles, *grid, self._proposal,
-                  self._blocked)  # fmt: skip
+        core.build_grid(self.pose, live, grid)
+        core.move(self.pose, live, wheels, self.move_params, (self.walls, self.circles), grid,
+                  (self._proposal, self._blocked))  # fmt: skip
         np.add(self.cycles, self._one_step if stepping is None else stepping, out=self.cycles)
         self.powers[:] = command
         self._observe(live, todo, normals[:, 2:], floor)
@@ -328,9 +328,9 @@ class SwarmBatch:
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""
         grid = self._grid_arrays
-        core.build_grid(self.pose, live, *grid)
-        core.sense(self.pose, live, todo, self.sense_params, self.angles, self.walls, self.circles, *grid,
-                   self.beams, self.nb_index, self.nb_range, self.clearance)  # fmt: skip
+        core.build_grid(self.pose, live, grid)
+        core.sense(self.pose, live, todo, self.sense_params, self.angles, (self.walls, self.circles), grid,
+                   (self.beams, self.nb_index, self.nb_range, self.clearance))  # fmt: skip
         ir.write_observations(self.pose, live, todo, self.beams, self.nb_index, self.nb_range, self.goals,
                               self.n_robots, self.powers, normals, floor, self.observe_params,
                               self.observations)  # fmt: skip
