@@ -71,17 +71,22 @@ N_TRACK = 8
 
 
 @njit(cache=True)
-def account(pose, before, active, blocked, clearance, goals, per, cycles, params, track, rewards, terminated):
+def account(pose, before, active, sensed, episode, params, out):
     """Score one step for every active robot: the family's reward terms (columns ``PROGRESS``, ``COLLISION``,
     ``ARRIVAL``), arrival and termination, and the running episode metrics in ``track`` (turn, still steps, contact
-    events, time, smallest clearance). A compiled-kernel boundary: its arrays are positional, as numba takes them.
+    events, time, smallest clearance).
 
     Args:
         before: ``(N, 3)`` poses before the step.
-        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment; ``cycles``: ``(E,)`` steps
-            so far in each environment's episode.
+        sensed: ``(blocked, clearance)`` from :func:`polyenvs.swarm.core.move` and :func:`~polyenvs.swarm.core.sense`.
+        episode: ``(goals, per, cycles)``: ``(E, 2)`` each environment's goal, robots per environment, ``(E,)``
+            steps so far in each environment's episode.
         params: ``[goal_radius_m, dt_s, terminate_on_collision, still_m]``.
+        out: ``(track, rewards, terminated)``, written.
     """
+    blocked, clearance = sensed
+    goals, per, cycles = episode
+    track, rewards, terminated = out
     goal_radius, dt, stop_on_contact, still_m = params[0], params[1], params[2] > 0.5, params[3]
     for i in range(pose.shape[0]):
         terminated[i] = 0
@@ -320,8 +325,8 @@ class SwarmBatch:
         np.add(self.cycles, self._one_step if stepping is None else stepping, out=self.cycles)
         self.powers[:] = command
         self._observe(live, todo, normals[:, 2:], floor)
-        account(self.pose, before, live, self._blocked, self.clearance, self.goals, self.n_robots, self.cycles,
-                self.account_params, self.track, self.rewards, self.terminated)  # fmt: skip
+        account(self.pose, before, live, (self._blocked, self.clearance), (self.goals, self.n_robots, self.cycles),
+                self.account_params, (self.track, self.rewards, self.terminated))  # fmt: skip
         self.terms.score(live, rows, stepping)
         self.active[self.terminated > 0] = 0
 
@@ -331,8 +336,8 @@ class SwarmBatch:
         core.build_grid(self.pose, live, grid)
         core.sense(self.pose, live, todo, self.sense_params, self.angles, (self.walls, self.circles), grid,
                    (self.beams, self.nb_index, self.nb_range, self.clearance))  # fmt: skip
-        ir.write_observations(self.pose, live, todo, self.beams, self.nb_index, self.nb_range, self.goals,
-                              self.n_robots, self.powers, normals, floor, self.observe_params,
+        ir.write_observations((self.pose, live, self.powers), todo, (self.beams, self.nb_index, self.nb_range),
+                              self.goals, self.n_robots, (normals, floor), self.observe_params,
                               self.observations)  # fmt: skip
         self.terms.observe(live, todo, normals, self.observations)
 
