@@ -5,10 +5,12 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from polyenvs.core.validation import check_in_range
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
+from polyenvs.core.parameters import documents_arguments, parameter
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
 from polyenvs.swarm.layouts import box_walls, start_block
 
 __all__ = ["CorridorEnv", "MAX_CYCLES", "N_ROBOTS", "env", "parallel_env", "raw_env"]
@@ -31,6 +33,15 @@ START_JITTER_M = 0.05
 START_HEADING_SD_DEG = 5.0
 
 
+@dataclass(frozen=True)
+class CorridorParams(SwarmParams):
+    """The swarm's parameters, with the corridor's arrival distance: narrower than the light's clearance from the
+    walls."""
+
+    goal_radius_m: float = parameter(0.4, 0.1, 1.0, "m", "ours: a robot this close to the light has arrived")
+
+
+@documents_arguments(CorridorParams)
 class CorridorEnv(SwarmEnv):
     """N X80Pro-like robots drive up a corridor past four obstacles to a light at its far end.
 
@@ -82,14 +93,8 @@ class CorridorEnv(SwarmEnv):
     | ``n_robots`` | 3 | robots (1-1024) |
     | ``platform`` | "x80pro" | "x80pro" or "maxelbot" (body size, IR scale) |
     | ``max_cycles`` | 600 | steps before truncation |
-    | ``control_period_s`` | 0.1 | one control step (0.02-1; the step must stay shorter than the body radius) |
-    | ``full_speed_mps`` | 0.5 | wheel speed at full power (0.05-1; *ours*) |
-    | ``terrain_noise`` | 0.05 | sd of the per-wheel speed factor per step; per-episode drift has half of it (0-0.3) |
-    | ``ir_noise``, ``ir_raw_sd`` | 0.03, 2 | IR distance noise fraction (0-0.2) and raw sd (0-20) |
-    | ``comm_range_m``, ``n_neighbours`` | 3, 6 | trilateration reach (0.5-10 m) and slots (1-32) |
-    | ``range_noise_m``, ``bearing_noise_deg`` | 0.02, 2 | trilateration noise (0-0.2 m, 0-20°) |
-    | ``light_noise_deg`` | 2 | light bearing noise (0-20°) |
-    | ``goal_radius_m`` | 0.4 | arrival distance (0.1-1 m; obstacle field 0.1-1.5, formation 0.1-3) |
+    | ``n_neighbours`` | 6 | trilateration slots (1-32) |
+    {arguments}
     | ``sensor_angles_deg`` | (-60, -15, 15, 60) | virtual sensor angles, increasing (-90..90; *ours*) |
     | ``terminate_on_collision`` | False | a contact ends that robot's episode |
     | ``flat_info`` | False | episode metrics as keys ``episode_<metric>`` of every info, not a nested dict (TorchRL) |
@@ -103,11 +108,11 @@ class CorridorEnv(SwarmEnv):
     default_platform = "x80pro"
     n_obstacles = len(OBSTACLE_Y_M)
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.4, **kwargs):
-        super().__init__(n_robots=n_robots, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+    params_class = CorridorParams
 
-    def _task_init(self) -> None:
-        check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.0)
+    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES,
+                 goal_radius_m: float = CorridorParams.goal_radius_m, **kwargs):  # fmt: skip
+        super().__init__(n_robots=n_robots, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
 
     def _rows(self) -> int:
         return -(-self.n_robots // 3)

@@ -83,14 +83,18 @@ class SwarmParams:
         0.1, 0.02, 1.0, "s", "ours: one control step; it must move a robot less than its radius"
     )
     full_speed_mps: float = parameter(0.5, 0.05, 1.0, "m/s", "ours: wheel speed at full power")
-    terrain_noise: float = parameter(0.05, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step")
+    terrain_noise: float = parameter(
+        0.05, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step; the per-episode drift has half of it"
+    )
     ir_noise: float = parameter(0.03, 0.0, 0.2, "", "ours: relative IR reading noise")
     ir_raw_sd: float = parameter(2.0, 0.0, 20.0, "A/D units", "ours: raw IR reading noise")
     comm_range_m: float = parameter(3.0, 0.5, 10.0, "m", "ours: trilateration reach")
     range_noise_m: float = parameter(0.02, 0.0, 0.2, "m", "ours: trilateration range noise")
     bearing_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: trilateration bearing noise")
     light_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: light-bearing noise")
-    goal_radius_m: float = parameter(0.4, 0.1, 3.0, "m", "ours: a robot this close to the light has arrived")
+    goal_radius_m: float = parameter(
+        0.4, 0.1, 3.0, "m", "ours: a robot this close to the light has arrived (a task may narrow the range)"
+    )
 
     def __post_init__(self):
         check_parameters(self)
@@ -155,6 +159,9 @@ class SwarmEnv(ParallelEnv):
     #: What the task adds to the family's observation, rewards, metrics and info (by name); the family's own
     #: tasks add nothing.
     terms_class: type[TaskTerms] = TaskTerms
+    #: The task's physical and sensing parameters: :class:`SwarmParams`, or a subclass that changes a default or
+    #: narrows a range (declared once there, for the validation, the constructor's default and the docstring).
+    params_class: type[SwarmParams] = SwarmParams
 
     def __init__(
         self,
@@ -181,7 +188,7 @@ class SwarmEnv(ParallelEnv):
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
         self.platform = get_platform(self.default_platform if platform is None else platform)
         self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
-        params = SwarmParams(
+        params = self.params_class(
             control_period_s, full_speed_mps, terrain_noise, ir_noise, ir_raw_sd, comm_range_m, range_noise_m,
             bearing_noise_deg, light_noise_deg, goal_radius_m,
         )  # fmt: skip

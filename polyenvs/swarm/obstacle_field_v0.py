@@ -7,11 +7,13 @@ for eight).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from polyenvs.core.validation import check_in_range, check_int
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
+from polyenvs.core.parameters import documents_arguments, parameter
+from polyenvs.core.validation import check_int
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
 from polyenvs.swarm.layouts import box_walls, random_obstacles, start_block
 
 __all__ = ["MAX_CYCLES", "N_ROBOTS", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
@@ -28,6 +30,17 @@ OBSTACLE_RADIUS_M = (0.15, 0.35)
 GAP_M = 0.6
 
 
+@dataclass(frozen=True)
+class ObstacleFieldParams(SwarmParams):
+    """The swarm's parameters, with the obstacle field's rougher ground and wider arrival distance."""
+
+    terrain_noise: float = parameter(
+        0.1, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step (rough ground: twice the corridor's)"
+    )
+    goal_radius_m: float = parameter(0.5, 0.1, 1.5, "m", "ours: a robot this close to the light has arrived")
+
+
+@documents_arguments(ObstacleFieldParams)
 class ObstacleFieldEnv(SwarmEnv):
     """N Maxelbot-like robots cross an open field with obstacles at seeded random places to a goal light.
 
@@ -65,9 +78,12 @@ class ObstacleFieldEnv(SwarmEnv):
     ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
 
     ## Arguments
-    ``n_robots`` (default 3), ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then
-    every keyword of ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5``
-    (0.1-1.5 m) as defaults.
+    ``n_robots`` (default 3) and ``n_obstacles`` (default 5, 0-200), then every keyword of ``corridor_v0`` with
+    ``platform="maxelbot"`` and ``max_cycles=1000`` as defaults; its physical and sensing parameters:
+
+    | keyword | default | meaning (range) |
+    | --- | --- | --- |
+    {arguments}
 
     ## Version History
     - v0: initial version.
@@ -76,14 +92,14 @@ class ObstacleFieldEnv(SwarmEnv):
     metadata = {**SwarmEnv.metadata, "name": "obstacle_field_v0"}
     default_platform = "maxelbot"
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = 5, terrain_noise: float = 0.1,
-                 max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.5, **kwargs):  # fmt: skip
+    params_class = ObstacleFieldParams
+
+    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = 5,
+                 terrain_noise: float = ObstacleFieldParams.terrain_noise, max_cycles: int = MAX_CYCLES,
+                 goal_radius_m: float = ObstacleFieldParams.goal_radius_m, **kwargs):  # fmt: skip
         self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
         super().__init__(n_robots=n_robots, terrain_noise=terrain_noise, max_cycles=max_cycles,
                          goal_radius_m=goal_radius_m, **kwargs)  # fmt: skip
-
-    def _task_init(self) -> None:
-        check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.5)
 
     def _block(self) -> tuple[int, float]:
         columns = math.ceil(math.sqrt(self.n_robots))
