@@ -190,7 +190,9 @@ class FormationEnv(SwarmEnv):
     Hooke's-law springs between neighbours. AP-lite is a leader-follower scheme: only the leader broadcasts, and
     followers sense range and bearing to the leader and to their neighbours by trilateration. Formation error is
     the mean of ``|r - R| / R`` over the lattice's neighbouring pairs (robots one R apart at the start) still in
-    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study).
+    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study). The
+    ``formation`` baseline springs every robot to all it senses and does not read ``leader``, a deviation from the
+    paper's leader-follower wording whose reason and measurements are in ``baselines.swarm.FormationController``.
 
     ## Action Space
     ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power.
