@@ -60,10 +60,10 @@ def test_a_servo_with_a_dead_band_ignores_commands_within_it_and_trails_beyond_i
     assert not BeastRollV1Env(control="torque")._joints[S.DEADBAND].any()  # a torque motor has no servo
 
 
-def _roll(env, steps, noise_sd, seed=0, rate_deg_s=20.0):
+def _roll(env, steps, noise_sd, seed=0):
     """The rolling gait on ``env`` with Gaussian action noise: (reported foot-switch changes, tumble times, supports
-    as the feet's world positions at each new stance, final metrics)."""
-    policy = RollingGait(env.observation_space, env.action_space, rate_deg_s=rate_deg_s)
+    as the feet's world positions at each new stance, final metrics). The gait at its default joint rate."""
+    policy = RollingGait(env.observation_space, env.action_space)
     rng = np.random.default_rng(1000 + seed)
     obs, _ = env.reset(seed=seed)
     feet = env.unwrapped.observation_structure["foot_contact"]
