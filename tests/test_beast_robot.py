@@ -150,3 +150,35 @@ def test_the_papers_sharp_turn_rolls_about_one_planted_limb(turn_deg, pivot, hea
     assert all(pivot in tumble[:2] for tumble in controller.history)
     assert info["episode_metrics"]["heading_change_deg"] == pytest.approx(heading, abs=5.0)
     assert info["episode_metrics"]["heading_error_deg"] < 15.0
+
+
+def test_v1_rewards_are_the_task_scores():
+    """BeastTumble-v1 pays the success and charges time (v0's progress term paid for shuffling forward); BeastTurn-v1's
+    heading terms sum to heading_reward x (1 - final heading error / 180)."""
+    from polyenvs.beast.tasks import BeastTurnV1Env
+
+    env = BeastTumbleV1Env()
+    assert env.reward_names == ("success", "time", "ctrl")
+    obs, _ = env.reset(seed=0)
+    policy = RollingGait(env.observation_space, env.action_space, max_tumbles=1)
+    totals, state, start, terminated = dict.fromkeys(env.reward_names, 0.0), None, True, False
+    while not terminated:
+        action, state = policy.predict(obs, state=state, episode_start=[start])
+        start = False
+        obs, _, terminated, _, info = env.step(action)
+        for name in totals:
+            totals[name] += info[f"reward_{name}"]
+    assert totals["success"] == 10.0 and totals["time"] == pytest.approx(-0.2 * info["episode_metrics"]["time_s"])
+    env = BeastTurnV1Env()
+    policy = SharpTurn(env.observation_space, env.action_space)
+    obs, _ = env.reset(seed=0)
+    heading, state, start = 0.0, None, True
+    for _ in range(6000):
+        action, state = policy.predict(obs, state=state, episode_start=[start])
+        start = False
+        obs, _, _, _, info = env.step(action)
+        heading += info["reward_heading"]
+        if info["episode_metrics"]["tumbles"] >= 3:
+            break
+    error = info["episode_metrics"]["heading_error_deg"]
+    assert error < 15.0 and heading == pytest.approx(10.0 * (1 - error / 180.0))
