@@ -178,7 +178,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         family="beast",
         extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
-        baselines=(_beast("sharp_turn", "SharpTurn"),),
+        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
         paper="sharp_turn",
     ),
     EnvEntry(
@@ -189,6 +189,50 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         extra="mujoco",
         description="Platonic beast (MuJoCo): thrown in a random orientation, reach a still stance on three or "
         "more feet",
+        baselines=(_beast("righting", "Righting"),),
+        paper="righting",
+    ),
+    # The -v1 beasts: the robot's contact model (servo dead band, debounced foot switches) and rewards that track
+    # the task scores. Scores (for the "score" field): Tumble and Recover success (max, ceiling 1; tie time_s /
+    # time_to_stance_s, min); Roll distance_m (max); Turn heading_error_deg (min, floor 0).
+    EnvEntry(
+        id="polyenvs/BeastTumble-v1",
+        entry_point="polyenvs.beast.tasks:BeastTumbleV1Env",
+        max_episode_steps=3000,
+        family="beast",
+        extra="mujoco",
+        description="BeastTumble with the robot's contact model (servo dead band, debounced foot switches); "
+        "reward = success - time - control cost",
+        baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
+        paper="rolling_gait",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRoll-v1",
+        entry_point="polyenvs.beast.tasks:BeastRollV1Env",
+        max_episode_steps=8000,
+        family="beast",
+        extra="mujoco",
+        description="BeastRoll with the robot's contact model (servo dead band, debounced foot switches)",
+        baselines=(_beast("rolling_gait", "RollingGait"),),
+        paper="rolling_gait",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastTurn-v1",
+        entry_point="polyenvs.beast.tasks:BeastTurnV1Env",
+        max_episode_steps=8000,
+        family="beast",
+        extra="mujoco",
+        description="BeastTurn with the robot's contact model; reward = decrease of the heading error - control cost",
+        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
+        paper="sharp_turn",
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRecover-v1",
+        entry_point="polyenvs.beast.tasks:BeastRecoverV1Env",
+        max_episode_steps=2000,
+        family="beast",
+        extra="mujoco",
+        description="BeastRecover with the robot's contact model; reward = success - time - control cost",
         baselines=(_beast("righting", "Righting"),),
         paper="righting",
     ),

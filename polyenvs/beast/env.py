@@ -37,7 +37,7 @@ from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.parameters import check_parameters, parameter
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
-__all__ = ["BeastEnv", "SensorParams", "TumbleCounter"]
+__all__ = ["BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
 
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
 STANCE_TICKS = 20
@@ -50,18 +50,42 @@ _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 START_DECIMALS = 9
 
 
+#: Why the robot's contact model (the -v1 ids' defaults) has a servo dead band: paper section 2.
+_DEADBAND_SOURCE = (
+    "ours: a servo stops driving within this of its target and the worm drive, which does not backdrive, holds the "
+    "joint (paper section 2: worm gears, backlash far above the encoder's resolution); half the 0.5 deg backlash"
+)
+#: Why it debounces the foot switches (the switches are ours, spec beast.md; the paper has none).
+_DEBOUNCE_SOURCE = (
+    "ours: firmware debounce of a mechanical foot switch, which bounces for milliseconds (Ganssle, A Guide to "
+    "Debouncing, tested 18 switches); 30 ms is 3 readings at the 10 ms tick"
+)
+
+
 @dataclasses.dataclass(frozen=True)
 class SensorParams:
-    """The sensor model's and the reward's parameters (constructor keywords of every beast id)."""
+    """The sensor model's, the servos' and the reward's parameters (constructor keywords of every beast id); the
+    defaults are the -v0 ids', ideal servos and switches (:class:`RobotContactParams` has the robot's)."""
 
     backlash_deg: float = parameter(0.5, 0.0, 5.0, "deg", "ours: encoder dead band")
     tilt_threshold_deg: float = parameter(10.0, 0.0, 45.0, "deg", "ours: tilt-switch threshold below horizontal")
     ctrl_cost_weight: float = parameter(
         0.01, 0.0, 10.0, "", "weight of the control cost, mean squared torque / limit^2"
     )
+    servo_deadband_deg: float = parameter(0.0, 0.0, 5.0, "deg", "v0: an ideal servo; " + _DEADBAND_SOURCE)
+    switch_debounce_ms: float = parameter(0.0, 0.0, 200.0, "ms", "v0: ideal switches; " + _DEBOUNCE_SOURCE)
 
     def __post_init__(self):
         check_parameters(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotContactParams(SensorParams):
+    """:class:`SensorParams` with the robot's contact model as defaults (the -v1 ids): the servo dead band and the
+    foot-switch debounce that let the paper's gait roll under actuator noise, as the robot's hardware does."""
+
+    servo_deadband_deg: float = parameter(0.25, 0.0, 5.0, "deg", _DEADBAND_SOURCE)
+    switch_debounce_ms: float = parameter(30.0, 0.0, 200.0, "ms", _DEBOUNCE_SOURCE)
 
 
 #: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
@@ -181,6 +205,8 @@ class BeastEnv(MujocoEnv):
         backlash_deg: float = SensorParams.backlash_deg,
         tilt_threshold_deg: float = SensorParams.tilt_threshold_deg,
         ctrl_cost_weight: float = SensorParams.ctrl_cost_weight,
+        servo_deadband_deg: float = SensorParams.servo_deadband_deg,
+        switch_debounce_ms: float = SensorParams.switch_debounce_ms,
         physics: dict | None = None,
         render_mode: str | None = None,
         width: int = 480,
@@ -189,9 +215,12 @@ class BeastEnv(MujocoEnv):
         # Everything is checked before anything is built.
         check_choice("polyhedron", polyhedron, K.POLYHEDRA)
         self.privileged = check_bool("privileged", privileged)
-        sensing = SensorParams(backlash_deg, tilt_threshold_deg, ctrl_cost_weight)
+        sensing = SensorParams(
+            backlash_deg, tilt_threshold_deg, ctrl_cost_weight, servo_deadband_deg, switch_debounce_ms
+        )
         self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
+        self.servo_deadband_deg, self.switch_debounce_ms = sensing.servo_deadband_deg, sensing.switch_debounce_ms
         physics = _check_physics(physics)
         _check_rendering(render_mode, self.metadata["render_modes"], width, height)
         params = M.BeastModelParams(polyhedron=polyhedron, control=control, locked_limbs=disabled_limbs, **physics)
@@ -231,6 +260,8 @@ class BeastEnv(MujocoEnv):
         self._joints[S.LIMIT_LOW], self._joints[S.LIMIT_HIGH] = limits[:, 0], limits[:, 1]
         if self.control == "position":
             self._joints[S.LOW], self._joints[S.SPAN] = limits[:, 0], limits[:, 1] - limits[:, 0]
+            # A torque motor has no position servo, so no servo dead band.
+            self._joints[S.DEADBAND] = math.radians(self.servo_deadband_deg)
         else:
             self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
         for limb in self.disabled_limbs:
@@ -240,12 +271,13 @@ class BeastEnv(MujocoEnv):
             # Constant through the episode: written once, and the sensor kernel never touches it.
             self._obs[self.observation_structure["command"]] = self.command
         self._misc = np.zeros(S.N_MISC)
-        self._misc[: S.TORQUE_NORM + 1] = [
+        self._misc[: S.DEBOUNCE_TICKS + 1] = [
             math.radians(self.backlash_deg) / 2,
             1.0 / CONTROL_DT,
             math.sin(math.radians(self.tilt_threshold_deg)),
             float(self.privileged),
             1.0 / (params.torque_limit**2 * nj),
+            round(self.switch_debounce_ms / 1000 / CONTROL_DT),
         ]
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._unstable = False
@@ -368,6 +400,7 @@ class BeastEnv(MujocoEnv):
         half = self._misc[S.HALF_BAND]
         js[S.MOTOR] = joints + rng.uniform(-half, half, self.n_joints)
         js[S.READING] = js[S.MOTOR]
+        js[S.SWITCH] = -1.0  # the switches start settled: the first reading is reported as it is
         self._unstable = False
         self._elapsed = 0
         self._needs_reset = False
