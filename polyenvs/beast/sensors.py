@@ -145,37 +145,74 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
     it finds non-finite (to the model's reference pose) and counts a warning: ``warnings`` (MjData's warning counts,
     cleared by ``mj_resetData``) catches that silent reset.
     """
+    if _diverged(qpos, qvel, warnings):
+        return True
+    nj = joints.shape[1]
+    n_limbs = sensordata.shape[0] - 4
+    _read_encoders(qpos, joints, misc, obs)
+    k = 2 * nj
+    _read_tilts(sensordata[n_limbs + 1 : n_limbs + 4], tilt_axes, misc[TILT_SIN], obs[k : k + tilt_axes.shape[0]])
+    k += tilt_axes.shape[0]
+    _read_switches(sensordata, joints, misc, obs[k : k + n_limbs])
+    k += n_limbs
+    for j in range(nj):
+        obs[k + j] = joints[APPLIED, j]
+    k += nj
+    if misc[PRIVILEGED] > 0.5:
+        for i in range(7):
+            obs[k + i] = qpos[i]
+        for i in range(6):
+            obs[k + 7 + i] = min(max(qvel[i], -VELOCITY_CLIP), VELOCITY_CLIP)
+    _summarise_body(qpos, qvel, force, misc)
+    return False
+
+
+@njit(cache=True)
+def _diverged(qpos, qvel, warnings) -> bool:
+    """Whether MuJoCo warned of instability, or a position is non-finite, or a speed is beyond belief."""
     for w in UNSTABLE_WARNINGS:
         if warnings[w] > 0:
             return True
-    nj = joints.shape[1]
     for i in range(qpos.shape[0]):
         if not math.isfinite(qpos[i]):
             return True
     for i in range(qvel.shape[0]):
-        v = qvel[i]
-        if not (abs(v) < DIVERGED_SPEED):
+        if not (abs(qvel[i]) < DIVERGED_SPEED):
             return True
-    half = misc[HALF_BAND]
-    inv_dt = misc[INV_DT]
-    n_limbs = sensordata.shape[0] - 4
-    k = 0
+    return False
+
+
+@njit(cache=True)
+def _read_encoders(qpos, joints, misc, obs):
+    """Each encoder's angle (motor side, across the backlash band, clipped to the joint's limits) into
+    ``obs[:nj]`` and its velocity estimate into ``obs[nj:2 nj]``."""
+    nj = joints.shape[1]
+    half, inv_dt = misc[HALF_BAND], misc[INV_DT]
     for j in range(nj):
         q = qpos[7 + j]
         m = min(max(joints[MOTOR, j], q - half), q + half)
         joints[MOTOR, j] = m
         v = (m - joints[READING, j]) * inv_dt
         joints[READING, j] = m
-        obs[k + j] = min(max(m, joints[LIMIT_LOW, j]), joints[LIMIT_HIGH, j])
-        obs[k + nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
-    k += 2 * nj
-    # The world's up direction in the body frame: a switch is on when its axis points down by more than the
-    # threshold, i.e. its component along "up" is below -sin(threshold).
-    ux, uy, uz = sensordata[n_limbs + 1], sensordata[n_limbs + 2], sensordata[n_limbs + 3]
+        obs[j] = min(max(m, joints[LIMIT_LOW, j]), joints[LIMIT_HIGH, j])
+        obs[nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
+
+
+@njit(cache=True)
+def _read_tilts(up, tilt_axes, tilt_sin, out):
+    """The tilt switches: ``up`` is the world's up direction in the body frame; a switch is on when its axis
+    points down by more than the threshold, i.e. its component along "up" is below ``-tilt_sin``."""
     for t in range(tilt_axes.shape[0]):
-        dot = tilt_axes[t, 0] * ux + tilt_axes[t, 1] * uy + tilt_axes[t, 2] * uz
-        obs[k + t] = 1.0 if dot < -misc[TILT_SIN] else 0.0
-    k += tilt_axes.shape[0]
+        dot = tilt_axes[t, 0] * up[0] + tilt_axes[t, 1] * up[1] + tilt_axes[t, 2] * up[2]
+        out[t] = 1.0 if dot < -tilt_sin else 0.0
+
+
+@njit(cache=True)
+def _read_switches(sensordata, joints, misc, out):
+    """The foot switches, debounced (a change is reported once the new reading has held ``misc[DEBOUNCE_TICKS]``
+    readings), into ``out``; MuJoCo's own contacts (the feet bitmask, their count, other contacts) into the
+    summary."""
+    n_limbs = out.shape[0]
     mask = 0.0
     n_feet = 0.0
     found = 0.0
@@ -189,31 +226,27 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
             joints[SWITCH_HELD, i] += 1.0
             if joints[SWITCH_HELD, i] >= debounce:
                 joints[SWITCH, i], joints[SWITCH_HELD, i] = raw, 0.0
-        obs[k + i] = joints[SWITCH, i]
+        out[i] = joints[SWITCH, i]
         found += sensordata[i]
         if on:
             mask += 2.0**i
             n_feet += 1.0
-    k += n_limbs
-    for j in range(nj):
-        obs[k + j] = joints[APPLIED, j]
-    k += nj
-    if misc[PRIVILEGED] > 0.5:
-        for i in range(7):
-            obs[k + i] = qpos[i]
-        for i in range(6):
-            obs[k + 7 + i] = min(max(qvel[i], -VELOCITY_CLIP), VELOCITY_CLIP)
+    misc[FEET_MASK] = mask
+    misc[N_FEET] = n_feet
+    misc[OTHER_CONTACTS] = sensordata[n_limbs] - found
+
+
+@njit(cache=True)
+def _summarise_body(qpos, qvel, force, misc):
+    """The body's part of the summary: velocity and distance along the heading, squared torque, squared spin."""
+    inv_dt = misc[INV_DT]
     hx, hy = misc[HEAD_X], misc[HEAD_Y]
     misc[VELOCITY] = ((qpos[0] - misc[PREV_X]) * hx + (qpos[1] - misc[PREV_Y]) * hy) * inv_dt
     misc[DISTANCE] = (qpos[0] - misc[START_X]) * hx + (qpos[1] - misc[START_Y]) * hy
     misc[PREV_X] = qpos[0]
     misc[PREV_Y] = qpos[1]
-    misc[FEET_MASK] = mask
-    misc[N_FEET] = n_feet
-    misc[OTHER_CONTACTS] = sensordata[n_limbs] - found
     sq = 0.0
     for j in range(force.shape[0]):
         sq += force[j] * force[j]
     misc[TORQUE_SQ] = sq * misc[TORQUE_NORM]
     misc[SPIN_SQ] = qvel[3] * qvel[3] + qvel[4] * qvel[4] + qvel[5] * qvel[5]
-    return False
