@@ -34,7 +34,7 @@ def _switch_readings(raw, debounce_ticks):
     for on in raw:
         sensordata = np.array([on, on, 0.0, 0.0, 1.0])  # the foot, the robot's floor contacts, the up vector
         warnings = np.zeros(7, np.int32)
-        assert not S.sense(qpos, np.zeros(9), sensordata, np.zeros(3), warnings, S.TILT_AXES, joints, misc, obs)
+        assert not S.sense((qpos, np.zeros(9), sensordata, np.zeros(3), warnings), S.TILT_AXES, joints, misc, obs)
         reported.append(float(obs[S.observation_layout(1)["foot_contact"]][0]))
     return reported
 

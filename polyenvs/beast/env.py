@@ -362,7 +362,7 @@ class BeastEnv(MujocoEnv):
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         self._elapsed += 1
         if self._unstable or S.sense(
-            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            (self._qpos, self._qvel, self._sensordata, self._force, self._warnings), S.TILT_AXES, self._joints,
             self._misc, self._obs,
         ):  # fmt: skip
             self._unstable = True
@@ -407,7 +407,7 @@ class BeastEnv(MujocoEnv):
         x, y = d.qpos[0], d.qpos[1]
         self._misc[S.PREV_X : S.HEAD_Y + 1] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
         S.sense(
-            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            (self._qpos, self._qvel, self._sensordata, self._force, self._warnings), S.TILT_AXES, self._joints,
             self._misc, self._obs,
         )  # fmt: skip
         self._task_reset(int(self._misc[S.FEET_MASK]))

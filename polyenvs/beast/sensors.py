@@ -128,10 +128,9 @@ def actuate(action, joints, ctrl):
 
 
 @njit(cache=True)
-def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs):
-    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged. A
-    compiled-kernel boundary: MjData's views and the packed ``joints`` / ``misc`` arrays are positional, as numba
-    takes them.
+def sense(data, tilt_axes, joints, misc, obs):
+    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged.
+    ``data``: MjData's views ``(qpos, qvel, sensordata, actuator_force, warning counts)``.
 
     ``joints[MOTOR]`` is each encoder's motor-side angle, dragged along by the joint across the backlash band;
     ``joints[READING]`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.
@@ -145,6 +144,7 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
     it finds non-finite (to the model's reference pose) and counts a warning: ``warnings`` (MjData's warning counts,
     cleared by ``mj_resetData``) catches that silent reset.
     """
+    qpos, qvel, sensordata, force, warnings = data
     if _diverged(qpos, qvel, warnings):
         return True
     nj = joints.shape[1]
