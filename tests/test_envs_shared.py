@@ -284,6 +284,13 @@ def test_native_vector_env_matches_sync_vector_env(env_id, mode):
 
 
 @pytest.mark.parametrize("env_id", VECTOR_IDS)
+def test_native_vector_env_matches_sync_vector_env_on_held_out_layouts(env_id):
+    """The same with ``layouts="test"``: each sub-env draws its own held-out layout at every reset, as the single
+    env seeded s + i does."""
+    assert assert_native_matches_sync(env_id, AutoresetMode.NEXT_STEP, layouts="test") >= 1
+
+
+@pytest.mark.parametrize("env_id", VECTOR_IDS)
 def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
     """The native vector env keeps the single env's rules: step before reset, a wrong dtype or an unknown option
     raise, and the batch goes on as if the call had not been made."""

@@ -33,7 +33,9 @@ from gymnasium.error import ResetNeeded
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
+from polyenvs.beast.layouts import LAYOUT_PARAMETERS, LAYOUT_SPLIT, ModelFields, draw_layout
 from polyenvs.beast.model import CONTROL_DT
+from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, parameter
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
@@ -111,6 +113,19 @@ def _check_physics(physics) -> dict:
     if unknown:
         raise ValueError(f"physics has unknown parameter(s) {unknown}; expected some of {list(PHYSICS_KEYS)}")
     return physics
+
+
+def _check_layouts(layouts, physics: dict) -> str:
+    """``layouts``, checked; "train" and "test" draw the friction, body mass, kp and damping themselves, so
+    ``physics`` may not set them beside it (refused rather than ignored)."""
+    layouts = check_layouts(layouts)
+    clash = sorted(set(physics) & set(LAYOUT_PARAMETERS))
+    if layouts != "default" and clash:
+        raise ValueError(
+            f"layouts={layouts!r} draws {list(LAYOUT_PARAMETERS)} itself: physics may not set {clash} beside it "
+            "(use layouts='default')"
+        )
+    return layouts
 
 
 def _check_rendering(render_mode, modes, width, height) -> None:
@@ -194,6 +209,8 @@ class BeastEnv(MujocoEnv):
     heading_rad: float = 0.0
     #: A task's constant command, appended to every observation as its ``command`` part (empty: none).
     command: tuple[float, ...] = ()
+    #: How ``layouts=`` splits the physics (:data:`polyenvs.beast.layouts.LAYOUT_SPLIT`).
+    layout_split = LAYOUT_SPLIT
 
     def __init__(
         self,
@@ -208,6 +225,7 @@ class BeastEnv(MujocoEnv):
         servo_deadband_deg: float = SensorParams.servo_deadband_deg,
         switch_debounce_ms: float = SensorParams.switch_debounce_ms,
         physics: dict | None = None,
+        layouts: str = "default",
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
@@ -222,6 +240,7 @@ class BeastEnv(MujocoEnv):
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
         self.servo_deadband_deg, self.switch_debounce_ms = sensing.servo_deadband_deg, sensing.switch_debounce_ms
         physics = _check_physics(physics)
+        self.layouts = _check_layouts(layouts, physics)
         _check_rendering(render_mode, self.metadata["render_modes"], width, height)
         params = M.BeastModelParams(polyhedron=polyhedron, control=control, locked_limbs=disabled_limbs, **physics)
         frame_skip = round(CONTROL_DT / params.timestep)
@@ -252,6 +271,9 @@ class BeastEnv(MujocoEnv):
             )
         self.fullpath = None  # generated, not a file
         self._init_buffers(size, limits)
+        #: This episode's drawn physics (``layouts="train"`` or ``"test"``), written into the model at each reset.
+        self._layout_values = {name: getattr(params, name) for name in LAYOUT_PARAMETERS}
+        self._model_fields = ModelFields(self.model, self.control == "position") if self.layouts != "default" else None
 
     def _init_buffers(self, size: int, limits: np.ndarray) -> None:
         """The packed arrays the sensor kernel and the actuation read and write every step."""
@@ -380,6 +402,9 @@ class BeastEnv(MujocoEnv):
         options = self._check_options(options)
         gym.Env.reset(self, seed=seed)
         rng = self.np_random
+        if self._model_fields is not None:  # the layout's physics first, then the start state, from one generator
+            self._layout_values = draw_layout(rng, self.layouts)
+            self._model_fields.apply(self.data, self._layout_values)
         if "qpos" in options:
             qpos = options["qpos"]
             qvel = options.get("qvel", np.zeros(self.model.nv))
@@ -432,6 +457,10 @@ class BeastEnv(MujocoEnv):
                 raise ValueError(f"option qpos must hold a unit quaternion at 3:7, got {show(quat)}")
             checked["qpos"][3:7] = quat / np.linalg.norm(quat)
         return checked
+
+    def episode_layout(self) -> dict[str, float]:
+        """This episode's physics as :attr:`layout_split` classifies it: friction, body_mass, kp, damping."""
+        return dict(self._layout_values)
 
     # --- shared task helpers -----------------------------------------------------------------------------------
     def _stance_state(self, rng: np.random.Generator, position_noise=0.005, yaw_noise_deg=2.0, free_noise_deg=2.0):

@@ -13,6 +13,7 @@ import numpy as np
 
 from polyenvs.beast import kinematics as K
 from polyenvs.beast.env import STANCE_TICKS, BeastEnv, RobotContactParams, SensorParams, TumbleCounter
+from polyenvs.beast.layouts import LAYOUT_SPLIT
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
@@ -75,7 +76,8 @@ def _common_args(params) -> str:
     | disabled_limbs | () | 1-based limb numbers whose joints are locked (paper section 5's faults) |
     | control | "position" | "position" servos or "torque" motors (a motor has no servo dead band) |
 {argument_rows(params)}
-    | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded |
+    | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded; with ``layouts="train"`` or ``"test"`` it may not set the parameters the layouts draw |
+    {LAYOUT_SPLIT.argument_row()}
     | render_mode | None | "rgb_array" or "depth_array" through MuJoCo's renderer, camera ``track`` following the torso |
     | width, height | 480, 480 | frame size, fixed per instance |
 """

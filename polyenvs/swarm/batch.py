@@ -173,7 +173,7 @@ class SwarmBatch:
 
     Args:
         task: the task (a :class:`polyenvs.swarm.env.SwarmEnv`): its validated parameters, ``layout``,
-            ``n_obstacles``, ``observation_structure``, ``reward_names``, ``sample_episode(rng)`` and
+            ``n_obstacles``, ``observation_structure``, ``reward_names``, ``draw_episode(rng)`` and
             ``terms_class``.
         n_envs: environments in the batch.
 
@@ -253,7 +253,7 @@ class SwarmBatch:
         Every episode is drawn before anything changes."""
         envs = [int(e) for e in envs]
         gens = [self.generators[e] for e in envs] if generators is None else list(generators)
-        episodes = [self.task.sample_episode(g) for g in gens]
+        episodes = [self.task.draw_episode(g) for g in gens]
         n = self.n_robots
         sense_normals = np.zeros((self.n_rows, self.sense_draws))
         floor = np.zeros((self.n_rows, 4))

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
 from polyenvs.core.parameters import documents_arguments, parameter
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
 from polyenvs.swarm.layouts import box_walls, start_block
@@ -31,6 +32,18 @@ START_M = (1.40, 0.35)
 START_SPACING_M = 0.5
 START_JITTER_M = 0.05
 START_HEADING_SD_DEG = 5.0
+#: Held-out layouts (*ours*): four obstacles on random sides, each up to 0.3 m off its default place along the
+#: corridor, its rim 2-25 cm from its wall (less than a robot's width: it is passed on the open side), and the light
+#: anywhere across the far end. The radius splits them: train 0.12-0.19 m, test 0.21-0.28 m (the default's 0.2 m in
+#: neither).
+LAYOUT_SPLIT = LayoutSplit(
+    (SplitParameter("obstacle radius", "m", train=(0.12, 0.19), test=(0.21, 0.28)),),
+    varies="four obstacles on random sides, each within 0.3 m of its default place along the corridor and 2-25 cm "
+    "from its wall, the light anywhere across the far end",
+)
+LAYOUT_Y_SHIFT_M = 0.3
+LAYOUT_WALL_GAP_M = (0.02, 0.25)
+LAYOUT_GOAL_X_M = (0.45, 1.35)
 
 
 @dataclass(frozen=True)
@@ -41,6 +54,7 @@ class CorridorParams(SwarmParams):
     goal_radius_m: float = parameter(0.4, 0.1, 1.0, "m", "ours: a robot this close to the light has arrived")
 
 
+@documents_layouts(LAYOUT_SPLIT)
 @documents_arguments(CorridorParams)
 class CorridorEnv(SwarmEnv):
     """N X80Pro-like robots drive up a corridor past four obstacles to a light at its far end.
@@ -90,6 +104,7 @@ class CorridorEnv(SwarmEnv):
     ## Arguments
     | keyword | default | meaning (range) |
     | --- | --- | --- |
+    {layouts}
     | ``n_robots`` | 3 | robots (1-1024) |
     | ``platform`` | "x80pro" | "x80pro" or "maxelbot" (body size, IR scale) |
     | ``max_cycles`` | 600 | steps before truncation |
@@ -125,18 +140,34 @@ class CorridorEnv(SwarmEnv):
         ])  # fmt: skip
         return Layout(walls=walls, bounds=(0.0, bottom, CORRIDOR_WIDTH_M, CORRIDOR_LENGTH_M))
 
-    def sample_episode(self, rng: np.random.Generator) -> Episode:
+    def _starts(self, rng: np.random.Generator) -> np.ndarray:
+        """``(N, 3)`` start poses: the slots, jittered, headed up the corridor."""
         n = self.n_robots
         slots = start_block(n, 3, START_SPACING_M)
         xy = np.array(START_M) - slots
         xy += START_JITTER_M * (2 * rng.random((n, 2)) - 1)
         heading = np.radians(90.0 + START_HEADING_SD_DEG * rng.standard_normal(n))
+        return np.column_stack([xy, heading])
+
+    def sample_episode(self, rng: np.random.Generator) -> Episode:
+        starts = self._starts(rng)
         side = np.array([1, 0, 1, 0])  # right, left, right, left
         ys = np.array(OBSTACLE_Y_M) + OBSTACLE_JITTER_M * (2 * rng.random(4) - 1)
         reach = 0.55 - OBSTACLE_RADIUS_M
         xs = np.where(side == 1, CORRIDOR_WIDTH_M - reach, reach)
         circles = np.column_stack([xs, ys, np.full(4, OBSTACLE_RADIUS_M)])
-        return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=np.array(GOAL_M))
+        return Episode(circles=circles, starts=starts, goal=np.array(GOAL_M))
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        starts = self._starts(rng)
+        radius = LAYOUT_SPLIT.parameters[0].draw(rng, layouts, 4)
+        right = rng.random(4) < 0.5
+        ys = np.array(OBSTACLE_Y_M) + LAYOUT_Y_SHIFT_M * (2 * rng.random(4) - 1)
+        low, high = LAYOUT_WALL_GAP_M
+        inset = radius + low + (high - low) * rng.random(4)  # centre to its wall
+        xs = np.where(right, CORRIDOR_WIDTH_M - inset, inset)
+        goal_x = LAYOUT_GOAL_X_M[0] + (LAYOUT_GOAL_X_M[1] - LAYOUT_GOAL_X_M[0]) * rng.random()
+        return Episode(circles=np.column_stack([xs, ys, radius]), starts=starts, goal=np.array([goal_x, GOAL_M[1]]))
 
 
 parallel_env, raw_env, env = module_constructors(CorridorEnv)

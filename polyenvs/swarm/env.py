@@ -1,8 +1,9 @@
 """The PettingZoo surface shared by the swarm tasks: parameters, spaces, seeding, the agents' dictionaries.
 
 A task (``corridor_v0``, ``obstacle_field_v0``, ``formation_v0``) subclasses :class:`SwarmEnv` and provides
-``_fixed_layout`` (walls and view bounds, once per instance) and ``sample_episode`` (obstacles, starts and goal,
-drawn on the episode's generator at every reset); what it adds to the family's observation, rewards, metrics and
+``_fixed_layout`` (walls and view bounds, once per instance), ``sample_episode`` (obstacles, starts and goal,
+drawn on the episode's generator at every reset) and ``sample_layout_episode`` (the same for ``layouts="train"`` and
+``"test"``, whose split it declares with :func:`polyenvs.core.layouts.documents_layouts`); what it adds to the family's observation, rewards, metrics and
 info it declares by name in its ``terms_class`` (:class:`polyenvs.swarm.batch.TaskTerms`). The simulation is
 :class:`polyenvs.swarm.batch.SwarmBatch` with one environment (``env.batch``), the same core the vector envs run
 with many: per step one noise draw and one compiled call per kernel over the robots; only the PettingZoo
@@ -22,6 +23,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from polyenvs.core.layouts import LayoutSplit, check_layouts
 from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.validation import (
     check_action,
@@ -162,10 +164,13 @@ class SwarmEnv(ParallelEnv):
     #: The task's physical and sensing parameters: :class:`SwarmParams`, or a subclass that changes a default or
     #: narrows a range (declared once there, for the validation, the constructor's default and the docstring).
     params_class: type[SwarmParams] = SwarmParams
+    #: How ``layouts=`` splits the task's layouts (set by :func:`polyenvs.core.layouts.documents_layouts`).
+    layout_split: LayoutSplit
 
     def __init__(
         self,
         *,
+        layouts: str = "default",
         n_robots: int = 1,
         platform: str | None = None,
         max_cycles: int = 500,
@@ -185,6 +190,7 @@ class SwarmEnv(ParallelEnv):
         flat_info: bool = False,
         render_mode: str | None = None,
     ):
+        self.layouts = check_layouts(layouts)
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
         self.platform = get_platform(self.default_platform if platform is None else platform)
         self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
@@ -254,6 +260,20 @@ class SwarmEnv(ParallelEnv):
     def sample_episode(self, rng: np.random.Generator) -> Episode:
         """Draw an episode (obstacles, starts, goal) on ``rng``; the task's."""
         raise NotImplementedError
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        """Draw an episode of the ``layouts`` ("train" or "test") distribution on ``rng``; the task's."""
+        raise NotImplementedError
+
+    def draw_episode(self, rng: np.random.Generator) -> Episode:
+        """The episode a reset draws on ``rng``: the task's own (``layouts="default"``) or one of its layouts."""
+        if self.layouts == "default":
+            return self.sample_episode(rng)
+        return self.sample_layout_episode(rng, self.layouts)
+
+    def episode_layout(self) -> dict[str, np.ndarray]:
+        """The episode's layout as :attr:`layout_split` classifies it: ``{"obstacle radius": (C,) m}``."""
+        return {"obstacle radius": self.circles[:, 2].copy()}
 
     # --- names and state ----------------------------------------------------------------------------------------
     @property
