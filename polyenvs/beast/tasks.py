@@ -403,11 +403,22 @@ _TIME_COST = """    - ``time``: minus ``time_cost`` per second (0.2: 6 over the 
 """
 
 
-def _check_time_cost(time_cost) -> float:
-    return check_in_range("time_cost", time_cost, 0.0, 10.0)
+class _PaysSuccessAndTime:
+    """v1's reward for a task whose score is a success and its time: v0's success bonus and control cost, its shaping
+    term replaced by ``time``, minus ``time_cost`` per second."""
+
+    reward_names = ("success", "time", "ctrl")
+
+    def __init__(self, *, time_cost: float = 0.2, **kwargs):
+        self.time_cost = check_in_range("time_cost", time_cost, 0.0, 10.0)
+        super().__init__(**kwargs)
+
+    def _task_step(self, *summary):
+        (_, bonus, ctrl), success = super()._task_step(*summary)
+        return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
 
 
-class BeastTumbleV1Env(_RobotContact, BeastTumbleEnv):
+class BeastTumbleV1Env(_PaysSuccessAndTime, _RobotContact, BeastTumbleEnv):
     __doc__ = _doc(
         _TUMBLE[0],
         """    - ``success``: ``success_reward`` on the step the tumble completes;
@@ -422,15 +433,6 @@ class BeastTumbleV1Env(_RobotContact, BeastTumbleEnv):
       (a PPO agent: 0.55 normalised return, 1 success in 100 episodes), v1 pays the success and charges time.
 """,
     )
-    reward_names = ("success", "time", "ctrl")
-
-    def __init__(self, time_cost: float = 0.2, **kwargs):
-        self.time_cost = _check_time_cost(time_cost)
-        super().__init__(**kwargs)
-
-    def _task_step(self, *summary):
-        (_, bonus, ctrl), success = super()._task_step(*summary)
-        return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
 
 
 class BeastRollV1Env(_RobotContact, BeastRollEnv):
@@ -470,7 +472,7 @@ class BeastTurnV1Env(_RobotContact, BeastTurnEnv):
         return (gain, ctrl), terminated
 
 
-class BeastRecoverV1Env(_RobotContact, BeastRecoverEnv):
+class BeastRecoverV1Env(_PaysSuccessAndTime, _RobotContact, BeastRecoverEnv):
     __doc__ = _doc(
         _RECOVER[0],
         """    - ``success``: ``success_reward`` on the step the stance is reached;
@@ -485,15 +487,6 @@ class BeastRecoverV1Env(_RobotContact, BeastRecoverEnv):
       keeping still (60 over the 20 s limit against a success bonus of 10); v1 pays the success and charges time.
 """,
     )
-    reward_names = ("success", "time", "ctrl")
-
-    def __init__(self, time_cost: float = 0.2, **kwargs):
-        self.time_cost = _check_time_cost(time_cost)
-        super().__init__(**kwargs)
-
-    def _task_step(self, *summary):
-        (_, bonus, ctrl), success = super()._task_step(*summary)
-        return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
 
 
 def _turned(qpos: np.ndarray, yaw: float) -> np.ndarray:
