@@ -244,7 +244,10 @@ class BatchVectorEnv(VectorEnv):
     """Gymnasium's ``VectorEnv`` over a batch that steps every sub-environment in one call: the seeding, the time
     limit and both autoreset modes, written once for every family's native vector env.
 
-    A subclass builds its batch, then calls :meth:`_set_spaces`, and provides ``_check_batch_actions(actions)``,
+    Its constructor takes ``num_envs``, ``max_episode_steps``, ``render_mode`` (one of ``metadata["render_modes"]``
+    or ``None``) and ``autoreset_mode``, checks them, and hands the rest to the subclass's ``_build(num_envs,
+    render_mode, kwargs)``, which builds the batch and returns one sub-environment's ``(observation_space,
+    action_space)`` and its frame rate. A subclass also provides ``_check_batch_actions(actions)``,
     ``_reset_rows(seeds, options)`` (validate everything, then restart every row: ``seeds[i]`` is row i's new
     seed, or ``None`` to continue its own generator), ``_restart(rows)`` (the rows of a finished episode, on their
     own generators), ``_advance_rows(actions, restart)`` (step the rows not in the ``restart`` mask, restart those
@@ -258,13 +261,29 @@ class BatchVectorEnv(VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def _set_spaces(self, num_envs, max_episode_steps, autoreset_mode, spaces: tuple, render_fps: int) -> None:
-        """The common attributes: arguments as :func:`check_vector_arguments` returned them, ``spaces`` one
-        sub-environment's ``(observation_space, action_space)``."""
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs,
+    ):
+        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
+            num_envs, max_episode_steps, autoreset_mode
+        )
+        modes = self.metadata["render_modes"]
+        if render_mode not in (None, *modes):
+            raise ValueError(
+                f"render_mode must be None or one of {modes} for this vector env (gym.make(id) renders all its "
+                f"modes), got {show(render_mode)}"
+            )
+        spaces, render_fps = self._build(num_envs, render_mode, kwargs)
         self.metadata = {**self.metadata, "render_fps": render_fps, "autoreset_mode": autoreset_mode}
         self.autoreset_mode = autoreset_mode
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
+        self.render_mode = render_mode
         self.single_observation_space, self.single_action_space = spaces
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
@@ -344,26 +363,12 @@ class RowsVectorEnv(BatchVectorEnv):
     #: The batched-rows class this vector env drives (set by each subclass).
     env_class: type[RowsEnv] = RowsEnv
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        max_episode_steps: int | None = None,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        **kwargs,
-    ):
-        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
-            num_envs, max_episode_steps, autoreset_mode
-        )
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
+    def _build(self, num_envs, render_mode, kwargs):
         # The class itself with num_envs rows: the same validation, spaces and kernels as the single env.
         core = self.env_class(num_rows=num_envs, render_mode=render_mode, **kwargs)
         self._core = core
-        spaces = (core.observation_space, core.action_space)
-        self._set_spaces(num_envs, max_episode_steps, autoreset_mode, spaces, core.metadata.get("render_fps", 30))
-        self.render_mode = render_mode
         self.observation_structure = getattr(core, "observation_structure", None)
+        return (core.observation_space, core.action_space), core.metadata.get("render_fps", 30)
 
     def _reset_rows(self, seeds, options) -> None:
         core = self._core

@@ -18,10 +18,9 @@ from typing import Any
 
 import numpy as np
 from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode
 
-from polyenvs.core.rows import BatchVectorEnv, check_vector_arguments, vector_convention
-from polyenvs.core.validation import check_options, real_array, show
+from polyenvs.core.rows import BatchVectorEnv, vector_convention
+from polyenvs.core.validation import check_options, real_array
 from polyenvs.swarm.batch import SwarmBatch
 from polyenvs.swarm.corridor_v0 import CorridorEnv
 from polyenvs.swarm.env import SwarmEnv
@@ -45,29 +44,14 @@ class SingleRobotVectorEnv(BatchVectorEnv):
     #: The swarm task of the id (set by each subclass).
     swarm_class: type[SwarmEnv] = CorridorEnv
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        max_episode_steps: int | None = None,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        **kwargs,
-    ):
-        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
-            num_envs, max_episode_steps, autoreset_mode
-        )
-        if render_mode is not None:
-            raise ValueError(
-                f"render_mode: this vector env does not render (render gym.make(id)), got {show(render_mode)}"
-            )
+    def _build(self, num_envs, render_mode, kwargs):
         #: The task (one robot): its parameters and episodes.
         self.task = single_robot_swarm(self.swarm_class, kwargs)
         self.batch = SwarmBatch(self.task, num_envs)
-        spaces = (self.task.observation_space("robot_0"), self.task.action_space("robot_0"))
-        self._set_spaces(num_envs, max_episode_steps, autoreset_mode, spaces, self.task.metadata["render_fps"])
-        self.render_mode = None
         self.observation_structure = self.task.observation_structure
         self.reward_names = self.task.reward_names
+        spaces = (self.task.observation_space("robot_0"), self.task.action_space("robot_0"))
+        return spaces, self.task.metadata["render_fps"]
 
     def _reset_rows(self, seeds, options) -> None:
         check_options(options, ())
