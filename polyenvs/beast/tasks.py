@@ -68,7 +68,7 @@ _ARGS = f"""
 """
 
 
-def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
+def _doc(summary: str, rewards: str, start: str, end: str, args: str, score: str) -> str:
     return f"""{summary}
 {_SHARED}
     ## Rewards
@@ -83,6 +83,8 @@ def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
     A diverged simulation (non-finite or speeds over 1000) truncates the episode with ``info["sim_unstable"]``,
     the last finite observation and a reward of 0.
 
+    ## Task score
+{score}
     ## Arguments
     | argument | default | meaning |
     | --- | --- | --- |
@@ -118,6 +120,11 @@ class BeastTumbleEnv(BeastEnv):
     Truncated after 3000 steps (30 s; the working tumble takes 17 s at 20 deg/s) by the registry's time limit.
 """,
         """    | success_reward | 10 | reward for completing the tumble |
+""",
+        score="""    ``success`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_s``). The paper's result for the
+    prototype is that it performs the canonical tumble (Figure 4): ending on limbs 1, 4 and 2 with 3 free is the
+    task, and moving the body forward without it is not (the progress term pays for shuffling on the body). Among
+    beasts that tumble, the quicker did better (the paper's working tumble takes 17 s).
 """,
     )
     reward_names = ("progress", "success", "ctrl")
@@ -167,6 +174,10 @@ class BeastRollEnv(BeastEnv):
     than 45 degrees), ``speed_m_s`` (distance / elapsed time).
 """,
         """    | heading_deg | 0 | commanded heading, counter-clockwise from world +x, [-180, 180] |
+""",
+        score="""    ``distance_m`` (max): the body's displacement along the commanded heading in 80 s. The rolling gait is the
+    paper's way of getting somewhere (a sequence of tumbles synthesising a sphere), so the score is how far along
+    the heading the beast got; ``tumbles`` says whether it rolled or shuffled and is reported beside it.
 """,
     )
     reward_names = ("forward", "ctrl")
@@ -219,6 +230,10 @@ class BeastTurnEnv(BeastEnv):
     (its difference from ``turn_deg``, 180 before two tumbles), ``tumbles``, ``distance_m`` (along the target).
 """,
         """    | turn_deg | 60 | commanded change of heading, counter-clockwise, [-180, 180] |
+""",
+        score="""    ``heading_error_deg`` (min, floor 0): how far the direction of travel over the last two tumbles is from the
+    commanded turn. The paper's sharp turn (Figures 10 and 11) is a change of rolling direction, to pass a wall or
+    turn a corner; a beast that has not rolled two tumbles has no direction of travel and scores 180.
 """,
     )
     reward_names = ("forward", "ctrl")
@@ -276,6 +291,10 @@ class BeastRecoverEnv(BeastEnv):
     the elapsed time if none). Truncated after 2000 steps (20 s).
 """,
         """    | success_reward | 10 | reward for reaching the stance |
+""",
+        score="""    ``success`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_to_stance_s``). The paper's claim
+    is that a Platonic beast has no preferred "up" and can recover from a topple to a statically stable stance in
+    any orientation; reaching that stance is the task, and between beasts that all recover, the quicker did better.
 """,
     )
     reward_names = ("support", "success", "ctrl")

@@ -64,6 +64,12 @@ class ObstacleFieldEnv(SwarmEnv):
     As in ``corridor_v0``: ``pose``, ``collisions``, ``distance_to_goal_m``, ``nearest_obstacle_cm``,
     ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
 
+    ## Task score
+    ``success_rate`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_to_goal_s``): the fraction of
+    the robots that reached the goal light. The paper's outdoor experiment asks the Maxelbots to cross the field to
+    the light, and its failure mode is the halt short of it (the potential-field trap, counted by ``stopped``),
+    which success measures directly.
+
     ## Arguments
     ``n_robots`` (default 3), ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then
     every keyword of ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5``
