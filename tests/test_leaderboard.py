@@ -32,6 +32,7 @@ def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
     no_agents = tmp_path / "no-agents"
     no_agents.mkdir(exist_ok=True)
     agents = [] if "--agents-dir" in extra else ["--agents-dir", str(no_agents)]
+    jobs = [] if "--jobs" in extra else ["--jobs", "1"]  # in this process: a pool's start-up is tested apart
     return [
         "leaderboard",
         "--results-dir",
@@ -39,6 +40,7 @@ def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
         "--output",
         str(tmp_path / "LEADERBOARD.md"),
         *agents,
+        *jobs,
         *extra,
     ]
 
@@ -68,7 +70,8 @@ def test_leaderboard_writes_results_and_table(tmp_path: Path):
     assert doc["n_episodes"] == 2 and doc["versions"]["polyenvs"] == polyenvs.__version__ and doc["date"]
     text = table.read_text()
     assert "| goal_seeker | polyenvs/BuckybotGoal-v0 |" in text and "Quick mode" in text
-    assert "1.00" in text  # the paper baseline's normalised score is 1 by construction
+    # Ranked by the task score (success): the paper's goal seeker reaches the goal in both episodes, random not.
+    assert text.index("| goal_seeker | 1 [1, 1] |") < text.index("| random |")
     assert f"]({GOAL_PLOT})" in text and (tmp_path / GOAL_PLOT).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]  # atomic writes leave no temp files
     before = (results / files[0]).stat().st_mtime_ns
