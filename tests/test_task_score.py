@@ -179,3 +179,46 @@ def test_the_committed_reference_is_read_with_its_scores():
     docs = polyenvs.leaderboard.stored_results([r.id for r in REGISTRY], root / REFERENCE_RESULTS_DIR, lambda _: None)
     assert {d["env_id"] for d in docs} <= {r.id for r in REGISTRY}
     assert all(t["score"] is not None for t in leaderboard_tables(docs).values())
+
+
+def _formation_episode(policy: str, steps: int = 200) -> dict:
+    from baselines import make_policy
+    from polyenvs.rollout import agent_spaces, run_episode
+
+    env = make_env("polyenvs.swarm.formation_v0", {"max_cycles": steps})
+    try:
+        if policy == "still":
+            zero = np.zeros((len(env.possible_agents), 2), dtype=np.float32)
+
+            class Still:
+                def predict(self, obs, state=None, episode_start=None, deterministic=True):
+                    return zero[: len(obs)], None
+
+            agent = Still()
+        else:
+            agent = make_policy(policy, "polyenvs.swarm.formation_v0", *agent_spaces(env))
+        return run_episode(env, agent, 1000)["metrics"]
+    finally:
+        env.close()
+
+
+def test_formation_progress_counts_only_progress_in_formation(monkeypatch):
+    """The formation's score: standing still keeps the lattice and scores 0; the paper's springs score the
+    centroid's progress, which counts for nothing once the formation no longer holds."""
+    import polyenvs.swarm.formation_v0 as formation
+
+    assert _formation_episode("still")["formation_progress_m"] == 0.0
+    held = _formation_episode("formation")
+    assert held["formation_progress_m"] > 2.0, held  # 20 s at up to 0.5 m/s, in formation
+    monkeypatch.setattr(formation, "FORMATION_HOLDS_ERROR", -1.0)  # a formation that never holds
+    assert _formation_episode("formation")["formation_progress_m"] == 0.0
+
+
+def test_the_goal_tie_break_counts_the_steps_to_the_goal():
+    from baselines import make_policy
+    from polyenvs.rollout import agent_spaces, run_episode
+
+    env = make_env(GOAL)
+    result = run_episode(env, make_policy("paper", GOAL, *agent_spaces(env)), 1000)
+    env.close()
+    assert result["metrics"]["success"] == 1.0 and result["metrics"]["steps_to_goal"] == result["length"]
