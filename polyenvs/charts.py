@@ -62,7 +62,10 @@ def interval_plot(env_id: str, table: dict):
             axes.barh(y + offset, stats["high"] - stats["low"], left=stats["low"], height=0.26, color=colour,
                       alpha=alpha)  # fmt: skip
             axes.vlines(stats["iqm"], y + offset - 0.13, y + offset + 0.13, color="black", linewidth=2)
-    axes.margins(x=0.04)  # an IQM at the ceiling or floor stays visible
+    ends = [v for r in rows for stats in (r["score"], r["held_out"]) if stats for v in (stats["low"], stats["high"])]
+    if ends:  # padded by hand: bars stick to their edges, so an IQM at the ceiling would sit on the frame
+        pad = 0.04 * (max(ends) - min(ends)) or 0.05 * max(abs(max(ends)), 1.0)
+        axes.set_xlim(min(ends) - pad, max(ends) + pad)
     axes.set_yticks(range(len(rows)), [r["label"] for r in reversed(rows)])
     score = table["score"]
     axes.set_xlabel(f"{score.metric} (IQM, 95% CI)" if score is not None else "task score")
