@@ -30,7 +30,9 @@ import platform
 import re
 import subprocess
 import time
+import warnings
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,6 +55,7 @@ __all__ = [
     "find_agents",
     "LAYOUTS",
     "layouts_kwargs",
+    "old_versions_quietly",
     "leaderboard_markdown",
     "leaderboard_policies",
     "leaderboard_rows",
@@ -276,7 +279,8 @@ def _check_agent(agent: Agent, envs: dict) -> str:
     from polyenvs.evaluation import make_agent, make_env
 
     if agent.env_id not in envs:
-        envs[agent.env_id] = make_env(agent.env_id)
+        with old_versions_quietly():
+            envs[agent.env_id] = make_env(agent.env_id)
     policy = make_agent(agent.path, agent.env_id, envs[agent.env_id])
     return policy.describe()["sha256"]
 
@@ -347,6 +351,15 @@ class _Evaluation:
         return f"{self.env_id} {self.name}" + ("" if self.layouts == "default" else f" (layouts={self.layouts})")
 
 
+@contextmanager
+def old_versions_quietly():
+    """Make environments without Gymnasium's "out of date" warning for an id with a newer version: the leaderboard
+    evaluates every registered version on purpose (the -v0 ids stay, as Gymnasium keeps them, to compare)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r".*is out of date", category=DeprecationWarning)
+        yield
+
+
 def layouts_kwargs(layouts: str) -> dict:
     """The environment keywords of a layout set: none for the default (today's episodes, bit for bit)."""
     return {} if layouts == "default" else {"layouts": layouts}
@@ -407,8 +420,9 @@ def run_leaderboard(
         for item in todo:
             started = time.monotonic()
             kwargs = layouts_kwargs(item.layouts)
-            doc = evaluate(item.env_id, item.policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
-                           on_episode=on_episode)  # fmt: skip
+            with old_versions_quietly():
+                doc = evaluate(item.env_id, item.policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
+                               on_episode=on_episode)  # fmt: skip
             finish(item, doc, time.monotonic() - started)
     for item in plan:
         if item.agent is not None:
@@ -463,7 +477,8 @@ def _layouts_of(env_id: str, envs: dict) -> tuple[str, ...]:
     from polyenvs.rollout import takes_layouts
 
     if env_id not in envs:
-        envs[env_id] = make_env(env_id)
+        with old_versions_quietly():
+            envs[env_id] = make_env(env_id)
     return LAYOUTS if takes_layouts(envs[env_id]) else ("default",)
 
 
@@ -472,7 +487,8 @@ def _evaluate_one(job: tuple[int, str, str, int, dict]) -> tuple[dict, float]:
     seconds)."""
     _, env_id, policy, episodes, kwargs = job
     started = time.monotonic()
-    doc = evaluate(env_id, policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None)
+    with old_versions_quietly():
+        doc = evaluate(env_id, policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None)
     return doc, time.monotonic() - started
 
 

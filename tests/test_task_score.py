@@ -168,7 +168,7 @@ def test_a_process_pool_gives_the_serial_results(tmp_path, capsys):
         files[jobs] = {p.name: json.loads(p.read_text()) for p in sorted(out.glob("*.json"))}
         for doc in files[jobs].values():
             doc.pop("date")
-    assert files["1"] == files["2"] and len(files["1"]) == 2
+    assert files["1"] == files["2"] and {"polyenvs__BuckybotGoal-v0__random.json"} <= set(files["1"])
 
 
 def test_the_committed_reference_is_read_with_its_scores():

@@ -6,7 +6,7 @@ import numpy as np
 
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
-from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
+from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT, RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams_rotated, placement_gaps_rotated
 from polyenvs.buckybot.simulator import (
     A_STATE,
@@ -18,6 +18,7 @@ from polyenvs.buckybot.simulator import (
 )
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotExploreEnv"]
@@ -111,6 +112,7 @@ def _step_kernel(actions, kernel):
         _write_out(b, state, task, grids[w], tp, out)
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class BuckybotExploreEnv(BuckybotEnv):
     """Map an unknown floor plan: sweep as much of its free area as possible with the six range finders.
 
@@ -153,9 +155,10 @@ class BuckybotExploreEnv(BuckybotEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "office" | as BuckybotWallFollow-v0 |
+    {layouts}
     | coverage_goal | 0.95 | coverage that ends the episode, in [0.01, 1] |
     | cell_cm | 10.0 | occupancy-grid cell size, in [2, 50]; the grid over the plan may hold at most 1,000,000 cells |
-    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
     * v0: initial version.
@@ -164,8 +167,9 @@ class BuckybotExploreEnv(BuckybotEnv):
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
+    default_floor_plan = "office"
 
-    def __init__(self, *, floor_plan="office", coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
+    def __init__(self, *, floor_plan=default_floor_plan, coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
         self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.01, 1.0)
         self.cell_cm = check_in_range("cell_cm", cell_cm, 2.0, 50.0)
         super().__init__(floor_plan=floor_plan, **kwargs)

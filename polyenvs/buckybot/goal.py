@@ -8,10 +8,12 @@ import numpy as np
 
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
 from polyenvs.buckybot.simulator import A_OBS, A_STATE, BASE_METRICS, advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.validation import check_finite, check_in_range, show
 
 __all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
@@ -98,6 +100,7 @@ def _step_kernel(actions, kernel):
         _write_out(b, state, task, out)
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class BuckybotGoalEnv(BuckybotEnv):
     """Reach a goal cell known only through dead reckoning, without bumping into walls.
 
@@ -140,9 +143,10 @@ class BuckybotGoalEnv(BuckybotEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "l_room" | as BuckybotWallFollow-v0 |
+    {layouts}
     | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm), in [5, 50]; the plan must have room for a goal this size |
     | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances, 0 <= min <= max <= 5000 |
-    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
     * v0: initial version.
@@ -151,12 +155,15 @@ class BuckybotGoalEnv(BuckybotEnv):
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
+    default_floor_plan = "l_room"
     task_option_names = ("goal",)
     task_observation_sizes = OBSERVATION_PARTS
     task_observation_low = (-1.0, -1.0, 0.0)
     task_observation_high = (1.0, 1.0, 1.0)
 
-    def __init__(self, *, floor_plan="l_room", goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs):
+    def __init__(
+        self, *, floor_plan=default_floor_plan, goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs
+    ):
         self.goal_radius_cm = check_in_range("goal_radius_cm", goal_radius_cm, 5.0, 50.0)
         if isinstance(goal_distance_cm, str) or not hasattr(goal_distance_cm, "__len__") or len(goal_distance_cm) != 2:
             raise ValueError(f"goal_distance_cm must be a (min, max) pair in cm, got {show(goal_distance_cm)}")

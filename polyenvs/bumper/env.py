@@ -18,10 +18,11 @@ from gymnasium import spaces
 
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
-from polyenvs.bumper.maps import BumperMap, make_map
+from polyenvs.bumper.maps import LAYOUT_MAX_SEGMENTS, LAYOUT_ROOM_BOUNDS, LAYOUT_SPLIT, BumperMap, layout_map, make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import check_layouts, documents_layouts
 from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
@@ -73,6 +74,7 @@ class _RowReset:
     row: int
     rng: np.random.Generator
     reseeded: bool
+    world: BumperMap
     pose: np.ndarray
     mismatch: float
     wheel_base: float
@@ -102,24 +104,27 @@ class LocalizationContext:
 def _step_kernel(actions, kernel):
     """Cycle every row that has an action and score it. ``kernel.sim = (state, walls, params, normals, cursor,
     obs)`` and ``kernel.task = (task, touched, cell_first, cell_count, cell_share)``, as
-    :class:`BumperCartExploreEnv` packs them; ``kernel.out`` the ``_out`` table."""
+    :class:`BumperCartExploreEnv` packs them; ``kernel.out`` the ``_out`` table. Walls and cell tables have a map
+    slot axis first: one slot shared by every row, or one per row (``layouts="train"`` or ``"test"``)."""
     state, walls, params, normals, cursor, obs = kernel.sim
     task, touched, cell_first, cell_count, cell_share = kernel.task
     out = kernel.out
+    shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b, 1] < 0.5:
             continue  # no action: a row that was just reset neither moves nor scores
+        w = 0 if shared else b
         row = state[b]
-        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls)
+        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls[w])
         cursor[b] += 1
         fresh = 0.0
         if row[C.BUMP] > 0.5:
             seg = int(row[C.CONTACT_SEG])
-            count = cell_count[seg]
-            cell = cell_first[seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
+            count = cell_count[w, seg]
+            cell = cell_first[w, seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
             if touched[b, cell] == 0:
                 touched[b, cell] = 1
-                fresh = cell_share[cell]
+                fresh = cell_share[w, cell]
             task[b, _BUMPS] += 1.0
         task[b, _TOUCHED] += fresh
         task[b, _SLIPS] += row[C.BIG_SLIP]
@@ -136,6 +141,7 @@ def _step_kernel(actions, kernel):
 
 
 @documents_arguments(CartModel)
+@documents_layouts(LAYOUT_SPLIT)
 class BumperCartExploreEnv(RowsEnv):
     """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
     wheel encoders.
@@ -166,8 +172,8 @@ class BumperCartExploreEnv(RowsEnv):
 
     ## Starting State
     The cart at a uniformly random free point at least its body's reach from every wall, heading uniform; the
-    motor mismatch and the true wheel base are drawn per episode. Reset option ``pose``: ``(x_cm, y_cm,
-    heading_deg)``.
+    motor mismatch and the true wheel base are drawn per episode (with ``layouts="train"`` or ``"test"``, after the
+    episode's room). Reset option ``pose``: ``(x_cm, y_cm, heading_deg)``.
 
     ## Episode End
     Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
@@ -186,9 +192,11 @@ class BumperCartExploreEnv(RowsEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
+    {layouts}
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
@@ -203,14 +211,29 @@ class BumperCartExploreEnv(RowsEnv):
     metric_names = METRICS
     out_columns = OUT
 
-    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+    #: The map of ``layouts="default"`` (the ``map`` keyword's default); other layouts draw their own rooms.
+    default_map = "paper"
+
+    def __init__(
+        self,
+        *,
+        map=default_map,
+        layouts: str = "default",
+        cell_cm: float = 5.0,
+        render_mode: str | None = None,
+        num_rows: int = 1,
+        **cart,
+    ):
+        self._use_rows(num_rows)
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
         if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
             raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
         self.model = CartModel(**cart)
         self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
         self.start_clearance_cm = self.model.circumradius_cm + 0.5
-        self.world = make_map(map, clearance_cm=self.start_clearance_cm)
+        self.layouts = self._check_layouts(layouts, map)
+        if self.layouts == "default":
+            self.world = make_map(map, clearance_cm=self.start_clearance_cm)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
@@ -227,20 +250,98 @@ class BumperCartExploreEnv(RowsEnv):
         self.state = np.zeros((n, C.N_STATE))
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
-        self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
-        self._cell_share = lengths / self.world.wall_length_cm
-        self._touched = np.zeros((n, len(lengths)), dtype=np.uint8)
+        self._allocate_maps()
         self._task = np.zeros((n, 4))
         # What the kernel takes (see _step_kernel).
-        sim = (self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor, self._observations)
-        self._pack_kernel(sim, (self._task, self._touched, self._cell_first, self._cell_count, self._cell_share))
+        sim = (self.state, self._walls, self.params, self.streams.normals, self.streams.cursor, self._observations)
+        task = (self._task, self._touched, self._slot_cell_first, self._slot_cell_count, self._slot_cell_share)
+        self._pack_kernel(sim, task)
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
+
+    def _check_layouts(self, layouts, map) -> str:
+        """``layouts``, checked; "train" and "test" draw their own rooms, so they refuse a ``map`` other than the
+        default rather than ignore it."""
+        layouts = check_layouts(layouts)
+        if layouts != "default" and not (isinstance(map, str) and map == self.default_map):
+            raise ValueError(
+                f"layouts={layouts!r} draws its own rooms: leave map at its default ({self.default_map!r}), or use "
+                f"layouts='default' with map={show(map)}"
+            )
+        return layouts
+
+    def _allocate_maps(self) -> None:
+        """Map slots: the one map every row shares, or (other layouts) one room per row, installed at its reset.
+        Walls ``(slots, S, 6)`` (zero rows pad a smaller room), and per slot each segment's first wall cell and
+        cell count and each cell's share of the wall length; ``_touched`` marks each row's touched cells."""
+        n = self._batch_size
+        if self.layouts == "default":
+            slots, n_walls = 1, len(self.world.segments)
+            n_cells = len(self.world.wall_cells(self.cell_cm)[2])
+        else:
+            slots, n_walls = n, LAYOUT_MAX_SEGMENTS
+            x0, y0, x1, y1 = LAYOUT_ROOM_BOUNDS
+            # Walls of a room in the box are at most its perimeter plus its boxes'; each wall adds < 1 cell.
+            most_cm = 2 * (x1 - x0 + y1 - y0) * 2
+            n_cells = int(math.ceil(most_cm / self.cell_cm)) + n_walls
+        self._walls = np.zeros((slots, n_walls, 6))
+        self._slot_cell_first = np.zeros((slots, n_walls), dtype=np.int64)
+        self._slot_cell_count = np.zeros((slots, n_walls), dtype=np.int64)
+        self._slot_cell_share = np.zeros((slots, n_cells))
+        self._touched = np.zeros((n, n_cells), dtype=np.uint8)
+        self._slot_worlds: list[BumperMap | None] = [None] * slots
+        if self.layouts == "default":
+            self._install_map(0, self.world)
+
+    def _install_map(self, slot: int, world: BumperMap) -> None:
+        """Put ``world``'s walls and wall cells into map slot ``slot`` (padding: no wall, no cell)."""
+        first, count, lengths = world.wall_cells(self.cell_cm)
+        k = len(world.segments)
+        self._walls[slot] = 0.0
+        self._walls[slot, :k] = world.walls
+        # Unused segments start past the last cell, so each segment's first cell stays sorted.
+        self._slot_cell_first[slot] = len(lengths)
+        self._slot_cell_first[slot, :k], self._slot_cell_count[slot] = first, 0
+        self._slot_cell_count[slot, :k] = count
+        self._slot_cell_share[slot] = 0.0
+        self._slot_cell_share[slot, : len(lengths)] = lengths / world.wall_length_cm
+        self._slot_worlds[slot] = world
+
+    def _slot(self, row: int) -> int:
+        return 0 if len(self._slot_worlds) == 1 else row
+
+    @property
+    def world(self) -> BumperMap:
+        """Row 0's map (with ``layouts="train"`` or ``"test"``, the room of its episode; ``None`` before a reset)."""
+        return self._slot_worlds[0] if self.layouts != "default" else self._world
+
+    @world.setter
+    def world(self, value: BumperMap) -> None:
+        self._world = value
+
+    @property
+    def _cell_first(self) -> np.ndarray:
+        """Row 0's map: each segment's first wall cell (the renderer and the tests read these)."""
+        return self._slot_cell_first[self._slot(0)]
+
+    @property
+    def _cell_count(self) -> np.ndarray:
+        return self._slot_cell_count[self._slot(0)]
+
+    @property
+    def _cell_share(self) -> np.ndarray:
+        return self._slot_cell_share[self._slot(0)]
+
+    def episode_layout(self) -> dict[str, float]:
+        """Row 0's layout as :attr:`layout_split` classifies it: ``{"room width": cm}``."""
+        x0, _, x1, _ = self.world.bounds
+        return {"room width": float(x1 - x0)}
 
     def _make_renderer(self):
         from polyenvs.bumper.rendering import BumperRenderer
 
-        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.world.bounds)
+        bounds = self.world.bounds if self.layouts == "default" else LAYOUT_ROOM_BOUNDS
+        return BumperRenderer(self.render_mode, self.metadata["render_fps"], bounds)
 
     def localization_context(self) -> LocalizationContext:
         """The map and the cart's nominal geometry, for estimators run on this environment's logs."""
@@ -267,20 +368,42 @@ class BumperCartExploreEnv(RowsEnv):
             ) from None
         if not all(math.isfinite(v) for v in (x, y, heading_deg)):
             raise ValueError(f"reset option 'pose' must be finite, got {show(options['pose'])}")
-        clearance = float(self.world.clearance(np.array([x, y])))
+        if self.layouts == "default":  # other layouts check it against the room their reset draws
+            self._check_pose(self.world, x, y)
+        return {"pose": np.array([x, y, math.radians(heading_deg)])}
+
+    def _check_pose(self, world: BumperMap, x: float, y: float) -> None:
+        clearance = float(world.clearance(np.array([x, y])))
         if clearance < self.start_clearance_cm:
             raise ValueError(
                 f"reset option 'pose' puts the cart {clearance:.1f} cm from a wall (at least "
                 f"{self.start_clearance_cm:.1f} cm, its body's reach, in free space)"
             )
-        return {"pose": np.array([x, y, math.radians(heading_deg)])}
+
+    def _draw_world(self, rng: np.random.Generator) -> BumperMap:
+        """The episode's room for ``layouts="train"`` or ``"test"`` (redrawn in the rare room without space for
+        the cart)."""
+        for _ in range(100):
+            world = layout_map(rng, self.layouts)
+            if world.has_room(self.start_clearance_cm + 0.5):
+                return world
+        raise RuntimeError("the layout room generator failed to make a room the cart fits in")  # pragma: no cover
 
     def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
-        pose = options["pose"] if "pose" in options else self.world.sample_pose(rng, self.start_clearance_cm)
-        return _RowReset(row, rng, reseeded, pose, *self.model.draw_episode(rng))
+        world = self.world if self.layouts == "default" else self._draw_world(rng)
+        if "pose" in options:
+            pose = options["pose"]
+            if self.layouts != "default":
+                self._check_pose(world, pose[0], pose[1])
+        else:
+            pose = world.sample_pose(rng, self.start_clearance_cm)
+        return _RowReset(row, rng, reseeded, world, pose, *self.model.draw_episode(rng))
 
     def _commit_rows(self, prepared: list[_RowReset]) -> None:
         for r in prepared:
+            slot = self._slot(r.row)
+            if self._slot_worlds[slot] is not r.world:
+                self._install_map(slot, r.world)
             place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
             self.streams.restart(r.row, r.rng, r.reseeded)
             self._touched[r.row] = 0

@@ -180,7 +180,10 @@ class BumpSpaceMCL:
     Global localization: the start pose is not used; particles start uniform over the free space.
 
     Args:
-        particles: particle count, in [10, 100000]; the paper found 700 or more necessary.
+        particles: particle count, in [10, 100000]; the paper found 700 or more necessary. Measured in the
+            paper's arena (100 runs of 15 bumps), runs whose particle set emptied: 0.83 / 0.52 / 0.29 / 0.15 /
+            0.12 at 100 / 300 / 500 / 700 / 1,000, the knee at 700 as the paper says; the median position error
+            at bump 10 is still 35 cm at 700 against 13 cm at 1,000.
         heading_sd_deg, heading_sd_frac: heading error per stage, ``sd = heading_sd_deg + heading_sd_frac x
             |turn|`` (default 2° + 5%, from the feasibility study).
         forward_sd_cm, forward_sd_frac: forward error per stage, ``sd = forward_sd_cm + forward_sd_frac x

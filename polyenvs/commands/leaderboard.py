@@ -233,6 +233,7 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
     """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
     from polyenvs.errors import InputError
     from polyenvs.evaluation import make_env
+    from polyenvs.leaderboard import old_versions_quietly
     from polyenvs.registry import entry
 
     missing = {}
@@ -241,7 +242,8 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
         if extra is None:
             continue
         try:
-            make_env(env_id).close()
+            with old_versions_quietly():
+                make_env(env_id).close()
         except InputError as exc:
             if not isinstance(exc.__cause__, ModuleNotFoundError):
                 raise

@@ -10,10 +10,11 @@ import math
 import numpy as np
 
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
+from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
-from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
+from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, layout_obstacle_slots, random_obstacles
 from polyenvs.swarm.sensors import wrap_angle
 
 __all__ = [
@@ -40,6 +41,15 @@ FIELD_WIDTH_M = 8.0
 OBSTACLE_RADIUS_M = (0.15, 0.3)
 #: Obstacles keep this gap rim to rim: wide enough for a robot, narrow enough to bend the formation.
 GAP_M = 0.8
+#: Held-out layouts (*ours*): 3-7 obstacles and the goal at 35-65 % of the field's width; the radius splits them:
+#: train 0.15-0.3 m (the default's), test 0.33-0.45 m.
+LAYOUT_SPLIT = LayoutSplit(
+    (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.33, 0.45)),),
+    varies="3-7 obstacles placed as in the default field, the goal at 35-65 % of the field's width",
+)
+LAYOUT_GOAL_SPAN = (0.35, 0.65)
+LAYOUT_COUNTS = (3, 7)
+N_OBSTACLES = 5
 #: The lattice spacing R (m) a formation accepts.
 SPACING_RANGE_M = (0.5, 3.0)
 #: Reward weight (*ours*): per unit of a robot's own formation error, per step.
@@ -210,6 +220,7 @@ class FormationTerms(TaskTerms):
         return {"formation_error": self.per_robot.copy()}
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class FormationEnv(SwarmEnv):
     """N Maxelbot-like robots in a hexagonal lattice of spacing R (``robot_0``, the leader, at its centre) cross an
     obstacle field to a goal light while keeping formation.
@@ -219,7 +230,9 @@ class FormationEnv(SwarmEnv):
     Hooke's-law springs between neighbours. AP-lite is a leader-follower scheme: only the leader broadcasts, and
     followers sense range and bearing to the leader and to their neighbours by trilateration. Formation error is
     the mean of ``|r - R| / R`` over the lattice's neighbouring pairs (robots one R apart at the start) still in
-    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study).
+    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study). The
+    ``formation`` baseline springs every robot to all it senses and does not read ``leader``, a deviation from the
+    paper's leader-follower wording whose reason and measurements are in ``baselines.swarm.FormationController``.
 
     ## Action Space
     ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power.
@@ -257,10 +270,15 @@ class FormationEnv(SwarmEnv):
     still scores 0, and so does a swarm that scatters to the goal.
 
     ## Arguments
-    ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200),
+    ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200;
+    ``layouts="train"`` and ``"test"`` draw their own count and refuse another),
     ``goal_radius_m`` (default 2R up to 3 m, i.e. 3 m for R >= 1.5 m; 0.1-3 m), ``comm_range_m`` (default 3 m,
     or 1.5 R for R > 2 m: the springs reach 1.5 R, and a ``comm_range_m`` below 1.5 R is refused), then every
-    keyword of ``corridor_v0`` with ``platform="maxelbot"`` and ``max_cycles=1500`` as defaults.
+    keyword of ``corridor_v0`` with ``platform="maxelbot"`` and ``max_cycles=1500`` as defaults, and
+
+    | keyword | default | meaning (range) |
+    | --- | --- | --- |
+    {layouts}
 
     ## Version History
     - v0: initial version.
@@ -272,15 +290,15 @@ class FormationEnv(SwarmEnv):
     #: The robot that broadcasts (drawn in its own colour).
     leader = LEADER
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = 5,
+    def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = N_OBSTACLES,
                  goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
-                 **kwargs):  # fmt: skip
+                 layouts: str = "default", **kwargs):  # fmt: skip
         self.spacing_m = check_in_range("spacing_m", spacing_m, *SPACING_RANGE_M)
-        self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
+        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
         goal_radius_m = default_goal_radius(self.spacing_m) if goal_radius_m is None else goal_radius_m
         comm_range_m = default_comm_range(self.spacing_m) if comm_range_m is None else comm_range_m
         super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, comm_range_m=comm_range_m,
-                         max_cycles=max_cycles, **kwargs)  # fmt: skip
+                         max_cycles=max_cycles, layouts=layouts, **kwargs)  # fmt: skip
 
     def _task_init(self) -> None:
         if 1.5 * self.spacing_m > self.comm_range_m:
@@ -297,15 +315,27 @@ class FormationEnv(SwarmEnv):
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
 
     def sample_episode(self, rng: np.random.Generator) -> Episode:
+        return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
+        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts))
+
+    def _field(self, rng: np.random.Generator, count: int, goal_span, radii) -> Episode:
+        """The lattice at the start, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``:
+        mid-height) and ``count`` obstacles of radii in ``radii`` between them."""
         n = self.n_robots
         _, _, length, width = self.layout.bounds
         centre = np.array([1.5 + self._lattice_radius, width / 2])
         xy = centre + self.lattice + 0.05 * (2 * rng.random((n, 2)) - 1)
         heading = np.radians(5.0 * rng.standard_normal(n))
-        goal = np.array([length - 1.5, width / 2])
+        if goal_span is None:
+            goal = np.array([length - 1.5, width / 2])
+        else:
+            goal = np.array([length - 1.5, width * (goal_span[0] + (goal_span[1] - goal_span[0]) * rng.random())])
         keep_out = [(goal[0], goal[1], self.goal_radius_m), (centre[0], centre[1], self._lattice_radius + 1.0)]
         region = (centre[0] + self._lattice_radius + 1.0, 0.6, length - 2.0, width - 0.6)
-        circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
+        circles = random_obstacles(rng, count, region, radii, GAP_M, keep_out)
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
 
