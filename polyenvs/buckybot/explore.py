@@ -25,10 +25,10 @@ __all__ = ["BuckybotExploreEnv"]
 
 #: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("coverage", "blocked")
-METRICS = ("coverage", "map_error_cm")
+METRICS = ("coverage", "map_error_cm", "steps")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_COVERAGE, _R_BLOCKED = OUT.term_columns("coverage", "blocked")
-_M_COVERAGE, _M_MAP_ERROR = OUT.metric_columns("coverage", "map_error_cm")
+_M_COVERAGE, _M_MAP_ERROR, _M_STEPS = OUT.metric_columns("coverage", "map_error_cm", "steps")
 _M_BASE = OUT.metric_columns(*BASE_METRICS)
 _REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
@@ -68,6 +68,7 @@ def _write_out(b, state, task, grid, tp, out):
     coverage = task[b, _SEEN] / grid[_FREE_TOTAL]
     out[b, _M_COVERAGE] = coverage
     out[b, _M_MAP_ERROR] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
+    out[b, _M_STEPS] = state[b, S.STEPS]
     out[b, _REWARD] = out[b, _R_COVERAGE] + out[b, _R_BLOCKED]
     out[b, _TERMINATED] = 1.0 if coverage >= tp[_GOAL] else 0.0
 
@@ -140,7 +141,15 @@ class BuckybotExploreEnv(BuckybotEnv):
     ## Episode End
     Terminates when ``coverage >= coverage_goal``; truncated after ``max_episode_steps`` (1000 at registration).
     ``info["episode_metrics"]``: ``coverage`` (fraction of the free area observed), ``map_error_cm`` (mean
-    distance between dead-reckoned and true obstacle points), ``blocked_tips``, ``oscillation_events``.
+    distance between dead-reckoned and true obstacle points), ``steps`` (tips taken, blocked ones included),
+    ``blocked_tips``, ``oscillation_events``.
+
+    ## Task score
+    ``coverage`` (max, ceiling 1; ties at the ceiling broken by fewer ``steps``). The paper's second application is
+    mapping an unknown indoor environment with the range finders (its Figure 8): what such a map is worth is how
+    much of the free area the robot has seen, so the score is the fraction of it observed, and between two robots
+    that see all of it, the one that took fewer tips did better. ``map_error_cm`` measures dead reckoning, which
+    no policy controls, so it is reported beside the score, not part of it.
 
     ## Arguments
     | argument | default | meaning |

@@ -24,10 +24,10 @@ GOAL_DISTANCE_SCALE_CM = 200.0
 MAX_GOAL_DISTANCE_CM = 5000.0
 #: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("progress", "goal", "blocked")
-METRICS = ("success", "final_distance_cm")
+METRICS = ("success", "final_distance_cm", "steps_to_goal")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_PROGRESS, _R_GOAL, _R_BLOCKED = OUT.term_columns("progress", "goal", "blocked")
-_M_SUCCESS, _M_FINAL_DISTANCE = OUT.metric_columns("success", "final_distance_cm")
+_M_SUCCESS, _M_FINAL_DISTANCE, _M_STEPS = OUT.metric_columns("success", "final_distance_cm", "steps_to_goal")
 _M_BASE = OUT.metric_columns(*BASE_METRICS)
 _REWARD, _TERMINATED = OUT.reward, OUT.terminated
 #: The observation's part after the sensors: the goal's bearing (cos, sin) and tanh(distance / 200 cm).
@@ -58,6 +58,7 @@ def _write_out(b, state, task, out):
     write_base_metrics(b, state, out, _M_BASE)
     out[b, _M_SUCCESS] = task[b, _SUCCESS]
     out[b, _M_FINAL_DISTANCE] = task[b, _DISTANCE]
+    out[b, _M_STEPS] = state[b, S.STEPS]  # the episode ends at the goal: its steps are the steps to it
     out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_GOAL] + out[b, _R_BLOCKED]
     out[b, _TERMINATED] = task[b, _SUCCESS]
 
@@ -129,7 +130,14 @@ class BuckybotGoalEnv(BuckybotEnv):
     ## Episode End
     Terminates when the true centre is within ``goal_radius_cm`` of the goal; truncated after
     ``max_episode_steps`` (300 at registration). ``info["episode_metrics"]``: ``success`` (0/1),
-    ``final_distance_cm`` (true), ``blocked_tips``, ``oscillation_events``.
+    ``final_distance_cm`` (true), ``steps_to_goal`` (the steps taken: to the goal if it was reached, else the
+    whole episode), ``blocked_tips``, ``oscillation_events``.
+
+    ## Task score
+    ``success`` (max, ceiling 1; ties at the ceiling broken by fewer ``steps_to_goal``). The paper's robot moves by
+    tips and knows its pose only by dead reckoning; the task is to get there, judged on the true position, and a
+    robot that gets there in fewer 9.13 cm tips (each tip costs the paper's robot seconds and drifts its dead
+    reckoning) did better. Blocked tips are charged in the reward, not the score: arriving is what counts.
 
     ## Arguments
     | argument | default | meaning |

@@ -188,6 +188,14 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     counter-clockwise turns about the room's centre), ``progress_cm``, ``blocked_tips`` and
     ``oscillation_events`` (tips that undo the previous tip).
 
+    ## Task score
+    ``perimeter_fraction`` (max, ceiling 1; ties at the ceiling broken by the lower ``wall_distance_error_cm``).
+    The paper's task is to follow the closest wall at d*, and its failure is getting stuck (in 90° corners and
+    narrow hallways), which the return can hide: hovering at d* beside one wall earns the distance term at every
+    step. The score is the fraction of the room's wall length passed within ``follow_tolerance_cm`` of d*, so
+    only following the wall, at the paper's distance and all the way round, raises it; two robots that follow it
+    all are told apart by how close to d* they kept (the distance half of the paper's eq. 5).
+
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|

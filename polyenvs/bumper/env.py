@@ -182,6 +182,12 @@ class BumperCartExploreEnv(RowsEnv):
     true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
     drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
 
+    ## Task score
+    ``wall_fraction_touched`` (max, ceiling 1): the paper's cart maps a maze by bumping into its walls, and a wall
+    it never touched is a wall missing from its map, so the score is the fraction of the wall length touched. The
+    paper's own policy is the random bounce, and on this map coverage saturates within the 200 cycles: the score
+    barely tells the bounce from a uniformly random turn (which is what it draws), a known weakness of this id.
+
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|

@@ -101,6 +101,12 @@ class CorridorEnv(SwarmEnv):
     info instead (from the reset on: fixed keys of numbers only, which TorchRL's ``PettingZooWrapper`` needs; the
     nested dict, which it cannot take, is the default for the PettingZoo and Stable-Baselines3 paths).
 
+    ## Task score
+    ``success_rate`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_to_goal_s``): the fraction of
+    the robots that reached the light at the corridor's far end. The paper's indoor experiment is exactly that
+    (ten runs, all reached the light); collisions and clearance are what AP-lite trades for it and are reported
+    beside the score. Between swarms that all arrive, the faster one did better.
+
     ## Arguments
     | keyword | default | meaning (range) |
     | --- | --- | --- |

@@ -18,6 +18,7 @@ from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, layout
 from polyenvs.swarm.sensors import wrap_angle
 
 __all__ = [
+    "FORMATION_HOLDS_ERROR",
     "FORMATION_PENALTY",
     "FormationEnv",
     "FormationTerms",
@@ -53,6 +54,10 @@ N_OBSTACLES = 5
 SPACING_RANGE_M = (0.5, 3.0)
 #: Reward weight (*ours*): per unit of a robot's own formation error, per step.
 FORMATION_PENALTY = 0.1
+#: The swarm's formation error (mean |r - R| / R over the lattice pairs) up to which the formation holds (*ours*):
+#: a quarter of R keeps neighbours on average within 0.75-1.25 R, short of the springs' 1.5 R reach, and above the
+#: feasibility study's worst held formation (0.17). ``formation_progress_m`` counts progress only while it holds.
+FORMATION_HOLDS_ERROR = 0.25
 #: The robot of each environment that broadcasts (AP-lite's leader-follower form): ``robot_0``.
 LEADER = 0
 #: The formation's observation parts (name -> lower bounds; upper bounds 1), between the family's ``neighbours``
@@ -130,11 +135,14 @@ class FormationTerms(TaskTerms):
     """What the formation adds to the family, for a whole batch: the leader's broadcast in the observation, the
     ``formation`` reward term (-0.1 x a robot's own error), the ``formation_error`` metric (per robot: its mean
     error over the steps; per environment: the mean over the steps of the swarm's error) and info key (a robot's
-    own error now). The first readings after a reset count as a step of the sums, not of the reward."""
+    own error now). The first readings after a reset count as a step of the sums, not of the reward. The
+    ``formation_progress_m`` metric (per environment, and the same for each of its robots) sums the decrease of
+    the distance from the centroid of all N robots (those that arrived stay where they left) to the goal over the
+    steps where the swarm's error is at most :data:`FORMATION_HOLDS_ERROR`."""
 
     observation_parts = OBSERVATION_PARTS
     reward_names = ("formation",)
-    metric_names = ("formation_error",)
+    metric_names = ("formation_error", "formation_progress_m")
     info_names = ("formation_error",)
 
     def __init__(self, task: FormationEnv, batch):
@@ -145,6 +153,8 @@ class FormationTerms(TaskTerms):
         self.leader_params = np.array([task.range_noise_m, math.radians(task.bearing_noise_deg), task.comm_range_m])
         #: Each robot's error now, its sum over the steps, and each environment's sum of the swarm's error.
         self.per_robot, self.robot_sum, self.swarm_sum = np.zeros(rows), np.zeros(rows), np.zeros(envs)
+        #: Each environment's centroid-to-goal distance after the last step, and its progress while in formation.
+        self.centroid_distance, self.progress_sum = np.zeros(envs), np.zeros(envs)
         self._scratch = np.zeros(rows), np.zeros(rows), np.zeros(envs)  # per robot, pairs per robot, swarm
         self._reward_column = batch.reward_column("formation")
 
@@ -157,19 +167,31 @@ class FormationTerms(TaskTerms):
         formation_error(self.batch.pose, live, self.pairs, self.spacing_m, per_robot, count, swarm)
         return per_robot, swarm
 
+    def _centroid_distance(self) -> np.ndarray:
+        """Each environment's distance from the centroid of its N robots to its goal, ``(E,)``."""
+        batch = self.batch
+        centroid = batch.pose[:, :2].reshape(batch.n_envs, batch.n_robots, 2).mean(axis=1)
+        return np.hypot(*(centroid - batch.goals).T)
+
     def score(self, live, rows, envs) -> None:
         per_robot, swarm = self._errors(live)
         reward = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
+        distance = self._centroid_distance()
+        progress = np.where(swarm <= FORMATION_HOLDS_ERROR, self.centroid_distance - distance, 0.0)
         if rows is None:  # every row stepped
             self.per_robot[:] = per_robot
             self.batch.rewards[:, self._reward_column] = reward
             self.robot_sum += np.where(live, per_robot, 0.0)
             self.swarm_sum += swarm
+            self.progress_sum += progress
+            self.centroid_distance[:] = distance
         else:
             self.per_robot[rows] = per_robot[rows]
             self.batch.rewards[rows, self._reward_column] = reward[rows]
             self.robot_sum[rows] += np.where(live, per_robot, 0.0)[rows]
             self.swarm_sum[envs] += swarm[envs]
+            self.progress_sum[envs] += progress[envs]
+            self.centroid_distance[envs] = distance[envs]
 
     def restart(self, rows, envs) -> None:
         active = self.batch.active
@@ -177,15 +199,22 @@ class FormationTerms(TaskTerms):
         self.per_robot[rows] = per_robot[rows]
         self.robot_sum[rows] = np.where(active, per_robot, 0.0)[rows]
         self.swarm_sum[envs] = swarm[envs]
+        self.centroid_distance[envs] = self._centroid_distance()[envs]
+        self.progress_sum[envs] = 0.0
 
     def env_metrics(self) -> dict[str, np.ndarray]:
-        return {"formation_error": self.swarm_sum / (self.batch.cycles + 1)}
+        return {
+            "formation_error": self.swarm_sum / (self.batch.cycles + 1),
+            "formation_progress_m": self.progress_sum.copy(),
+        }
 
     def robot_metrics(self) -> dict[str, np.ndarray]:
         cycles = self.batch.cycles
+        progress = np.repeat(self.progress_sum, self.batch.n_robots)
         if len(cycles) == 1:  # the common case of a PettingZoo step, in one division
-            return {"formation_error": self.robot_sum / max(int(cycles[0]), 1)}
-        return {"formation_error": self.robot_sum / np.maximum(np.repeat(cycles, self.batch.n_robots), 1)}
+            return {"formation_error": self.robot_sum / max(int(cycles[0]), 1), "formation_progress_m": progress}
+        errors = self.robot_sum / np.maximum(np.repeat(cycles, self.batch.n_robots), 1)
+        return {"formation_error": errors, "formation_progress_m": progress}
 
     def robot_info(self) -> dict[str, np.ndarray]:
         return {"formation_error": self.per_robot.copy()}
@@ -229,7 +258,16 @@ class FormationEnv(SwarmEnv):
 
     ## Info
     As in ``corridor_v0`` plus ``formation_error`` (the robot's own, now); its ``episode_metrics`` add the
-    robot's mean ``formation_error``, and ``env.episode_metrics()`` the swarm's mean over steps.
+    robot's mean ``formation_error``, and ``env.episode_metrics()`` the swarm's mean over steps; both add
+    ``formation_progress_m``, the metres the centroid of the N robots came closer to the goal during steps in
+    which the formation held (the swarm's error at most ``FORMATION_HOLDS_ERROR`` = 0.25).
+
+    ## Task score
+    ``formation_progress_m`` (max). The paper's task is to reach the goal *while keeping the formation*
+    (physicomimetics springs hold the lattice; AP-lite steers it past obstacles). Success alone ignores the
+    formation, and the mean formation error rewards standing still (a swarm that never moves keeps its start
+    lattice). Counting the centroid's progress to the goal only while the lattice holds asks for both: standing
+    still scores 0, and so does a swarm that scatters to the goal.
 
     ## Arguments
     ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200;

@@ -87,6 +87,12 @@ class ObstacleFieldEnv(SwarmEnv):
     As in ``corridor_v0``: ``pose``, ``collisions``, ``distance_to_goal_m``, ``nearest_obstacle_cm``,
     ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
 
+    ## Task score
+    ``success_rate`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_to_goal_s``): the fraction of
+    the robots that reached the goal light. The paper's outdoor experiment asks the Maxelbots to cross the field to
+    the light, and its failure mode is the halt short of it (the potential-field trap, counted by ``stopped``),
+    which success measures directly.
+
     ## Arguments
     ``n_robots`` (default 3) and ``n_obstacles`` (default 5, 0-200; ``layouts="train"`` and ``"test"`` draw their own
     count and refuse another), then every keyword of ``corridor_v0`` with ``platform="maxelbot"`` and
