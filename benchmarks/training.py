@@ -180,7 +180,7 @@ def measure_training(
     cases = [Case(env_id, PPO_SETTING, start=_starter(env_id, timesteps, seed)) for env_id in [CARTPOLE, *ids]]
     notes: list[str] = []
     if vec:
-        from polyenvs.training.vec_adapter import has_native_vector_env
+        from polyenvs.evaluation import resolve_env
 
         per_round = vec_timesteps if vec_timesteps is not None else 4 * timesteps
         common = {"timesteps": per_round, "seed": seed, "config": config, "overrides": vec_overrides}
@@ -194,7 +194,7 @@ def measure_training(
         )
         for env_id in ids:
             for vec_env, label in VEC_KINDS:
-                if vec_env == "native" and not has_native_vector_env(env_id):
+                if vec_env == "native" and not resolve_env(env_id).native_vector:
                     notes.append(f"{env_id}: no native vector env, so no adapter row")
                     continue
                 setting = vec_setting(config, vec_overrides, label)

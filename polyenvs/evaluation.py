@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from numbers import Integral
 from typing import Any
 
@@ -24,7 +25,7 @@ from polyenvs.limits import MAX_EPISODE_STEPS
 from polyenvs.registry import bare_id
 from polyenvs.rollout import run_episode
 
-__all__ = ["evaluate", "make_agent", "make_env"]
+__all__ = ["EnvTarget", "evaluate", "make_agent", "make_env", "resolve_env"]
 
 
 def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
@@ -48,10 +49,7 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     try:
         return build(env_id, env_kwargs, **extra)
     except UnknownEnvironment:
-        raise InputError(
-            f"unknown environment id {bare_id(env_id)!r} (neither a Gymnasium id nor a PettingZoo "
-            "module path); run 'polyenvs list' for ours"
-        ) from None
+        raise _unknown(env_id) from None
     except ModuleNotFoundError as exc:
         from polyenvs.registry import entry
 
@@ -65,6 +63,42 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         if not env_kwargs:
             raise
         raise InputError(f"bad environment keyword arguments for {env_id}: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class EnvTarget:
+    """An environment name resolved once, for the layers above that build many copies of it (training): the bare
+    name, the keywords it was checked with, its kind, the spaces of the policy that acts in it (one robot's, for
+    a PettingZoo environment) and whether it has a native vector env."""
+
+    env_id: str
+    env_kwargs: dict
+    parallel: bool
+    observation_space: gym.Space
+    action_space: gym.Space
+    native_vector: bool
+
+
+def resolve_env(env_id: str, env_kwargs: dict | None = None) -> EnvTarget:
+    """Build ``env_id`` once with ``env_kwargs`` (:func:`make_env`'s errors) and keep what its users need."""
+    from polyenvs.rollout import agent_spaces, is_parallel
+
+    env = make_env(env_id, env_kwargs)
+    try:
+        observation_space, action_space = agent_spaces(env)
+        parallel = is_parallel(env)
+    finally:
+        env.close()
+    name = bare_id(env_id)
+    native = not parallel and gym.spec(name).vector_entry_point is not None
+    return EnvTarget(name, dict(env_kwargs or {}), parallel, observation_space, action_space, native)
+
+
+def _unknown(env_id: str) -> InputError:
+    return InputError(
+        f"unknown environment id {bare_id(env_id)!r} (neither a Gymnasium id nor a PettingZoo module path); run "
+        "'polyenvs list' for ours"
+    )
 
 
 def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, policy_kwargs: dict | None = None):

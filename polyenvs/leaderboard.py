@@ -7,22 +7,32 @@ agent's training seed, is a JSON file under the results directory, written atomi
 unless asked to redo it, and re-runs (saying why) a file that is unreadable, not a result, for another number of
 episodes, or (for an agent) for another version of the model (its SHA-256 differs).
 
-The table follows RL Zoo's ``benchmark.md`` columns plus the interquartile mean with its 95% bootstrap interval, a
-score normalised so that random = 0 and the paper's baseline = 1, and the environment's task metrics. A trained
-algorithm gets one row that pools the episodes of all its training seeds: IQM with a stratified bootstrap interval
-(episodes resampled within each run), mean ``n_timesteps`` over the seeds, and the number of seeds. Beside the
-Markdown file, one PNG per environment draws each row's IQM as a bar with its interval.
+Every policy is evaluated on the default layouts and, where the environment takes ``layouts=``, on the held-out
+ones (``layouts="test"``), each a result file of its own; the evaluations run one by one or on a process pool
+(``workers``), with the same results.
+
+The table ranks each environment's rows by its task score (:class:`polyenvs.registry.Score`, declared on its
+registry row): the score's interquartile mean with its 95% stratified bootstrap interval, a score normalised so
+that random = 0 and the paper's algorithm (or the row's upper anchor) = 1, "not discriminative" instead where
+their intervals overlap, the return's IQM beside it, and the held-out score with the gap. RL Zoo's
+``benchmark.md`` columns and the task metrics follow in a collapsed block. A trained algorithm gets one row that
+pools the episodes of all its training seeds: IQM with a stratified bootstrap interval (episodes resampled within
+each run), mean ``n_timesteps`` over the seeds, and the number of seeds. Beside the Markdown file, charts drawn
+with matplotlib (:mod:`polyenvs.charts`): an interval plot of the score per environment and a performance profile
+over the environments.
 """
 
 from __future__ import annotations
 
 import datetime
 import json
-import math
 import platform
 import re
 import subprocess
+import time
+import warnings
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,8 +40,8 @@ import numpy as np
 
 from polyenvs.errors import InputError
 from polyenvs.evaluation import evaluate
-from polyenvs.files import atomic_path, write_json_atomic, write_text_atomic
-from polyenvs.registry import bare_id, slug
+from polyenvs.files import write_json_atomic, write_text_atomic
+from polyenvs.registry import bare_id, entry, slug
 from polyenvs.statistics import iqm_with_stratified_ci
 
 __all__ = [
@@ -43,10 +53,15 @@ __all__ = [
     "Agent",
     "agent_from_path",
     "find_agents",
+    "LAYOUTS",
+    "layouts_kwargs",
+    "old_versions_quietly",
     "leaderboard_markdown",
-    "leaderboard_plot",
     "leaderboard_policies",
     "leaderboard_rows",
+    "leaderboard_tables",
+    "profile_path",
+    "result_layouts",
     "load_result",
     "plot_path",
     "provenance",
@@ -60,6 +75,9 @@ __all__ = [
 EVAL_SEED = 1000
 #: Episodes per policy in the reference leaderboard; fewer is "quick mode" and the table says so.
 PROTOCOL_EPISODES = 50
+#: The layouts every policy is evaluated on: the default (today's episodes) and the held-out test distribution
+#: (``layouts="test"``, disjoint from the "train" one that training may use).
+LAYOUTS = ("default", "test")
 #: Where committed trained agents live (relative to the repository root, like the reference results).
 DEFAULT_AGENTS_DIR = Path("benchmarks/agents")
 _REQUIRED_KEYS = ("env_id", "policy", "episodes", "summary", "n_episodes")
@@ -87,9 +105,17 @@ def provenance() -> dict:
     }
 
 
-def result_path(results_dir: Path, env_id: str, policy: str) -> Path:
-    """``<results_dir>/<env id with / as __>__<policy>.json``; an agent's ``policy`` here is its :attr:`Agent.key`."""
-    return Path(results_dir) / f"{slug(env_id)}__{policy}.json"
+def result_path(results_dir: Path, env_id: str, policy: str, layouts: str = "default") -> Path:
+    """``<results_dir>/<env id with / as __>__<policy>.json`` (``...__layouts-<name>.json`` for other layouts than
+    the default); an agent's ``policy`` here is its :attr:`Agent.key`."""
+    suffix = "" if layouts == "default" else f"__layouts-{layouts}"
+    return Path(results_dir) / f"{slug(env_id)}__{policy}{suffix}.json"
+
+
+def result_layouts(doc: dict) -> str:
+    """The layouts a result document was evaluated on (``env_kwargs["layouts"]``, else the default)."""
+    kwargs = doc.get("env_kwargs")
+    return str(kwargs.get("layouts", "default")) if isinstance(kwargs, dict) else "default"
 
 
 def plot_path(table: Path, env_id: str) -> Path:
@@ -253,7 +279,8 @@ def _check_agent(agent: Agent, envs: dict) -> str:
     from polyenvs.evaluation import make_agent, make_env
 
     if agent.env_id not in envs:
-        envs[agent.env_id] = make_env(agent.env_id)
+        with old_versions_quietly():
+            envs[agent.env_id] = make_env(agent.env_id)
     policy = make_agent(agent.path, agent.env_id, envs[agent.env_id])
     return policy.describe()["sha256"]
 
@@ -262,12 +289,18 @@ def _check_agent(agent: Agent, envs: dict) -> str:
 
 
 def load_result(
-    path: Path, env_id: str, policy: str, episodes: int | None = None, sha256: str | None = None
+    path: Path,
+    env_id: str,
+    policy: str,
+    episodes: int | None = None,
+    sha256: str | None = None,
+    layouts: str = "default",
 ) -> tuple[dict | None, str | None]:
     """``(document, None)`` if ``path`` holds a usable result, else ``(None, why not)``; ``(None, None)`` if absent.
 
     Usable: valid JSON, a result document for ``env_id`` and ``policy`` with its episodes, (when ``episodes`` is
-    given) exactly that many episodes, and (when ``sha256`` is given, for a trained model) of that model.
+    given) exactly that many episodes, (when ``sha256`` is given, for a trained model) of that model, and on
+    ``layouts``.
     """
     path = Path(path)
     try:
@@ -290,6 +323,8 @@ def load_result(
     n = doc["n_episodes"]
     if not isinstance(doc["episodes"], list) or not doc["episodes"] or len(doc["episodes"]) != n:
         return None, f"it does not hold its {n!r} episodes"
+    if result_layouts(doc) != layouts:
+        return None, f"it was evaluated on layouts {result_layouts(doc)!r}, not {layouts!r}"
     if episodes is not None and n != episodes:
         return None, f"it has {n} episodes, not {episodes}"
     if sha256 is not None:
@@ -297,6 +332,37 @@ def load_result(
         if not isinstance(description, dict) or description.get("sha256") != sha256:
             return None, "it evaluated another version of the model (its SHA-256 differs)"
     return doc, None
+
+
+@dataclass
+class _Evaluation:
+    """One (environment, policy, layouts) of the leaderboard: its result file, and its document once there."""
+
+    env_id: str
+    policy: str  # a baseline name or an agent's path
+    name: str  # how progress lines name it
+    path: Path
+    layouts: str
+    agent: Agent | None = None
+    doc: dict | None = None
+
+    @property
+    def title(self) -> str:
+        return f"{self.env_id} {self.name}" + ("" if self.layouts == "default" else f" (layouts={self.layouts})")
+
+
+@contextmanager
+def old_versions_quietly():
+    """Make environments without Gymnasium's "out of date" warning for an id with a newer version: the leaderboard
+    evaluates every registered version on purpose (the -v0 ids stay, as Gymnasium keeps them, to compare)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r".*is out of date", category=DeprecationWarning)
+        yield
+
+
+def layouts_kwargs(layouts: str) -> dict:
+    """The environment keywords of a layout set: none for the default (today's episodes, bit for bit)."""
+    return {} if layouts == "default" else {"layouts": layouts}
 
 
 def run_leaderboard(
@@ -310,16 +376,20 @@ def run_leaderboard(
     on_episode: Callable[[dict], None] | None = None,
     agents_dir: Path | None = None,
     extra_agents: list[str] | tuple[str, ...] = (),
+    workers: int = 1,
 ) -> list[dict]:
-    """Evaluate ``random``, every hand baseline and every trained agent on each environment; returns the documents.
+    """Evaluate ``random``, every hand baseline and every trained agent on each environment, on the default layouts
+    and (where the environment takes ``layouts=``) the held-out ones; returns the documents.
 
     Agents are the committed ones under ``agents_dir`` (see :func:`find_agents`) plus ``extra_agents`` (paths whose
     run.json names one of ``env_ids``); every agent that needs evaluating is loaded and checked against its
     environment first, so a broken one raises :class:`InputError` before any episode runs. Results already in
     ``results_dir`` for ``episodes`` episodes (and, for an agent, the same model) are reused unless ``redo``;
     anything else there is evaluated again and ``progress`` says which file and why. ``on_plan(total_episodes)`` is
-    called once before the first evaluation, ``on_episode`` after each episode. An agent's document carries
-    ``"agent": {"algo", "label", "training_seed", "timesteps", ...}``.
+    called once before the first evaluation, ``on_episode`` after each episode (with ``workers`` > 1, for each
+    episode of an evaluation when it finishes), and ``progress`` prints a line per finished evaluation. With
+    ``workers`` > 1 the evaluations run on that many processes (:func:`polyenvs.pool.run_local`), with the same
+    results as one by one. An agent's document carries ``"agent": {"algo", "label", "training_seed", ...}``.
     """
     agents: dict[str, list[Agent]] = {env_id: find_agents(agents_dir, env_id) for env_id in env_ids}
     for path in extra_agents:
@@ -327,49 +397,116 @@ def run_leaderboard(
         if agent.env_id not in agents:
             raise InputError(f"--policy {path}: trained on {agent.env_id}, which is not among the environments run")
         agents[agent.env_id].append(agent)
+    plan = _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents)
+    todo = [item for item in plan if item.doc is None]
+    if on_plan is not None:
+        on_plan(episodes * len(todo))
 
-    plan: list[tuple[str, str, str, Path, dict | None, Agent | None]] = []
+    def finish(item: _Evaluation, doc: dict, seconds: float) -> None:
+        doc["n_episodes"] = episodes
+        if item.agent is not None:
+            doc["agent"] = item.agent.meta()
+        doc.update(provenance())
+        write_json_atomic(item.path, doc)
+        item.doc = doc
+        done = sum(i.doc is not None for i in todo)
+        progress(
+            f"{item.title}: {episodes} episode{'s' if episodes != 1 else ''} in {seconds:.1f} s ({done}/{len(todo)})"
+        )
+
+    if workers > 1 and len(todo) > 1:
+        _evaluate_in_pool(todo, episodes, workers, finish, on_episode)
+    else:
+        for item in todo:
+            started = time.monotonic()
+            kwargs = layouts_kwargs(item.layouts)
+            with old_versions_quietly():
+                doc = evaluate(item.env_id, item.policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
+                               on_episode=on_episode)  # fmt: skip
+            finish(item, doc, time.monotonic() - started)
+    for item in plan:
+        if item.agent is not None:
+            item.doc["agent"] = item.agent.meta()  # the row it joins now (a --policy agent is labelled by its path)
+    return [item.doc for item in plan]
+
+
+def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) -> list[_Evaluation]:
+    """Every evaluation of the leaderboard, with the stored document of those done before (unless ``redo``)."""
+    plan: list[_Evaluation] = []
     envs: dict = {}
+    default_only = []
     try:
         for env_id in env_ids:
+            layouts = _layouts_of(env_id, envs)
+            if layouts == ("default",):
+                default_only.append(env_id)
             entries: list[tuple[str, str, Agent | None]] = [(p, p, None) for p in leaderboard_policies(env_id)]
             entries += [(a.path, a.key, a) for a in agents[env_id]]
             for policy, key, agent in entries:
-                path = result_path(results_dir, env_id, key)
-                name = agent.name if agent is not None else policy
                 sha = _check_agent(agent, envs) if agent is not None else None
-                doc = None
-                if not redo:
-                    doc, why = load_result(path, env_id, policy, episodes, sha256=sha)
-                    if doc is not None:
-                        progress(f"{env_id} {name}: done before ({path})")
-                    elif why is not None:
-                        progress(f"{env_id} {name}: redoing {path}: {why}")
+                name = agent.name if agent is not None else policy
                 if agent is not None and agent.run.get("completed") is False:
                     progress(
                         f"{env_id} {name}: trained {agent.run.get('timesteps')} of "
                         f"{agent.run.get('requested_timesteps')} requested timesteps (interrupted); included as it is"
                     )
-                plan.append((env_id, policy, name, path, doc, agent))
+                for layout in layouts:
+                    item = _Evaluation(
+                        env_id, policy, name, result_path(results_dir, env_id, key, layout), layout, agent
+                    )
+                    if not redo:
+                        item.doc, why = load_result(item.path, env_id, policy, episodes, sha256=sha, layouts=layout)
+                        if item.doc is not None:
+                            progress(f"{item.title}: done before ({item.path})")
+                        elif why is not None:
+                            progress(f"{item.title}: redoing {item.path}: {why}")
+                    plan.append(item)
     finally:
         for env in envs.values():
             env.close()
-    if on_plan is not None:
-        on_plan(episodes * sum(doc is None for *_, doc, _ in plan))
-    documents = []
-    for env_id, policy, name, path, doc, agent in plan:
-        if doc is None:
-            progress(f"{env_id} {name}: {episodes} episode{'s' if episodes != 1 else ''} ...")
-            doc = evaluate(env_id, policy, episodes=episodes, seed=EVAL_SEED, on_episode=on_episode)
-            doc["n_episodes"] = episodes
-            if agent is not None:
-                doc["agent"] = agent.meta()
-            doc.update(provenance())
-            write_json_atomic(path, doc)
-        elif agent is not None:
-            doc["agent"] = agent.meta()  # the row it joins now (a --policy agent is labelled by its path)
-        documents.append(doc)
-    return documents
+    if default_only:  # said once every check passed, as the other notes before the evaluations
+        progress(
+            f"held-out layouts left out (the environment takes no layouts= keyword yet): {', '.join(default_only)}"
+        )
+    return plan
+
+
+def _layouts_of(env_id: str, envs: dict) -> tuple[str, ...]:
+    """:data:`LAYOUTS` where the environment takes ``layouts=``, else the default alone."""
+    from polyenvs.evaluation import make_env
+    from polyenvs.rollout import takes_layouts
+
+    if env_id not in envs:
+        with old_versions_quietly():
+            envs[env_id] = make_env(env_id)
+    return LAYOUTS if takes_layouts(envs[env_id]) else ("default",)
+
+
+def _evaluate_one(job: tuple[int, str, str, int, dict]) -> tuple[dict, float]:
+    """One evaluation in a worker process: ``(index, env id, policy, episodes, env kwargs)`` -> (document,
+    seconds)."""
+    _, env_id, policy, episodes, kwargs = job
+    started = time.monotonic()
+    with old_versions_quietly():
+        doc = evaluate(env_id, policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None)
+    return doc, time.monotonic() - started
+
+
+def _evaluate_in_pool(todo: list[_Evaluation], episodes: int, workers: int, finish, on_episode) -> None:
+    from polyenvs.pool import run_local
+
+    jobs = [(i, item.env_id, item.policy, episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
+
+    def on_result(job, result) -> None:
+        doc, seconds = result
+        finish(todo[job[0]], doc, seconds)
+        for episode in doc["episodes"] if on_episode is not None else ():
+            on_episode(episode)
+
+    def on_error(job, exc: BaseException) -> None:
+        raise exc  # as the serial run would: the pool cancels the rest
+
+    run_local(_evaluate_one, jobs, workers, on_result, on_error)
 
 
 def stored_results(
@@ -389,80 +526,154 @@ def stored_results(
         except InputError as exc:
             progress(f"{env_id}: agents left out of the table: {exc}")
         for policy, key, agent in entries:
-            path = result_path(results_dir, env_id, key)
             sha = None
             if agent is not None:
                 model_file, normalize_file, _ = trained.resolve_model_files(agent.path)
                 sha = trained.model_checksum(model_file, normalize_file)
-            doc, why = load_result(path, env_id, policy, sha256=sha)
-            if doc is not None:
-                if agent is not None:
-                    doc["agent"] = agent.meta()
-                documents.append(doc)
-            elif why is not None:
-                progress(f"{env_id} {agent.name if agent else policy}: left out of the table: {path}: {why}")
+            for layouts in LAYOUTS:
+                path = result_path(results_dir, env_id, key, layouts)
+                doc, why = load_result(path, env_id, policy, sha256=sha, layouts=layouts)
+                if doc is not None:
+                    if agent is not None:
+                        doc["agent"] = agent.meta()
+                    documents.append(doc)
+                elif why is not None:
+                    progress(f"{env_id} {agent.name if agent else policy}: left out of the table: {path}: {why}")
     return documents
 
 
 # ------------------------------------------------------------------------------------------------------ the table
 
 
-def leaderboard_rows(documents: list[dict]) -> dict[str, list[dict]]:
-    """env id -> its rows in table order: baselines as given, then one row per trained algorithm (or path).
+def _score_groups(docs: list[dict], metric: str | None) -> list[np.ndarray] | None:
+    """Each run's per-episode values of ``metric`` (the task score), or None where some episode lacks it (a result
+    from before the environment emitted it)."""
+    if metric is None:
+        return None
+    groups = [np.array([e.get("metrics", {}).get(metric, np.nan) for e in d["episodes"]], float) for d in docs]
+    return groups if all(np.isfinite(g).all() for g in groups) else None
 
-    A row: ``{"label", "kind" ("random", "paper", "baseline" or "agent"), "returns" (pooled), "iqm", "low",
-    "high", "normalised", "metrics" (means over the pooled episodes), "n_timesteps" (mean over seeds, or None),
-    "seeds" (training seeds, agents only), "episodes"}``.
-    """
+
+def _interval(groups: list[np.ndarray] | None) -> dict | None:
+    """``{"iqm", "low", "high", "mean"}`` over ``groups`` (stratified bootstrap), or None without values."""
+    if groups is None:
+        return None
+    iqm, low, high = iqm_with_stratified_ci(groups)
+    return {"iqm": iqm, "low": low, "high": high, "mean": float(np.mean(np.concatenate(groups)))}
+
+
+def _kind(label: str, agent: bool, env_id: str, score) -> str:
     from baselines import paper_policy
 
-    by_env: dict[str, dict[str, list[dict]]] = {}
+    if agent:
+        return "agent"
+    if label == "random":
+        return "random"
+    if score is not None and label == score.upper_anchor:
+        return "anchor"
+    return "paper" if label == paper_policy(env_id) else "baseline"
+
+
+def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], score) -> dict:
+    agent = group_key.startswith("agent:")
+    runs = [np.array([e["return"] for e in d["episodes"]], dtype=np.float64) for d in docs]
+    iqm, low, high = iqm_with_stratified_ci(runs)
+    episodes = [e for d in docs for e in d["episodes"]]
+    names = sorted(set().union(*(e.get("metrics", {}).keys() for e in episodes)))
+    metrics = {m: float(np.mean([e["metrics"][m] for e in episodes if m in e.get("metrics", {})])) for m in names}
+    timesteps = [d["agent"].get("timesteps") for d in docs] if agent else []
+    timesteps = [t for t in timesteps if isinstance(t, int | float) and not isinstance(t, bool)]
+    label = group_key.removeprefix("agent:")
+    metric = score.metric if score is not None else None
+    return {
+        "label": label,
+        "kind": _kind(label, agent, env_id, score),
+        "returns": np.concatenate(runs),
+        "iqm": iqm,
+        "low": low,
+        "high": high,
+        "score_runs": _score_groups(docs, metric),
+        "score": _interval(_score_groups(docs, metric)),
+        "held_out": _interval(_score_groups(held_out, metric)) if held_out else None,
+        "tie": metrics.get(score.tie_break) if score is not None and score.tie_break else None,
+        "metrics": metrics,
+        "n_timesteps": float(np.mean(timesteps)) if timesteps else None,
+        "seeds": [d["agent"].get("training_seed") for d in docs] if agent else None,
+        "episodes": len(episodes),
+    }
+
+
+def _overlap(a: dict, b: dict) -> bool:
+    return a["low"] <= b["high"] and b["low"] <= a["high"]
+
+
+def _normalise(rows: list[dict], score) -> bool:
+    """Set each row's ``normalised`` score (random 0, the anchor 1) and ``gap`` (held-out minus default, worse
+    positive); returns whether the anchor's interval is clear of random's (else ``normalised`` is None)."""
+    rand = next((r["score"] for r in rows if r["kind"] == "random"), None)
+    anchor_kind = "anchor" if score is not None and score.upper_anchor else "paper"
+    anchor = next((r["score"] for r in rows if r["kind"] == anchor_kind), None)
+    discriminative = rand is not None and anchor is not None and not _overlap(rand, anchor)
+    for row in rows:
+        s, h = row["score"], row["held_out"]
+        row["normalised"] = None
+        if discriminative and s is not None:
+            row["normalised"] = (s["iqm"] - rand["iqm"]) / (anchor["iqm"] - rand["iqm"])
+        row["gap"] = score.sign * (s["iqm"] - h["iqm"]) if s is not None and h is not None else None
+    return discriminative
+
+
+def _rank_key(row: dict, score) -> tuple:
+    """Better rows first: by the score's IQM in its direction, then (rows at the ceiling) by the tie-break metric;
+    rows without a score last, in table order."""
+    s = row["score"]
+    if score is None or s is None:
+        return (1, 0.0, 0.0)
+    at_ceiling = score.ceiling is not None and s["iqm"] == score.ceiling
+    tie = score.tie_sign * row["tie"] if at_ceiling and row["tie"] is not None else 0.0
+    return (0, -score.sign * s["iqm"], -tie)
+
+
+def leaderboard_tables(documents: list[dict]) -> dict[str, dict]:
+    """env id -> ``{"score": its :class:`~polyenvs.registry.Score` (or None), "discriminative": bool, "rows"}``.
+
+    Rows are ranked by the task score (:func:`_rank_key`). A row: ``{"label", "kind" ("random", "paper",
+    "anchor", "baseline" or "agent"), "returns" (pooled), "iqm", "low", "high" (of the return), "score" and
+    "held_out" (``{"iqm", "low", "high", "mean"}`` of the score on the default and the held-out layouts, or None),
+    "score_runs" (the score's values per run), "normalised" (None where not discriminative), "gap", "tie",
+    "metrics" (means over the pooled episodes), "n_timesteps" (mean over seeds, or None), "seeds" (training seeds,
+    agents only), "episodes"}``. A trained algorithm's row pools its training seeds' episodes.
+    """
+    by_env: dict[str, dict[str, dict[str, list[dict]]]] = {}
     for doc in documents:
         agent = doc.get("agent")
         label = agent.get("label", agent.get("algo")) if isinstance(agent, dict) else doc["policy"]
-        by_env.setdefault(doc["env_id"], {}).setdefault(("agent:" if agent else "") + label, []).append(doc)
+        key = ("agent:" if agent else "") + label
+        by_env.setdefault(doc["env_id"], {}).setdefault(key, {}).setdefault(result_layouts(doc), []).append(doc)
     tables = {}
     for env_id, groups in by_env.items():
-        rows = []
-        for group_key, docs in groups.items():
-            agent = group_key.startswith("agent:")
-            runs = [np.array([e["return"] for e in d["episodes"]], dtype=np.float64) for d in docs]
-            iqm, low, high = iqm_with_stratified_ci(runs)
-            episodes = [e for d in docs for e in d["episodes"]]
-            names = sorted(set().union(*(e.get("metrics", {}).keys() for e in episodes)))
-            metrics = {
-                m: float(np.mean([e["metrics"][m] for e in episodes if m in e.get("metrics", {})])) for m in names
-            }
-            timesteps = [d["agent"].get("timesteps") for d in docs] if agent else []
-            timesteps = [t for t in timesteps if isinstance(t, int | float) and not isinstance(t, bool)]
-            label = group_key.removeprefix("agent:")
-            if agent:
-                kind = "agent"
-            elif label == "random":
-                kind = "random"
-            else:
-                kind = "paper" if label == paper_policy(env_id) else "baseline"
-            rows.append(
-                {
-                    "label": label,
-                    "kind": kind,
-                    "returns": np.concatenate(runs),
-                    "iqm": iqm,
-                    "low": low,
-                    "high": high,
-                    "metrics": metrics,
-                    "n_timesteps": float(np.mean(timesteps)) if timesteps else None,
-                    "seeds": [d["agent"].get("training_seed") for d in docs] if agent else None,
-                    "episodes": len(episodes),
-                }
-            )
-        rand = next((r["iqm"] for r in rows if r["kind"] == "random"), np.nan)
-        paper = next((r["iqm"] for r in rows if r["kind"] == "paper"), np.nan)
-        for row in rows:
-            span = paper - rand
-            row["normalised"] = (row["iqm"] - rand) / span if np.isfinite(span) and span != 0 else float("nan")
-        tables[env_id] = rows
+        score = _score_of(env_id)
+        rows = [
+            _row(env_id, key, layouts["default"], layouts.get("test", []), score)
+            for key, layouts in groups.items()
+            if "default" in layouts
+        ]
+        discriminative = _normalise(rows, score)
+        rows.sort(key=lambda r: _rank_key(r, score))
+        tables[env_id] = {"score": score, "discriminative": discriminative, "rows": rows}
     return tables
+
+
+def leaderboard_rows(documents: list[dict]) -> dict[str, list[dict]]:
+    """env id -> its rows, ranked (:func:`leaderboard_tables`)."""
+    return {env_id: table["rows"] for env_id, table in leaderboard_tables(documents).items()}
+
+
+def _score_of(env_id: str):
+    try:
+        return entry(env_id).score
+    except KeyError:  # a result of an environment no longer (or not yet) in the registry
+        return None
 
 
 def _format_timesteps(n: float | None) -> str:
@@ -475,9 +686,89 @@ def _format_timesteps(n: float | None) -> str:
     return f"{n:.0f}"
 
 
-def leaderboard_markdown(documents: list[dict], quick: bool | None = None, plots: dict[str, str] | None = None) -> str:
-    """The leaderboard as Markdown: one table per environment (and, with ``plots`` = env id -> PNG file name
-    relative to the table, a link to each environment's plot).
+def _format_interval(stats: dict | None) -> str:
+    return "-" if stats is None else f"{stats['iqm']:.3g} [{stats['low']:.3g}, {stats['high']:.3g}]"
+
+
+def _score_line(env_id: str, table: dict) -> str:
+    score = table["score"]
+    if score is None:
+        return "No task score is declared for this environment: rows keep table order."
+    words = "higher" if score.direction == "max" else "lower"
+    best = "ceiling" if score.direction == "max" else "floor"
+    line = f"Task score: `{score.metric}` ({words} is better"
+    line += f", {best} {score.ceiling:g}" if score.ceiling is not None else ""
+    if score.tie_break:
+        tie_words = "higher" if score.tie_direction == "max" else "lower"
+        line += f"; ties at the {best}: {tie_words} `{score.tie_break}`"
+    anchor = score.upper_anchor or "the paper's algorithm"
+    line += f"). Normalised: random 0, {anchor} 1."
+    if not table["discriminative"]:
+        line += (
+            f" **Not discriminative**: {anchor}'s interval overlaps random's (or one of them has no result), so no "
+            "normalised score is given."
+        )
+    return line
+
+
+def _headline_table(table: dict) -> list[str]:
+    lines = [
+        "| policy | score IQM [95% CI] | normalised | return IQM [95% CI] | held-out score IQM [95% CI] | gap |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in table["rows"]:
+        if r["normalised"] is not None:
+            normalised = f"{r['normalised']:.2f}"
+        else:
+            normalised = "not discriminative" if r["score"] is not None else "-"
+        cells = [
+            r["label"],
+            _format_interval(r["score"]),
+            normalised,
+            f"{r['iqm']:.2f} [{r['low']:.2f}, {r['high']:.2f}]",
+            _format_interval(r["held_out"]),
+            f"{r['gap']:.3g}" if r["gap"] is not None else "-",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def _details_table(env_id: str, rows: list[dict]) -> list[str]:
+    """RL Zoo's columns and every task metric (means), in a collapsed block below the headline table."""
+    metric_names = sorted(set().union(*(r["metrics"].keys() for r in rows)) - {"return", "length"})
+    header = ["algo", "env_id", "mean_reward", "std_reward", "n_timesteps", "eval_episodes", "seeds", "IQM [95% CI]"]
+    lines = [
+        "<details><summary>RL Zoo's columns and the task metrics (means over the default layouts' episodes)</summary>",
+        "",
+        "| " + " | ".join(header + metric_names) + " |",
+        "|" + "---|" * (len(header) + len(metric_names)),
+    ]
+    for r in rows:
+        returns = r["returns"]
+        row = [
+            r["label"],
+            env_id,
+            f"{returns.mean():.2f}",
+            f"{returns.std():.2f}",
+            _format_timesteps(r["n_timesteps"]),  # "-" for hand baselines: they are not trained
+            str(len(returns)),
+            str(len(r["seeds"])) if r["seeds"] is not None else "-",
+            f"{r['iqm']:.2f} [{r['low']:.2f}, {r['high']:.2f}]",
+        ]
+        row += [f"{r['metrics'][m]:.3g}" if m in r["metrics"] else "-" for m in metric_names]
+        lines.append("| " + " | ".join(row) + " |")
+    return [*lines, "", "</details>"]
+
+
+def leaderboard_markdown(
+    documents: list[dict],
+    quick: bool | None = None,
+    plots: dict[str, str] | None = None,
+    profile: str | None = None,
+) -> str:
+    """The leaderboard as Markdown: per environment, the headline table (ranked by the task score) and RL Zoo's
+    columns with the task metrics in a collapsed block; with ``plots`` (env id -> PNG file name relative to the
+    table) a link to each environment's interval plot, with ``profile`` to the performance profile.
 
     ``quick`` (the table warns that numbers are indicative) defaults to: some result has fewer than
     :data:`PROTOCOL_EPISODES` episodes.
@@ -492,13 +783,15 @@ def leaderboard_markdown(documents: list[dict], quick: bool | None = None, plots
     lines = [
         "# polyenvs leaderboard",
         "",
-        f"{each} on seeds "
-        f"{EVAL_SEED}, {EVAL_SEED + 1}, ... (the same for every policy), deterministic actions. IQM is the "
-        "interquartile mean of the episode return with its 95% bootstrap interval; the normalised score is "
-        "(IQM - IQM of random) / (IQM of the paper's baseline - IQM of random). A trained algorithm's row pools the "
-        "episodes of all its training seeds (eval_episodes counts them all; seeds says how many runs): its interval "
-        "is a stratified bootstrap (episodes resampled within each run), n_timesteps the mean over the seeds, and "
-        "the task metrics are means over all its episodes.",
+        f"{each} on seeds {EVAL_SEED}, {EVAL_SEED + 1}, ... (the same for every policy), deterministic actions, on "
+        'the default layouts and on the held-out ones (`layouts="test"`, which no training run sees). Rows are '
+        "ranked by each environment's task score (the episode metric that is its paper's task, declared on its "
+        "registry row): its interquartile mean (IQM) with a 95% stratified bootstrap interval, normalised so that "
+        "random = 0 and the paper's algorithm (or a stated upper anchor) = 1, unless their intervals overlap "
+        '("not discriminative"). The return\'s IQM is shown beside it. The gap is the default score minus the '
+        "held-out one, in the score's units, positive where the held-out layouts are worse. A trained algorithm's "
+        "row pools the episodes of all its training seeds (a stratified bootstrap: episodes resampled within each "
+        "run).",
         "",
     ]
     if quick:
@@ -506,153 +799,42 @@ def leaderboard_markdown(documents: list[dict], quick: bool | None = None, plots
             f"**Quick mode**: fewer episodes than the protocol's {PROTOCOL_EPISODES}; numbers are indicative only.",
             "",
         ]
-    for env_id, rows in leaderboard_rows(documents).items():
-        metric_names = sorted(set().union(*(r["metrics"].keys() for r in rows)) - {"return", "length"})
-        lines += [f"## {env_id}", ""]
+    if profile:
+        lines += [f"![Performance profile of the normalised task scores over the environments]({profile})", ""]
+    for env_id, table in leaderboard_tables(documents).items():
+        lines += [f"## {env_id}", "", _score_line(env_id, table), ""]
         if plots and env_id in plots:
-            lines += [f"![IQM and 95% interval of the return per policy on {env_id}]({plots[env_id]})", ""]
-        header = [
-            "algo",
-            "env_id",
-            "mean_reward",
-            "std_reward",
-            "n_timesteps",
-            "eval_episodes",
-            "seeds",
-            "IQM [95% CI]",
-            "normalised",
-        ]
-        lines += ["| " + " | ".join(header + metric_names) + " |", "|" + "---|" * (len(header) + len(metric_names))]
-        for r in rows:
-            returns = r["returns"]
-            row = [
-                r["label"],
-                env_id,
-                f"{returns.mean():.2f}",
-                f"{returns.std():.2f}",
-                _format_timesteps(r["n_timesteps"]),  # "-" for hand baselines: they are not trained
-                str(len(returns)),
-                str(len(r["seeds"])) if r["seeds"] is not None else "-",
-                f"{r['iqm']:.2f} [{r['low']:.2f}, {r['high']:.2f}]",
-                f"{r['normalised']:.2f}",
-            ]
-            row += [f"{r['metrics'][m]:.3g}" if m in r["metrics"] else "-" for m in metric_names]
-            lines.append("| " + " | ".join(row) + " |")
-        lines.append("")
+            lines += [f"![IQM and 95% interval of the task score per policy on {env_id}]({plots[env_id]})", ""]
+        lines += [*_headline_table(table), "", *_details_table(env_id, table["rows"]), ""]
     return "\n".join(lines)
 
 
-def write_leaderboard(documents: list[dict], path: Path, quick: bool | None = None) -> str:
-    """Write the Markdown table to ``path`` and one PNG per environment beside it (:func:`plot_path`)."""
-    from polyenvs.core.raster import png_bytes
+def profile_path(table: Path) -> Path:
+    """The performance profile's PNG beside the Markdown table: ``<table stem>_profile.png``."""
+    table = Path(table)
+    return table.parent / f"{table.stem}_profile.png"
+
+
+def write_leaderboard(
+    documents: list[dict], path: Path, quick: bool | None = None, progress: Callable[[str], None] = print
+) -> str:
+    """Write the Markdown table to ``path`` and its charts beside it (:func:`plot_path`, :func:`profile_path`),
+    drawn with matplotlib (the ``plots`` extra); without it the table is written alone and ``progress`` says so."""
+    from polyenvs import charts
 
     path = Path(path)
-    plots = {}
-    for env_id, rows in leaderboard_rows(documents).items():
-        png = plot_path(path, env_id)
-        with atomic_path(png) as tmp:
-            tmp.write_bytes(png_bytes(leaderboard_plot(env_id, rows)))
-        plots[env_id] = png.name
-    text = leaderboard_markdown(documents, quick=quick, plots=plots)
+    tables = leaderboard_tables(documents)
+    plots, profile = {}, None
+    if charts.available():
+        for env_id, table in tables.items():
+            charts.save(charts.interval_plot(env_id, table), plot_path(path, env_id))
+            plots[env_id] = plot_path(path, env_id).name
+        figure = charts.performance_profile_plot(tables)
+        if figure is not None:
+            charts.save(figure, profile_path(path))
+            profile = profile_path(path).name
+    else:
+        progress(f"charts left out: they need matplotlib: {charts.INSTALL_HINT}")
+    text = leaderboard_markdown(documents, quick=quick, plots=plots, profile=profile)
     write_text_atomic(path, text)
     return text
-
-
-# ------------------------------------------------------------------------------------------------------- the plot
-
-
-#: Bar colours: random grey, the paper's baseline blue, other hand baselines light blue, trained agents orange.
-_COLOURS = {
-    "random": (150, 150, 150),
-    "paper": (31, 119, 180),
-    "baseline": (120, 175, 215),
-    "agent": (230, 120, 30),
-}
-
-
-def _nice_ticks(low: float, high: float, count: int = 5) -> np.ndarray:
-    span = max(high - low, 1e-9)
-    raw = span / count
-    step = 10 ** math.floor(math.log10(raw))
-    step *= next(m for m in (1, 2, 2.5, 5, 10) if m * step >= raw)
-    return np.arange(math.ceil(low / step) * step, high + 0.5 * step, step)
-
-
-def _format_number(value: float) -> str:
-    if abs(value) >= 1000:
-        return f"{value:.0f}"
-    if abs(value) >= 10:
-        return f"{value:.1f}"
-    return f"{value:.2f}"
-
-
-def leaderboard_plot(env_id: str, rows: list[dict], width: int = 760) -> np.ndarray:
-    """An ``(H, width, 3)`` uint8 image: per row (top to bottom, table order) a horizontal bar from 0 to the IQM of
-    the return and a black line over its 95% interval, the IQM written at the right; grey random, dark blue the
-    paper's baseline, light blue other hand baselines, orange trained agents. Drawn with
-    :class:`polyenvs.core.raster.Canvas`."""
-    from polyenvs.core.raster import Canvas, stamp_text, text_width
-
-    scale, row_h, top, bottom = 2, 30, 58, 56
-    labels = [r["label"] if len(r["label"]) <= 26 else "..." + r["label"][-23:] for r in rows]
-    left = 16 + max(text_width(s, scale) for s in labels) + 16
-    right = width - 90
-    height = top + row_h * len(rows) + bottom
-    values = [v for r in rows for v in (r["iqm"], r["low"], r["high"]) if np.isfinite(v)] + [0.0]
-    lo, hi = min(values), max(values)
-    pad = 0.04 * max(hi - lo, 1e-9)
-    lo, hi = lo - (pad if lo < 0 else 0), hi + (pad if hi > 0 else 0)
-    if hi - lo < 1e-9:
-        lo, hi = lo - 1, hi + 1
-
-    def x_px(value: float) -> float:
-        return left + (value - lo) / (hi - lo) * (right - left)
-
-    canvas = Canvas((0, 0, width, height), width=width, height=height, margin=0)  # world units are pixels, y up
-
-    def y(row_px: float) -> float:  # image row -> world y
-        return height - row_px
-
-    ticks = _nice_ticks(lo, hi)
-    plot_top, plot_bottom = top - 6, top + row_h * len(rows) + 6
-    for t in ticks:
-        canvas.lines([(x_px(t), y(plot_top))], [(x_px(t), y(plot_bottom))], (225, 225, 225))
-    canvas.lines([(x_px(0), y(plot_top))], [(x_px(0), y(plot_bottom))], (90, 90, 90))
-    canvas.lines([(left, y(plot_bottom))], [(right, y(plot_bottom))], (90, 90, 90))
-    for i, r in enumerate(rows):
-        centre = top + row_h * i + row_h / 2
-        if np.isfinite(r["iqm"]):
-            a, b = sorted((x_px(0), x_px(r["iqm"])))
-            b = max(b, a + 1)
-            box = [(a, y(centre - 8)), (b, y(centre - 8)), (b, y(centre + 8)), (a, y(centre + 8))]
-            canvas.polygon(box, _COLOURS[r["kind"]])
-        if np.isfinite(r["low"]) and np.isfinite(r["high"]):
-            xl, xh = x_px(r["low"]), x_px(r["high"])
-            canvas.lines(
-                [(xl, y(centre)), (xl, y(centre - 5)), (xh, y(centre - 5))],
-                [(xh, y(centre)), (xl, y(centre + 5)), (xh, y(centre + 5))],
-                (20, 20, 20),
-                width_px=2.0,
-            )
-    image = canvas.image
-    stamp_text(image, 16, 10, env_id, (0, 0, 0), scale)
-    stamp_text(image, 16, 30, "IQM of the episode return and its 95% interval", (90, 90, 90), scale)
-    for i, (label, r) in enumerate(zip(labels, rows, strict=True)):
-        centre = top + row_h * i + row_h // 2
-        stamp_text(image, 16, centre - 5, label, (0, 0, 0), scale)
-        stamp_text(image, right + 12, centre - 5, _format_number(r["iqm"]), (0, 0, 0), scale)
-    for t in ticks:
-        text = _format_number(float(t)) if abs(t) > 1e-9 * (hi - lo) else "0"
-        stamp_text(image, round(x_px(t) - text_width(text, scale) / 2), plot_bottom + 8, text, (60, 60, 60), scale)
-    legend = [
-        ("random", "random"),
-        ("paper", "paper's baseline"),
-        ("baseline", "other hand baselines"),
-        ("agent", "trained agent"),
-    ]
-    x = 16
-    for kind, name in legend:
-        image[height - 18 : height - 8, x : x + 10] = _COLOURS[kind]
-        stamp_text(image, x + 14, height - 18, name, (60, 60, 60), scale)
-        x += 14 + text_width(name, scale) + 18
-    return image

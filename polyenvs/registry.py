@@ -13,6 +13,10 @@ keyword arguments) and which of them is the paper's main algorithm (``paper=``),
 finds them here instead of in per-family helpers. A baseline acts on one agent's observation; for a parallel
 environment the evaluation applies it to each robot's own observation (parameter sharing).
 
+Each row declares its task score (:class:`Score`): the one episode metric that is the paper's task, its direction,
+its best attainable value and a metric that breaks ties there; the leaderboard ranks and normalises by it. Why each
+score is the paper's task is said in the environment's docstring (its "Task score" section).
+
 A Gymnasium row may also list ``estimators``, the third kind of thing polyenvs scores: estimators (localizers)
 run on the logs its rollouts produce, scored against the true pose (``polyenvs localize``,
 :mod:`polyenvs.localization`), not policies scored on returns.
@@ -37,6 +41,7 @@ __all__ = [
     "PARALLEL_ENV_IDS",
     "ParallelEnvEntry",
     "REGISTRY",
+    "Score",
     "entry",
     "import_attribute",
     "register_all",
@@ -50,6 +55,39 @@ class Baseline:
     name: str
     factory: str  # "module:attribute"
     kwargs: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Score:
+    """The task score of a row: the episode metric (``info["episode_metrics"][metric]``) that is the paper's task.
+
+    ``direction`` is ``"max"`` or ``"min"`` (which way is better); ``ceiling`` the best attainable value where there
+    is one (a maximum for ``"max"``, a floor for ``"min"``: 1 for a success rate, 0 for an error); ``tie_break`` the
+    metric that orders policies that all reach the ceiling, better in ``tie_direction``. ``upper_anchor`` names the
+    baseline that normalises to 1 instead of the paper's algorithm, for rows whose paper policy is random by design.
+    """
+
+    metric: str
+    direction: str = "max"
+    ceiling: float | None = None
+    tie_break: str | None = None
+    tie_direction: str = "min"
+    upper_anchor: str | None = None
+
+    def __post_init__(self):
+        for name in ("direction", "tie_direction"):
+            if getattr(self, name) not in ("max", "min"):
+                raise ValueError(f"Score {name} must be 'max' or 'min', got {getattr(self, name)!r}")
+
+    @property
+    def sign(self) -> float:
+        """+1 where larger is better, -1 where smaller is: ``sign * value`` is larger for the better policy."""
+        return 1.0 if self.direction == "max" else -1.0
+
+    @property
+    def tie_sign(self) -> float:
+        """As :attr:`sign`, for the tie-break metric."""
+        return 1.0 if self.tie_direction == "max" else -1.0
 
 
 @dataclass(frozen=True)
@@ -73,6 +111,8 @@ class EnvEntry:
     estimators: tuple[Baseline, ...] = ()
     #: The optional extra (``pip install "polyenvs[<extra>]"``) whose packages the environment imports, if any.
     extra: str | None = None
+    #: The task score the leaderboard ranks and normalises by.
+    score: Score | None = None
 
 
 @dataclass(frozen=True)
@@ -91,6 +131,8 @@ class ParallelEnvEntry:
     paper: str | None = None
     #: As :attr:`EnvEntry.extra`.
     extra: str | None = None
+    #: As :attr:`EnvEntry.score`.
+    score: Score | None = None
 
 
 def _buckybot(name: str, cls: str, **kwargs) -> Baseline:
@@ -109,6 +151,10 @@ _CORRIDOR_BASELINES = (
     _swarm("aplite_goal_seeking", "APLiteGoalSeeking", **_X80PRO),
 )
 _FIELD_BASELINES = (_swarm("aplite", "APLite"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking"))
+#: The swarm tasks' score: the fraction of robots that reached the light, the quicker the better at the ceiling.
+_ARRIVED = Score("success_rate", "max", ceiling=1.0, tie_break="time_to_goal_s")
+#: The beasts' success tasks: the stance reached, the quicker the better.
+_BEAST_SUCCESS = Score("success", "max", ceiling=1.0, tie_break="time_s")
 
 
 def _beast(name: str, cls: str, **kwargs) -> Baseline:
@@ -128,6 +174,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
             _buckybot("wall_follower_rules", "WallFollower", x_s_cm=30.0, no_backtrack=True, clockwise_exception=True),
         ),
         paper="wall_follower",
+        score=Score("perimeter_fraction", "max", ceiling=1.0, tie_break="wall_distance_error_cm"),
     ),
     EnvEntry(
         id="polyenvs/BuckybotExplore-v0",
@@ -138,6 +185,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="Buckybot sweeps an unknown office with its range finders; dead-reckoned map error reported",
         baselines=(_buckybot("wall_follow_explorer", "WallFollowExplorer"),),
         paper="wall_follow_explorer",
+        score=Score("coverage", "max", ceiling=1.0, tie_break="steps"),
     ),
     EnvEntry(
         id="polyenvs/BuckybotGoal-v0",
@@ -148,6 +196,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
         baselines=(_buckybot("goal_seeker", "GoalSeeker"),),
         paper="goal_seeker",
+        score=Score("success", "max", ceiling=1.0, tie_break="steps_to_goal"),
     ),
     EnvEntry(
         id="polyenvs/BeastTumble-v0",
@@ -159,6 +208,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         "success when limbs 1, 4, 2 stand (nothing else touching) and 3 is free",
         baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
         paper="rolling_gait",
+        score=_BEAST_SUCCESS,
     ),
     EnvEntry(
         id="polyenvs/BeastRoll-v0",
@@ -170,6 +220,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         "along the heading - control cost",
         baselines=(_beast("rolling_gait", "RollingGait"),),
         paper="rolling_gait",
+        score=Score("distance_m", "max"),
     ),
     EnvEntry(
         id="polyenvs/BeastTurn-v0",
@@ -178,8 +229,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         family="beast",
         extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
-        baselines=(_beast("sharp_turn", "SharpTurn"),),
+        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
         paper="sharp_turn",
+        score=Score("heading_error_deg", "min", ceiling=0.0),
     ),
     EnvEntry(
         id="polyenvs/BeastRecover-v0",
@@ -191,6 +243,54 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         "more feet",
         baselines=(_beast("righting", "Righting"),),
         paper="righting",
+        score=Score("success", "max", ceiling=1.0, tie_break="time_to_stance_s"),
+    ),
+    # The -v1 beasts: the robot's contact model (servo dead band, debounced foot switches) and rewards that track
+    # the task scores, which are the -v0 ids' (each docstring's "Task score" says why).
+    EnvEntry(
+        id="polyenvs/BeastTumble-v1",
+        entry_point="polyenvs.beast.tasks:BeastTumbleV1Env",
+        max_episode_steps=3000,
+        family="beast",
+        extra="mujoco",
+        description="BeastTumble with the robot's contact model (servo dead band, debounced foot switches); "
+        "reward = success - time - control cost",
+        baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
+        paper="rolling_gait",
+        score=_BEAST_SUCCESS,
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRoll-v1",
+        entry_point="polyenvs.beast.tasks:BeastRollV1Env",
+        max_episode_steps=8000,
+        family="beast",
+        extra="mujoco",
+        description="BeastRoll with the robot's contact model (servo dead band, debounced foot switches)",
+        baselines=(_beast("rolling_gait", "RollingGait"),),
+        paper="rolling_gait",
+        score=Score("distance_m", "max"),
+    ),
+    EnvEntry(
+        id="polyenvs/BeastTurn-v1",
+        entry_point="polyenvs.beast.tasks:BeastTurnV1Env",
+        max_episode_steps=8000,
+        family="beast",
+        extra="mujoco",
+        description="BeastTurn with the robot's contact model; reward = decrease of the heading error - control cost",
+        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
+        paper="sharp_turn",
+        score=Score("heading_error_deg", "min", ceiling=0.0),
+    ),
+    EnvEntry(
+        id="polyenvs/BeastRecover-v1",
+        entry_point="polyenvs.beast.tasks:BeastRecoverV1Env",
+        max_episode_steps=2000,
+        family="beast",
+        extra="mujoco",
+        description="BeastRecover with the robot's contact model; reward = success - time - control cost",
+        baselines=(_beast("righting", "Righting"),),
+        paper="righting",
+        score=Score("success", "max", ceiling=1.0, tie_break="time_to_stance_s"),
     ),
     EnvEntry(
         id="polyenvs/BumperCartExplore-v0",
@@ -202,6 +302,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         "walls as it can; one step is one cycle: turn, drive to the bump, back up",
         baselines=(Baseline("random_bounce", "baselines.bumper:RandomBounce"),),
         paper="random_bounce",
+        score=Score("wall_fraction_touched", "max", ceiling=1.0),
         estimators=(
             Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
             Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),
@@ -220,8 +321,8 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
             Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
         ),
         paper="random_bounce",
-        # Score (helper "board"'s field, wired at merge): coverage, max, ceiling 1, tie-break bumps;
-        # upper_anchor="fixed_turn" (random and the paper's random bounce coincide on the cart).
+        # Random and the paper's random bounce coincide on the cart: the deliberate fixed turn is the upper anchor.
+        score=Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn"),
     ),
     EnvEntry(
         id="polyenvs/BumperCartLocalize-v0",
@@ -236,8 +337,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
             Baseline("greedy_split", "baselines.bumper:GreedySplit"),
         ),
         paper="random_bounce",
-        # Score (helper "board"'s field, wired at merge): cycles_to_localize, min, tie-break distance_cm, min;
-        # upper_anchor="greedy_split" (random and the paper's random bounce coincide on the cart).
+        # No run localizes in fewer cycles than the estimate must hold (hold_cycles, 3): the floor, where the
+        # distance driven breaks ties. Random and the paper's random bounce coincide: the greedy split anchors it.
+        score=Score("cycles_to_localize", "min", ceiling=3.0, tie_break="distance_cm", upper_anchor="greedy_split"),
     ),
     EnvEntry(
         id="polyenvs/APLiteCorridor-v0",
@@ -248,6 +350,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="One X80Pro drives up a corridor past four obstacles to a light (AP-lite's indoor experiment)",
         baselines=_CORRIDOR_BASELINES,
         paper="aplite",
+        score=_ARRIVED,
     ),
     EnvEntry(
         id="polyenvs/APLiteObstacleField-v0",
@@ -258,6 +361,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="One Maxelbot crosses an outdoor obstacle field (wheel-speed noise and drift) to a goal light",
         baselines=_FIELD_BASELINES,
         paper="aplite",
+        score=_ARRIVED,
     ),
     # The swarm rows carry no kwargs: what a module's parallel_env() builds (3, 3 and 7 robots) is what the commands
     # evaluate, and max_cycles is each module's own MAX_CYCLES (tests/test_swarm_hardening.py checks both).
@@ -268,6 +372,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="N X80Pro robots pass a corridor with four obstacles to the light",
         baselines=_CORRIDOR_BASELINES,
         paper="aplite",
+        score=_ARRIVED,
     ),
     ParallelEnvEntry(
         id="polyenvs.swarm.obstacle_field_v0",
@@ -276,6 +381,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="N Maxelbots cross a seeded obstacle field on rough terrain to a goal light",
         baselines=_FIELD_BASELINES,
         paper="aplite",
+        score=_ARRIVED,
     ),
     ParallelEnvEntry(
         id="polyenvs.swarm.formation_v0",
@@ -285,6 +391,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         "field to the light",
         baselines=(_swarm("formation", "FormationController"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking")),
         paper="formation",
+        score=Score("formation_progress_m", "max"),
     ),
 )
 

@@ -36,12 +36,14 @@ from polyenvs.registry import bare_id, entry
 __all__ = [
     "UnknownEnvironment",
     "agent_spaces",
+    "env_kind",
     "episode_frames",
     "is_parallel",
     "make_env",
     "policy_action",
     "run_episode",
     "takes_action_masks",
+    "takes_layouts",
 ]
 
 
@@ -65,6 +67,19 @@ def _parallel_module(name: str):
     return module if callable(getattr(module, "parallel_env", None)) else None
 
 
+def env_kind(env_id: str) -> str:
+    """``"gymnasium"`` for a registered Gymnasium id, ``"pettingzoo"`` for a module with ``parallel_env``;
+    :class:`UnknownEnvironment` for anything else (nothing is built)."""
+    import polyenvs  # noqa: F401  (registers the ids)
+
+    env_id = bare_id(env_id)
+    if env_id in gym.registry:
+        return "gymnasium"
+    if _parallel_module(env_id) is None:
+        raise UnknownEnvironment(env_id)
+    return "pettingzoo"
+
+
 def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     """Build ``env_id`` with the user's ``env_kwargs`` and the caller's ``extra`` (``render_mode``).
 
@@ -72,15 +87,11 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     ``max_cycles`` and ``kwargs`` under the caller's keywords. Raises :class:`UnknownEnvironment` for a name that is neither;
     the environment's own errors (``TypeError``, ``ValueError``, ``gym.error.Error``) propagate.
     """
-    import polyenvs  # noqa: F401  (registers the ids)
-
     env_id = bare_id(env_id)
     kwargs = {**dict(env_kwargs or {}), **extra}
-    if env_id in gym.registry:
+    if env_kind(env_id) == "gymnasium":
         return gym.make(env_id, **kwargs)
     module = _parallel_module(env_id)
-    if module is None:
-        raise UnknownEnvironment(env_id)
     try:
         row = entry(env_id)
     except KeyError:  # a user's own module: its own defaults
@@ -111,6 +122,23 @@ def takes_action_masks(agent) -> bool:
     if function is None:
         return _signature_takes_action_masks.__wrapped__(predict)
     return _signature_takes_action_masks(function)
+
+
+def takes_layouts(env) -> bool:
+    """Whether ``env``'s class (or one it derives from) takes the ``layouts=`` constructor keyword ("default",
+    "train", "test": the held-out layouts), read from the constructors' signatures, not by trying it."""
+    for cls in type(getattr(env, "unwrapped", env)).__mro__:
+        init = cls.__dict__.get("__init__")
+        if init is not None and "layouts" in _signature_names(init):
+            return True
+    return False
+
+
+def _signature_names(function) -> tuple[str, ...]:
+    try:
+        return tuple(inspect.signature(function).parameters)
+    except (TypeError, ValueError):  # builtins without a signature
+        return ()
 
 
 def policy_action(agent, obs, state, episode_start, info: dict, deterministic: bool = True):

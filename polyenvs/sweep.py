@@ -89,14 +89,6 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
 
 
-def _init_worker() -> None:
-    try:
-        import torch
-    except ImportError:  # pragma: no cover - the train extra is checked before any job starts
-        return
-    torch.set_num_threads(1)
-
-
 def run_job(job: Job) -> dict[str, Any]:
     """Train ``job`` (or find it finished), evaluate it (or find its result) and return what happened.
 
@@ -106,10 +98,11 @@ def run_job(job: Job) -> dict[str, Any]:
     from polyenvs.evaluation import evaluate
     from polyenvs.files import write_json_atomic
     from polyenvs.leaderboard import EVAL_SEED, load_result, provenance
+    from polyenvs.pool import single_threaded_torch
     from polyenvs.statistics import interquartile_mean
     from polyenvs.training.train import finished_run, read_run, train
 
-    _init_worker()
+    single_threaded_torch()  # also where a Ray task runs it, which has no pool initializer
     out_dir, result_file = Path(job.out_dir), Path(job.result_file)
     try:
         trained = finished_run(out_dir, job.env_id, job.algo, job.seed) is None
@@ -251,26 +244,12 @@ def import_ray():
 
 
 def _run_local(jobs: list[Job], workers: int, report) -> None:
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from polyenvs.pool import run_local
 
-    context = multiprocessing.get_context("spawn")  # the parent has torch and numba loaded: fork is not safe
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context, initializer=_init_worker)
-    futures = {pool.submit(run_job, job): job for job in jobs}
-    try:
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                job = futures[future]
-                try:
-                    report(future.result())
-                except Exception as exc:  # the worker died (killed, out of memory)
-                    report({"job": asdict(job), "error": _one_line(exc)})
-    except BaseException:
-        pool.shutdown(wait=True, cancel_futures=True)
-        raise
-    pool.shutdown(wait=True)
+    def died(job: Job, exc: BaseException) -> None:  # run_job reports its own errors: the worker died
+        report({"job": asdict(job), "error": _one_line(exc)})
+
+    run_local(run_job, jobs, workers, on_result=lambda _, result: report(result), on_error=died)
 
 
 def _run_ray(jobs: list[Job], workers: int, address: str | None, report) -> None:

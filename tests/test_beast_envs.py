@@ -131,7 +131,7 @@ def test_backlash_is_a_dead_band():
         qpos = np.zeros(8)
         qpos[3], qpos[7] = 1.0, q
         warnings = np.zeros(7, np.int32)
-        assert not S.sense(qpos, np.zeros(7), sensordata, np.zeros(1), warnings, S.TILT_AXES, joints, misc, obs)
+        assert not S.sense((qpos, np.zeros(7), sensordata, np.zeros(1), warnings), S.TILT_AXES, joints, misc, obs)
         readings.append(obs[0])
     # Inside the band the motor side does not move; beyond it, it trails the joint by half the band; a joint sunk
     # past its limit (MuJoCo's soft limit) reads the limit, inside the observation space's bounds.

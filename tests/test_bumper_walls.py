@@ -278,6 +278,30 @@ def test_native_vector_env_never_enters_a_wall(map_name):
             assert not bad.any(), _describe(core, kwargs, f"{first // 64} (row {first % 64})", name, stacked[first])
 
 
+@pytest.mark.parametrize("layouts", ["train", "test"])
+def test_held_out_layouts_never_start_or_drive_the_cart_into_a_wall(layouts):
+    """The rooms of ``layouts="train"`` and ``"test"`` (a room per row, redrawn at every reset): the start and
+    every stage of the native vector env's rows keep the body out of the walls and the centre in the room."""
+    rng = np.random.default_rng(len(layouts))
+    envs = gym.make_vec(ENV_ID, num_envs=32, layouts=layouts, max_episode_steps=40)
+    envs.reset(seed=9)
+    core = envs.unwrapped._core
+    for step in range(120):
+        worlds = [[np.asarray(p, dtype=np.float64) for p in w.polygons] for w in core._slot_worlds]
+        starts = core.state[:, [C.X, C.Y, C.HEADING]].copy()
+        _, _, _, truncated, _ = envs.step(rng.uniform(-1, 1, (32, 1)).astype(np.float32))
+        stage_poses = _state_poses(core.state)
+        for row in range(32):
+            polygons = worlds[row]
+            poses = np.stack([starts[row], *(pose[row] for pose in stage_poses.values())])
+            if step and core._cycles[row] == 0:  # restarted in this step: a fresh room and its start only
+                poses, polygons = poses[:1], [np.asarray(p, dtype=np.float64) for p in core._slot_worlds[row].polygons]
+                poses[0] = core.state[row, [C.X, C.Y, C.HEADING]]
+            bad = _overlaps(poses, {}, polygons) | ~_in_map(poses[:, :2], polygons)
+            assert not bad.any(), f"{layouts} row {row} step {step}: {np.round(poses[bad], 3).tolist()}"
+    envs.close()
+
+
 def test_the_checks_here_see_an_overlap():
     """The independent geometry itself: a body just inside a wall, a wall corner in the body, outside the map."""
     room = [np.array([(0.0, 0.0), (100.0, 0.0), (100.0, 80.0), (0.0, 80.0)]),

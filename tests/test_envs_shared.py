@@ -16,7 +16,8 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 
 import polyenvs
-from polyenvs.registry import REGISTRY
+from polyenvs.core.rows import RowsEnv
+from polyenvs.registry import REGISTRY, import_attribute
 from tests.vector_helpers import assert_native_matches_sync
 
 ENV_IDS = polyenvs.ENV_IDS
@@ -283,6 +284,13 @@ def test_native_vector_env_matches_sync_vector_env(env_id, mode):
 
 
 @pytest.mark.parametrize("env_id", VECTOR_IDS)
+def test_native_vector_env_matches_sync_vector_env_on_held_out_layouts(env_id):
+    """The same with ``layouts="test"``: each sub-env draws its own held-out layout at every reset, as the single
+    env seeded s + i does."""
+    assert assert_native_matches_sync(env_id, AutoresetMode.NEXT_STEP, layouts="test") >= 1
+
+
+@pytest.mark.parametrize("env_id", VECTOR_IDS)
 def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
     """The native vector env keeps the single env's rules: step before reset, a wrong dtype or an unknown option
     raise, and the batch goes on as if the call had not been made."""
@@ -302,6 +310,27 @@ def test_native_vector_env_refuses_bad_input_and_changes_nothing(env_id):
     for _ in range(5):
         action = envs.action_space.sample()
         assert np.array_equal(envs.step(action)[0], twin.step(action)[0])
+
+
+def _env_class(env_id: str) -> type:
+    return import_attribute(gym.spec(env_id).entry_point)
+
+
+ROWS_IDS = [env_id for env_id in ENV_IDS if issubclass(_env_class(env_id), RowsEnv)]
+
+
+@pytest.mark.parametrize("env_id", ROWS_IDS)
+def test_rows_envs_check_num_rows_and_leave_many_rows_to_the_vector_env(env_id):
+    """The rows protocol's ``num_rows``: checked by name; an instance of many rows is a vector env's core, and its
+    own Gymnasium ``reset`` refuses to run one row of it."""
+    cls = _env_class(env_id)
+    for bad in (0, 1.5, True, 10**7):
+        with pytest.raises(ValueError, match="num_rows"):
+            cls(num_rows=bad)
+    core = cls(num_rows=3)
+    assert core._observations.shape[0] == 3
+    with pytest.raises(TypeError, match="RowsVectorEnv"):
+        core.reset(seed=0)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -22,7 +22,12 @@ from tests.cli_helpers import run_main
 
 ROOT = Path(__file__).resolve().parent.parent
 GOAL, WALL = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0"
-GOAL_FILES = ["polyenvs__BuckybotGoal-v0__goal_seeker.json", "polyenvs__BuckybotGoal-v0__random.json"]
+#: Each policy on the default layouts and on the held-out ones (layouts="test").
+GOAL_FILES = sorted(
+    f"polyenvs__BuckybotGoal-v0__{policy}{layouts}.json"
+    for policy in ("goal_seeker", "random")
+    for layouts in ("", "__layouts-test")
+)
 GOAL_PLOT = "LEADERBOARD_polyenvs__BuckybotGoal-v0.png"  # beside the table
 
 
@@ -32,6 +37,7 @@ def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
     no_agents = tmp_path / "no-agents"
     no_agents.mkdir(exist_ok=True)
     agents = [] if "--agents-dir" in extra else ["--agents-dir", str(no_agents)]
+    jobs = [] if "--jobs" in extra else ["--jobs", "1"]  # in this process: a pool's start-up is tested apart
     return [
         "leaderboard",
         "--results-dir",
@@ -39,6 +45,7 @@ def leaderboard(tmp_path: Path, *extra: str) -> list[str]:
         "--output",
         str(tmp_path / "LEADERBOARD.md"),
         *agents,
+        *jobs,
         *extra,
     ]
 
@@ -68,7 +75,8 @@ def test_leaderboard_writes_results_and_table(tmp_path: Path):
     assert doc["n_episodes"] == 2 and doc["versions"]["polyenvs"] == polyenvs.__version__ and doc["date"]
     text = table.read_text()
     assert "| goal_seeker | polyenvs/BuckybotGoal-v0 |" in text and "Quick mode" in text
-    assert "1.00" in text  # the paper baseline's normalised score is 1 by construction
+    # Ranked by the task score (success): the paper's goal seeker reaches the goal in both episodes, random not.
+    assert text.index("| goal_seeker | 1 [1, 1] |") < text.index("| random |")
     assert f"]({GOAL_PLOT})" in text and (tmp_path / GOAL_PLOT).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]  # atomic writes leave no temp files
     before = (results / files[0]).stat().st_mtime_ns
@@ -343,7 +351,7 @@ def test_leaderboard_shows_progress_on_a_terminal(tmp_path, monkeypatch, capsys)
     monkeypatch.setattr(sys, "stderr", terminal)
     assert main(leaderboard(tmp_path, "--episodes", "2", "--only", "Goal")) == 0
     text = terminal.getvalue()
-    assert "4/4 episodes" in text and "1/4 episodes" in text  # 2 policies x 2 episodes, one bar for the run
+    assert "8/8 episodes" in text and "1/8 episodes" in text  # 2 policies x 2 layouts x 2 episodes, one bar
     assert "goal_seeker: 2 episodes" in text
     assert capsys.readouterr().out.startswith("# polyenvs leaderboard")
 
@@ -409,8 +417,9 @@ def test_environments_whose_packages_are_missing_are_left_out_before_any_evaluat
     _without_mujoco(monkeypatch)
     code, out, err = run_main(leaderboard(tmp_path, "--only", "ll", "--episodes", "1"), capsys)  # WallFollow, Roll
     assert code == 0, err
+    rolls = ", ".join(e.id for e in REGISTRY if e.extra == "mujoco" and "ll" in e.id)  # every BeastRoll version
     assert (
-        'left out: polyenvs/BeastRoll-v0 needs packages that are not installed: pip install "polyenvs[mujoco]"'
+        f'left out: {rolls} need{"s" if "," not in rolls else ""} packages that are not installed: pip install "polyenvs[mujoco]"'
         in err.splitlines()
     )
     assert "## polyenvs/BuckybotWallFollow-v0" in out and "BeastRoll" not in out

@@ -148,10 +148,15 @@ def _world(n, rng, box=6.0):
     return walls, circles, pose
 
 
-def _gaps(pose, walls, circles, radius):
-    from polyenvs.swarm.core import _segment_distance_sq
+def _segment_distance(p, w):
+    """Distance from point p to segment w = (x0, y0, x1, y1), written apart from the simulator."""
+    a, b = np.asarray(w[:2], float), np.asarray(w[2:], float)
+    t = np.clip(np.dot(p - a, b - a) / max(np.dot(b - a, b - a), 1e-300), 0.0, 1.0)
+    return float(np.hypot(*(a + t * (b - a) - p)))
 
-    wall = min(math.sqrt(_segment_distance_sq(x, y, *w)) for x, y in pose[:, :2] for w in walls) - radius
+
+def _gaps(pose, walls, circles, radius):
+    wall = min(_segment_distance(p, w) for p in pose[:, :2] for w in walls) - radius
     circle = (np.hypot(*(pose[:, None, :2] - circles[None, :, :2]).transpose(2, 0, 1)) - circles[:, 2] - radius).min()
     d = np.hypot(*(pose[:, None, :2] - pose[None, :, :2]).transpose(2, 0, 1)) + np.eye(len(pose)) * 1e9
     return wall, circle, d.min() - 2 * radius
@@ -168,8 +173,8 @@ def test_no_robot_ever_passes_through_a_wall_an_obstacle_or_another_robot():
     contacts = 0
     for _ in range(400):
         wheels = rng.uniform(-0.5, 1.0, (n, 2)) * 0.75  # up to 0.075 m a step, below the radius
-        core.build_grid(pose, active, *grid.arrays)
-        core.move(pose, active, wheels, params, walls[None], circles[None], *grid.arrays, proposal, blocked)
+        core.build_grid(pose, active, grid.arrays)
+        core.move(pose, active, wheels, params, (walls[None], circles[None]), grid.arrays, (proposal, blocked))
         contacts += int(blocked.sum())
         assert min(_gaps(pose, walls, circles, radius)) >= -1e-12
         assert (pose[:, :2] > 0).all() and (pose[:, :2] < 6).all()
@@ -185,11 +190,11 @@ def test_beams_and_trilateration_match_brute_force():
     angles = np.radians([-60.0, -15.0, 15.0, 60.0])
     comm = 1.5
     grid = core.Grid((0.0, 0.0, 8.0, 8.0), core.cell_size(radius, 0.8, comm, 0.1), n)
-    core.build_grid(pose, active, *grid.arrays)
+    core.build_grid(pose, active, grid.arrays)
     beams, idx, rng_out, clearance = np.zeros((n, 4)), np.zeros((n, k), np.int64), np.zeros((n, k)), np.zeros(n)
     params, todo = np.array([radius, 0.8, comm]), np.ones(n, np.uint8)
-    core.sense(pose, active, todo, params, angles, walls[None], circles[None], *grid.arrays, beams, idx, rng_out,
-               clearance)  # fmt: skip
+    core.sense(pose, active, todo, params, angles, (walls[None], circles[None]), grid.arrays,
+               (beams, idx, rng_out, clearance))  # fmt: skip
     # Brute force: sample points densely along each beam against every disc and wall.
     t = np.linspace(0.0, 0.8, 8001)
     for i in np.flatnonzero(active)[:30]:
@@ -227,21 +232,21 @@ def test_environments_of_a_batch_never_meet():
     pose = np.array([[1.0, 1.0, 0.0], [1.45, 1.0, np.pi], [1.0, 1.05, 0.0], [1.0, 3.0, 0.0]])
     active = np.ones(4, np.uint8)
     grid = core.Grid((0.0, 0.0, 4.0, 4.0), core.cell_size(radius, 0.8, 1.0, 0.1), 2, 2)
-    core.build_grid(pose, active, *grid.arrays)
+    core.build_grid(pose, active, grid.arrays)
     beams, idx, dist, clearance = np.zeros((4, 4)), np.zeros((4, 1), np.int64), np.zeros((4, 1)), np.zeros(4)
     core.sense(pose, active, np.ones(4, np.uint8), np.array([radius, 0.8, 1.0]), np.radians([-60.0, -15.0, 15.0, 60.0]),
-               walls, circles, *grid.arrays, beams, idx, dist, clearance)  # fmt: skip
+               (walls, circles), grid.arrays, (beams, idx, dist, clearance))  # fmt: skip
     assert idx[:, 0].tolist() == [1, 0, -1, -1]  # robot 2 overlaps robot 0's spot but lives in environment 1
     assert np.isfinite(beams[0, 1:3]).all() and not np.isfinite(beams[2, 1:3]).any()
     assert clearance[2] == pytest.approx(1.0 - radius)  # the wall, not environment 0's robots
     pose[3] = (1.3, 3.0, 0.0)  # facing where environment 0's obstacle is
     core.sense(pose, active, np.ones(4, np.uint8), np.array([radius, 0.8, 1.0]), np.radians([-60.0, -15.0, 15.0, 60.0]),
-               walls, circles, *grid.arrays, beams, idx, dist, clearance)  # fmt: skip
+               (walls, circles), grid.arrays, (beams, idx, dist, clearance))  # fmt: skip
     assert not np.isfinite(beams[3, 1:3]).any()
     wheels = np.full((4, 2), 0.5)
     proposal, blocked = np.zeros((4, 3)), np.zeros(4, np.uint8)
-    core.build_grid(pose, active, *grid.arrays)
-    core.move(pose, active, wheels, np.array([0.1, 0.22, radius]), walls, circles, *grid.arrays, proposal, blocked)
+    core.build_grid(pose, active, grid.arrays)
+    core.move(pose, active, wheels, np.array([0.1, 0.22, radius]), (walls, circles), grid.arrays, (proposal, blocked))
     assert blocked.tolist() == [0, 0, 0, 0]
 
 

@@ -131,10 +131,14 @@ class SharpTurn(_ControllerPolicy):
     degrees (hence ``BeastTurn-v0``'s joint-1 range of +-250 degrees for the 4-beast). The controller is the rolling
     gait's look-ahead steering for the turned heading, allowed to tip back over the last edge; ``pivot`` (1-based
     limb) instead restricts every tumble to edges containing that limb, the literal cone, and stops when none is
-    plannable.
+    plannable. ``pivot="inside"`` is the paper's turn as written (registered as ``sharp_turn_cone``): the 4-beast
+    keeps planted the edge limb of its first tumble (1234) on the inside of the turn, limb 1 for a right turn as
+    the paper has it and its mirror image, limb 2, for a left one. Within joint 1's +-250 degrees the cone about
+    limb 1 lasts two tumbles (its joint 1 winds 0 -> 240 degrees) and turns by about -53 degrees; about limb 2
+    three (120 -> -240) and about +50.
 
     Args:
-        pivot: None, or the limb kept planted (1..n_limbs).
+        pivot: None, the limb kept planted (1..n_limbs), or "inside" (4-beast only).
         rate_deg_s, max_tumbles: as for :class:`RollingGait` (max_tumbles default 4).
     """
 
@@ -142,7 +146,7 @@ class SharpTurn(_ControllerPolicy):
         self,
         observation_space,
         action_space,
-        pivot: int | None = None,
+        pivot: int | str | None = None,
         rate_deg_s: float = 20.0,
         max_tumbles: int = 4,
     ):
@@ -151,7 +155,9 @@ class SharpTurn(_ControllerPolicy):
         self.command = observation_layout_of(int(np.prod(observation_space.shape))).get("command")
         if self.command is None:
             raise ValueError("SharpTurn needs an observation with a command part (the turn), as BeastTurn-v0's")
-        self.pivot = None if pivot is None else check_int("pivot", pivot, 1, self.planner.n_limbs)
+        if pivot == "inside" and self.planner.n_limbs != 4:
+            raise ValueError(f'pivot "inside" is the 4-beast\'s turn (limb 1 or 2), got a {self.polyhedron}')
+        self.pivot = pivot if pivot in (None, "inside") else check_int("pivot", pivot, 1, self.planner.n_limbs)
         self.max_tumbles = check_int("max_tumbles", max_tumbles, 1, 1000)
 
     def describe(self):
@@ -162,8 +168,10 @@ class SharpTurn(_ControllerPolicy):
         strip = math.radians(30.0 if self.planner.n_limbs == 4 else 0.0)
         angle = strip + math.atan2(sin_turn, cos_turn)
         heading = np.array([math.cos(angle), math.sin(angle), 0.0])
+        # The first tumble (1234) tips along +x over edge 1-2 with limb 2 on the left: a left turn rolls about it.
+        pivot = (2 if sin_turn > 0 else 1) if self.pivot == "inside" else self.pivot
         return RollingGaitController(
-            self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=self.pivot, allow_back=True
+            self.planner, max_tumbles=self.max_tumbles, heading=heading, pivot=pivot, allow_back=True
         )
 
 

@@ -33,11 +33,13 @@ from gymnasium.error import ResetNeeded
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
+from polyenvs.beast.layouts import LAYOUT_PARAMETERS, LAYOUT_SPLIT, ModelFields, draw_layout
 from polyenvs.beast.model import CONTROL_DT
+from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, parameter
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
-__all__ = ["BeastEnv", "SensorParams", "TumbleCounter"]
+__all__ = ["BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
 
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
 STANCE_TICKS = 20
@@ -50,18 +52,42 @@ _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 START_DECIMALS = 9
 
 
+#: Why the robot's contact model (the -v1 ids' defaults) has a servo dead band: paper section 2.
+_DEADBAND_SOURCE = (
+    "ours: a servo stops driving within this of its target and the worm drive, which does not backdrive, holds the "
+    "joint (paper section 2: worm gears, backlash far above the encoder's resolution); half the 0.5 deg backlash"
+)
+#: Why it debounces the foot switches (the switches are ours, spec beast.md; the paper has none).
+_DEBOUNCE_SOURCE = (
+    "ours: firmware debounce of a mechanical foot switch, which bounces for milliseconds (Ganssle, A Guide to "
+    "Debouncing, tested 18 switches); 30 ms is 3 readings at the 10 ms tick"
+)
+
+
 @dataclasses.dataclass(frozen=True)
 class SensorParams:
-    """The sensor model's and the reward's parameters (constructor keywords of every beast id)."""
+    """The sensor model's, the servos' and the reward's parameters (constructor keywords of every beast id); the
+    defaults are the -v0 ids', ideal servos and switches (:class:`RobotContactParams` has the robot's)."""
 
     backlash_deg: float = parameter(0.5, 0.0, 5.0, "deg", "ours: encoder dead band")
     tilt_threshold_deg: float = parameter(10.0, 0.0, 45.0, "deg", "ours: tilt-switch threshold below horizontal")
     ctrl_cost_weight: float = parameter(
         0.01, 0.0, 10.0, "", "weight of the control cost, mean squared torque / limit^2"
     )
+    servo_deadband_deg: float = parameter(0.0, 0.0, 5.0, "deg", "v0: an ideal servo; " + _DEADBAND_SOURCE)
+    switch_debounce_ms: float = parameter(0.0, 0.0, 200.0, "ms", "v0: ideal switches; " + _DEBOUNCE_SOURCE)
 
     def __post_init__(self):
         check_parameters(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotContactParams(SensorParams):
+    """:class:`SensorParams` with the robot's contact model as defaults (the -v1 ids): the servo dead band and the
+    foot-switch debounce that let the paper's gait roll under actuator noise, as the robot's hardware does."""
+
+    servo_deadband_deg: float = parameter(0.25, 0.0, 5.0, "deg", _DEADBAND_SOURCE)
+    switch_debounce_ms: float = parameter(30.0, 0.0, 200.0, "ms", _DEBOUNCE_SOURCE)
 
 
 #: Model parameters settable through ``physics=`` (the rest are constructor keywords of their own).
@@ -87,6 +113,19 @@ def _check_physics(physics) -> dict:
     if unknown:
         raise ValueError(f"physics has unknown parameter(s) {unknown}; expected some of {list(PHYSICS_KEYS)}")
     return physics
+
+
+def _check_layouts(layouts, physics: dict) -> str:
+    """``layouts``, checked; "train" and "test" draw the friction, body mass, kp and damping themselves, so
+    ``physics`` may not set them beside it (refused rather than ignored)."""
+    layouts = check_layouts(layouts)
+    clash = sorted(set(physics) & set(LAYOUT_PARAMETERS))
+    if layouts != "default" and clash:
+        raise ValueError(
+            f"layouts={layouts!r} draws {list(LAYOUT_PARAMETERS)} itself: physics may not set {clash} beside it "
+            "(use layouts='default')"
+        )
+    return layouts
 
 
 def _check_rendering(render_mode, modes, width, height) -> None:
@@ -170,6 +209,8 @@ class BeastEnv(MujocoEnv):
     heading_rad: float = 0.0
     #: A task's constant command, appended to every observation as its ``command`` part (empty: none).
     command: tuple[float, ...] = ()
+    #: How ``layouts=`` splits the physics (:data:`polyenvs.beast.layouts.LAYOUT_SPLIT`).
+    layout_split = LAYOUT_SPLIT
 
     def __init__(
         self,
@@ -181,7 +222,10 @@ class BeastEnv(MujocoEnv):
         backlash_deg: float = SensorParams.backlash_deg,
         tilt_threshold_deg: float = SensorParams.tilt_threshold_deg,
         ctrl_cost_weight: float = SensorParams.ctrl_cost_weight,
+        servo_deadband_deg: float = SensorParams.servo_deadband_deg,
+        switch_debounce_ms: float = SensorParams.switch_debounce_ms,
         physics: dict | None = None,
+        layouts: str = "default",
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
@@ -189,10 +233,14 @@ class BeastEnv(MujocoEnv):
         # Everything is checked before anything is built.
         check_choice("polyhedron", polyhedron, K.POLYHEDRA)
         self.privileged = check_bool("privileged", privileged)
-        sensing = SensorParams(backlash_deg, tilt_threshold_deg, ctrl_cost_weight)
+        sensing = SensorParams(
+            backlash_deg, tilt_threshold_deg, ctrl_cost_weight, servo_deadband_deg, switch_debounce_ms
+        )
         self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
+        self.servo_deadband_deg, self.switch_debounce_ms = sensing.servo_deadband_deg, sensing.switch_debounce_ms
         physics = _check_physics(physics)
+        self.layouts = _check_layouts(layouts, physics)
         _check_rendering(render_mode, self.metadata["render_modes"], width, height)
         params = M.BeastModelParams(polyhedron=polyhedron, control=control, locked_limbs=disabled_limbs, **physics)
         frame_skip = round(CONTROL_DT / params.timestep)
@@ -223,6 +271,9 @@ class BeastEnv(MujocoEnv):
             )
         self.fullpath = None  # generated, not a file
         self._init_buffers(size, limits)
+        #: This episode's drawn physics (``layouts="train"`` or ``"test"``), written into the model at each reset.
+        self._layout_values = {name: getattr(params, name) for name in LAYOUT_PARAMETERS}
+        self._model_fields = ModelFields(self.model, self.control == "position") if self.layouts != "default" else None
 
     def _init_buffers(self, size: int, limits: np.ndarray) -> None:
         """The packed arrays the sensor kernel and the actuation read and write every step."""
@@ -231,6 +282,8 @@ class BeastEnv(MujocoEnv):
         self._joints[S.LIMIT_LOW], self._joints[S.LIMIT_HIGH] = limits[:, 0], limits[:, 1]
         if self.control == "position":
             self._joints[S.LOW], self._joints[S.SPAN] = limits[:, 0], limits[:, 1] - limits[:, 0]
+            # A torque motor has no position servo, so no servo dead band.
+            self._joints[S.DEADBAND] = math.radians(self.servo_deadband_deg)
         else:
             self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
         for limb in self.disabled_limbs:
@@ -240,12 +293,13 @@ class BeastEnv(MujocoEnv):
             # Constant through the episode: written once, and the sensor kernel never touches it.
             self._obs[self.observation_structure["command"]] = self.command
         self._misc = np.zeros(S.N_MISC)
-        self._misc[: S.TORQUE_NORM + 1] = [
+        self._misc[: S.DEBOUNCE_TICKS + 1] = [
             math.radians(self.backlash_deg) / 2,
             1.0 / CONTROL_DT,
             math.sin(math.radians(self.tilt_threshold_deg)),
             float(self.privileged),
             1.0 / (params.torque_limit**2 * nj),
+            round(self.switch_debounce_ms / 1000 / CONTROL_DT),
         ]
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._unstable = False
@@ -330,7 +384,7 @@ class BeastEnv(MujocoEnv):
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         self._elapsed += 1
         if self._unstable or S.sense(
-            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            (self._qpos, self._qvel, self._sensordata, self._force, self._warnings), S.TILT_AXES, self._joints,
             self._misc, self._obs,
         ):  # fmt: skip
             self._unstable = True
@@ -348,6 +402,9 @@ class BeastEnv(MujocoEnv):
         options = self._check_options(options)
         gym.Env.reset(self, seed=seed)
         rng = self.np_random
+        if self._model_fields is not None:  # the layout's physics first, then the start state, from one generator
+            self._layout_values = draw_layout(rng, self.layouts)
+            self._model_fields.apply(self.data, self._layout_values)
         if "qpos" in options:
             qpos = options["qpos"]
             qvel = options.get("qvel", np.zeros(self.model.nv))
@@ -368,13 +425,14 @@ class BeastEnv(MujocoEnv):
         half = self._misc[S.HALF_BAND]
         js[S.MOTOR] = joints + rng.uniform(-half, half, self.n_joints)
         js[S.READING] = js[S.MOTOR]
+        js[S.SWITCH] = -1.0  # the switches start settled: the first reading is reported as it is
         self._unstable = False
         self._elapsed = 0
         self._needs_reset = False
         x, y = d.qpos[0], d.qpos[1]
         self._misc[S.PREV_X : S.HEAD_Y + 1] = [x, y, x, y, math.cos(self.heading_rad), math.sin(self.heading_rad)]
         S.sense(
-            self._qpos, self._qvel, self._sensordata, self._force, self._warnings, S.TILT_AXES, self._joints,
+            (self._qpos, self._qvel, self._sensordata, self._force, self._warnings), S.TILT_AXES, self._joints,
             self._misc, self._obs,
         )  # fmt: skip
         self._task_reset(int(self._misc[S.FEET_MASK]))
@@ -399,6 +457,10 @@ class BeastEnv(MujocoEnv):
                 raise ValueError(f"option qpos must hold a unit quaternion at 3:7, got {show(quat)}")
             checked["qpos"][3:7] = quat / np.linalg.norm(quat)
         return checked
+
+    def episode_layout(self) -> dict[str, float]:
+        """This episode's physics as :attr:`layout_split` classifies it: friction, body_mass, kp, damping."""
+        return dict(self._layout_values)
 
     # --- shared task helpers -----------------------------------------------------------------------------------
     def _stance_state(self, rng: np.random.Generator, position_noise=0.005, yaw_noise_deg=2.0, free_noise_deg=2.0):

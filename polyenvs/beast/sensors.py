@@ -1,11 +1,18 @@
-"""The beasts' sensors as one compiled call per step: encoders with backlash, tilt switches, foot contacts.
+"""The beasts' sensors and servos as one compiled call each per step: encoders with backlash, tilt switches, foot
+switches with a debounce, position servos with a dead band.
 
 Paper section 2: joint encoders whose resolution (under 0.0008 degrees) is far finer than the gears' backlash, and
 twelve 1-bit tilt sensors that together give the coarse orientation with respect to gravity. *Ours*: the backlash
 is a dead band (the encoder sits on the motor side of the worm drive: the motor shaft follows the joint only once
 the joint has taken up the play), the tilt switches lie along the twelve vertex directions of an icosahedron and
 read 1 when their axis points more than a threshold below the horizontal, and each foot has a binary contact switch
-(MuJoCo's contact sensor of the foot sphere against the floor).
+(MuJoCo's contact sensor of the foot sphere against the floor), which firmware debounces: a change is reported only
+once the new reading has held for ``switch_debounce_ms`` (a mechanical switch bounces for milliseconds, and a foot
+resting lightly on a soft contact flickers). The tasks judge MuJoCo's contacts themselves; the debounced switches
+are what the robot, and so the policy, sees. Each position servo has a dead band: it drives its joint only while the
+joint is further than ``servo_deadband_deg`` from the target and stops at the band's edge, where the worm drive,
+which does not backdrive, holds it; so the target MuJoCo's servo tracks follows the command through a play of
++- the dead band (a command that wanders inside it moves nothing).
 
 The inputs are MuJoCo's own arrays (``qpos``, ``qvel``, ``sensordata``: the model's sensors are evaluated inside
 ``mj_step``, at the start of its last substep, 2 ms before the state in ``qpos``) and the environment's packed state;
@@ -81,16 +88,19 @@ def observation_layout_of(obs_dim: int) -> dict[str, slice]:
 
 # Rows of the per-joint state ``joints`` (n_rows, n_joints): the action scaling (control = LOW + (a + 1)/2 SPAN),
 # the control held by frozen joints and whether a joint is frozen, the last applied action, the encoders' motor-side
-# angles and their previous readings, and the joint's limits (the encoder range). Packed so that a kernel call unboxes
-# one array, not nine.
-LOW, SPAN, HOLD, FROZEN, APPLIED, MOTOR, READING, LIMIT_LOW, LIMIT_HIGH = range(9)
-N_JOINT_ROWS = 9
-# Layout of ``misc``: parameters, then the body's (x, y) at the previous tick and at the start and the heading's
-# unit vector, then the per-step summary the tasks read.
-HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM = range(5)
-PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = range(5, 11)
-VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = range(11, 18)
-N_MISC = 18
+# angles and their previous readings, the joint's limits (the encoder range) and the servo's dead band (rad, 0: none).
+# Then two rows per foot switch, in the first n_limbs columns: the state it reports (-1: take the next reading, as at
+# reset) and for how many ticks the raw reading has differed from it. Packed so that a kernel call unboxes one array,
+# not twelve.
+LOW, SPAN, HOLD, FROZEN, APPLIED, MOTOR, READING, LIMIT_LOW, LIMIT_HIGH, DEADBAND, SWITCH, SWITCH_HELD = range(12)
+N_JOINT_ROWS = 12
+# Layout of ``misc``: parameters (the debounce in ticks: a change is reported once the raw reading has held that
+# many ticks; 1 or less reports every reading), then the body's (x, y) at the previous tick and at the start and the
+# heading's unit vector, then the per-step summary the tasks read.
+HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM, DEBOUNCE_TICKS = range(6)
+PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = range(6, 12)
+VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = range(12, 19)
+N_MISC = 19
 SUMMARY = slice(VELOCITY, N_MISC)
 
 
@@ -98,8 +108,10 @@ SUMMARY = slice(VELOCITY, N_MISC)
 def actuate(action, joints, ctrl):
     """Check an action (finite, in [-1, 1]) and write the actuator controls; nothing is written if it fails.
 
-    ``ctrl = LOW + (a + 1) / 2 * SPAN`` per joint, except frozen joints, which get ``HOLD``. Returns 0 if the action
-    was accepted, else 1 + the index of the first bad entry.
+    The command is ``LOW + (a + 1) / 2 * SPAN`` per joint, except frozen joints, which get ``HOLD``. A joint with a
+    dead band keeps its servo's target (``ctrl``) while the command stays within the band of it, and otherwise moves
+    it to the band's near edge (a play: the servo stops driving at the edge, and the worm drive holds the joint).
+    Returns 0 if the action was accepted, else 1 + the index of the first bad entry.
     """
     n = action.shape[0]
     for j in range(n):
@@ -109,15 +121,16 @@ def actuate(action, joints, ctrl):
     for j in range(n):
         a = float(action[j])
         joints[APPLIED, j] = a
-        ctrl[j] = joints[HOLD, j] if joints[FROZEN, j] > 0.5 else joints[LOW, j] + 0.5 * (a + 1.0) * joints[SPAN, j]
+        command = joints[HOLD, j] if joints[FROZEN, j] > 0.5 else joints[LOW, j] + 0.5 * (a + 1.0) * joints[SPAN, j]
+        band = joints[DEADBAND, j]
+        ctrl[j] = command if band <= 0.0 else min(max(ctrl[j], command - band), command + band)
     return 0
 
 
 @njit(cache=True)
-def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs):
-    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged. A
-    compiled-kernel boundary: MjData's views and the packed ``joints`` / ``misc`` arrays are positional, as numba
-    takes them.
+def sense(data, tilt_axes, joints, misc, obs):
+    """Write the observation into ``obs`` (float32) and the tasks' summary into ``misc``; True if diverged.
+    ``data``: MjData's views ``(qpos, qvel, sensordata, actuator_force, warning counts)``.
 
     ``joints[MOTOR]`` is each encoder's motor-side angle, dragged along by the joint across the backlash band;
     ``joints[READING]`` holds the previous readings (for the velocity estimate) and is overwritten with the new ones.
@@ -125,52 +138,22 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
     them, which the real hard stop does not, and the observation space's bounds are the limits.
     The summary (``misc[SUMMARY]``): body velocity along the heading over the tick and distance along it from the
     start (the previous position is updated), the feet-on-floor bitmask (bit i = limb i + 1) and count, contacts of
-    anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2).
+    anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2). The summary's
+    feet are MuJoCo's contacts; the observation's are the debounced switches (``joints[SWITCH]``).
     On divergence nothing is written, so the previous observation stays the last finite one. MuJoCo resets a state
     it finds non-finite (to the model's reference pose) and counts a warning: ``warnings`` (MjData's warning counts,
     cleared by ``mj_resetData``) catches that silent reset.
     """
-    for w in UNSTABLE_WARNINGS:
-        if warnings[w] > 0:
-            return True
+    qpos, qvel, sensordata, force, warnings = data
+    if _diverged(qpos, qvel, warnings):
+        return True
     nj = joints.shape[1]
-    for i in range(qpos.shape[0]):
-        if not math.isfinite(qpos[i]):
-            return True
-    for i in range(qvel.shape[0]):
-        v = qvel[i]
-        if not (abs(v) < DIVERGED_SPEED):
-            return True
-    half = misc[HALF_BAND]
-    inv_dt = misc[INV_DT]
     n_limbs = sensordata.shape[0] - 4
-    k = 0
-    for j in range(nj):
-        q = qpos[7 + j]
-        m = min(max(joints[MOTOR, j], q - half), q + half)
-        joints[MOTOR, j] = m
-        v = (m - joints[READING, j]) * inv_dt
-        joints[READING, j] = m
-        obs[k + j] = min(max(m, joints[LIMIT_LOW, j]), joints[LIMIT_HIGH, j])
-        obs[k + nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
-    k += 2 * nj
-    # The world's up direction in the body frame: a switch is on when its axis points down by more than the
-    # threshold, i.e. its component along "up" is below -sin(threshold).
-    ux, uy, uz = sensordata[n_limbs + 1], sensordata[n_limbs + 2], sensordata[n_limbs + 3]
-    for t in range(tilt_axes.shape[0]):
-        dot = tilt_axes[t, 0] * ux + tilt_axes[t, 1] * uy + tilt_axes[t, 2] * uz
-        obs[k + t] = 1.0 if dot < -misc[TILT_SIN] else 0.0
+    _read_encoders(qpos, joints, misc, obs)
+    k = 2 * nj
+    _read_tilts(sensordata[n_limbs + 1 : n_limbs + 4], tilt_axes, misc[TILT_SIN], obs[k : k + tilt_axes.shape[0]])
     k += tilt_axes.shape[0]
-    mask = 0.0
-    n_feet = 0.0
-    found = 0.0
-    for i in range(n_limbs):
-        on = sensordata[i] > 0.5
-        obs[k + i] = 1.0 if on else 0.0
-        found += sensordata[i]
-        if on:
-            mask += 2.0**i
-            n_feet += 1.0
+    _read_switches(sensordata, joints, misc, obs[k : k + n_limbs])
     k += n_limbs
     for j in range(nj):
         obs[k + j] = joints[APPLIED, j]
@@ -180,17 +163,90 @@ def sense(qpos, qvel, sensordata, force, warnings, tilt_axes, joints, misc, obs)
             obs[k + i] = qpos[i]
         for i in range(6):
             obs[k + 7 + i] = min(max(qvel[i], -VELOCITY_CLIP), VELOCITY_CLIP)
+    _summarise_body(qpos, qvel, force, misc)
+    return False
+
+
+@njit(cache=True)
+def _diverged(qpos, qvel, warnings) -> bool:
+    """Whether MuJoCo warned of instability, or a position is non-finite, or a speed is beyond belief."""
+    for w in UNSTABLE_WARNINGS:
+        if warnings[w] > 0:
+            return True
+    for i in range(qpos.shape[0]):
+        if not math.isfinite(qpos[i]):
+            return True
+    for i in range(qvel.shape[0]):
+        if not (abs(qvel[i]) < DIVERGED_SPEED):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _read_encoders(qpos, joints, misc, obs):
+    """Each encoder's angle (motor side, across the backlash band, clipped to the joint's limits) into
+    ``obs[:nj]`` and its velocity estimate into ``obs[nj:2 nj]``."""
+    nj = joints.shape[1]
+    half, inv_dt = misc[HALF_BAND], misc[INV_DT]
+    for j in range(nj):
+        q = qpos[7 + j]
+        m = min(max(joints[MOTOR, j], q - half), q + half)
+        joints[MOTOR, j] = m
+        v = (m - joints[READING, j]) * inv_dt
+        joints[READING, j] = m
+        obs[j] = min(max(m, joints[LIMIT_LOW, j]), joints[LIMIT_HIGH, j])
+        obs[nj + j] = min(max(v, -VELOCITY_CLIP), VELOCITY_CLIP)
+
+
+@njit(cache=True)
+def _read_tilts(up, tilt_axes, tilt_sin, out):
+    """The tilt switches: ``up`` is the world's up direction in the body frame; a switch is on when its axis
+    points down by more than the threshold, i.e. its component along "up" is below ``-tilt_sin``."""
+    for t in range(tilt_axes.shape[0]):
+        dot = tilt_axes[t, 0] * up[0] + tilt_axes[t, 1] * up[1] + tilt_axes[t, 2] * up[2]
+        out[t] = 1.0 if dot < -tilt_sin else 0.0
+
+
+@njit(cache=True)
+def _read_switches(sensordata, joints, misc, out):
+    """The foot switches, debounced (a change is reported once the new reading has held ``misc[DEBOUNCE_TICKS]``
+    readings), into ``out``; MuJoCo's own contacts (the feet bitmask, their count, other contacts) into the
+    summary."""
+    n_limbs = out.shape[0]
+    mask = 0.0
+    n_feet = 0.0
+    found = 0.0
+    debounce = misc[DEBOUNCE_TICKS]
+    for i in range(n_limbs):
+        on = sensordata[i] > 0.5
+        raw = 1.0 if on else 0.0
+        if joints[SWITCH, i] < 0.0 or debounce <= 1.0 or raw == joints[SWITCH, i]:
+            joints[SWITCH, i], joints[SWITCH_HELD, i] = raw, 0.0
+        else:
+            joints[SWITCH_HELD, i] += 1.0
+            if joints[SWITCH_HELD, i] >= debounce:
+                joints[SWITCH, i], joints[SWITCH_HELD, i] = raw, 0.0
+        out[i] = joints[SWITCH, i]
+        found += sensordata[i]
+        if on:
+            mask += 2.0**i
+            n_feet += 1.0
+    misc[FEET_MASK] = mask
+    misc[N_FEET] = n_feet
+    misc[OTHER_CONTACTS] = sensordata[n_limbs] - found
+
+
+@njit(cache=True)
+def _summarise_body(qpos, qvel, force, misc):
+    """The body's part of the summary: velocity and distance along the heading, squared torque, squared spin."""
+    inv_dt = misc[INV_DT]
     hx, hy = misc[HEAD_X], misc[HEAD_Y]
     misc[VELOCITY] = ((qpos[0] - misc[PREV_X]) * hx + (qpos[1] - misc[PREV_Y]) * hy) * inv_dt
     misc[DISTANCE] = (qpos[0] - misc[START_X]) * hx + (qpos[1] - misc[START_Y]) * hy
     misc[PREV_X] = qpos[0]
     misc[PREV_Y] = qpos[1]
-    misc[FEET_MASK] = mask
-    misc[N_FEET] = n_feet
-    misc[OTHER_CONTACTS] = sensordata[n_limbs] - found
     sq = 0.0
     for j in range(force.shape[0]):
         sq += force[j] * force[j]
     misc[TORQUE_SQ] = sq * misc[TORQUE_NORM]
     misc[SPIN_SQ] = qvel[3] * qvel[3] + qvel[4] * qvel[4] + qvel[5] * qvel[5]
-    return False

@@ -12,12 +12,23 @@ import mujoco
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import STANCE_TICKS, BeastEnv, SensorParams, TumbleCounter
+from polyenvs.beast.env import STANCE_TICKS, BeastEnv, RobotContactParams, SensorParams, TumbleCounter
+from polyenvs.beast.layouts import LAYOUT_SPLIT
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
 
-__all__ = ["BeastRecoverEnv", "BeastRollEnv", "BeastTumbleEnv", "BeastTurnEnv", "STRIP_OFFSET_DEG"]
+__all__ = [
+    "BeastRecoverEnv",
+    "BeastRecoverV1Env",
+    "BeastRollEnv",
+    "BeastRollV1Env",
+    "BeastTumbleEnv",
+    "BeastTumbleV1Env",
+    "BeastTurnEnv",
+    "BeastTurnV1Env",
+    "STRIP_OFFSET_DEG",
+]
 
 #: Direction of the straight rolling strip relative to the first tumble's direction (deg). For the 4-beast the
 #: working tumble's sequence (1234)(4213)(4321)(1342) runs from foot 3 towards foot 2 of K0, 30 degrees to the left
@@ -56,19 +67,39 @@ _SHARED = """
     The encoder angles are clipped to the joint limits, which are their bounds in the observation space.
 """
 
-_ARGS = f"""
+
+def _common_args(params) -> str:
+    """The Arguments rows every beast id shares, with ``params``' defaults (the -v0 or the -v1 ids')."""
+    return f"""
     | polyhedron | "tetrahedron" | the 4-beast; "octahedron" (6-beast, limbs on +-x, +-y, +-z), "cube" (8-beast) |
     | privileged | False | append the true body pose and velocity to the observation |
     | disabled_limbs | () | 1-based limb numbers whose joints are locked (paper section 5's faults) |
-    | control | "position" | "position" servos or "torque" motors |
-{argument_rows(SensorParams)}
-    | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded |
+    | control | "position" | "position" servos or "torque" motors (a motor has no servo dead band) |
+{argument_rows(params)}
+    | physics | None | dict of model parameters (``polyenvs.beast.model.BeastModelParams``: link lengths, masses, kp, torque_limit, friction, foot_radius, joint ranges, timestep dividing 10 ms), each bounded; with ``layouts="train"`` or ``"test"`` it may not set the parameters the layouts draw |
+    {LAYOUT_SPLIT.argument_row()}
     | render_mode | None | "rgb_array" or "depth_array" through MuJoCo's renderer, camera ``track`` following the torso |
     | width, height | 480, 480 | frame size, fixed per instance |
 """
 
 
-def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
+_V0_HISTORY = """    - v0: first version (MuJoCo 4.0). Since 2026-12 a drawn start state is rounded to 1e-9, so an episode no
+      longer depends on the CPU kernels numpy and OpenBLAS pick (the same start distribution; the reference
+      leaderboard was regenerated with it, a version bump was not warranted for a last-bit change). Its servos
+      and foot switches are ideal: under Gaussian action noise of sd 0.003 (half a degree of joint-1 target) at
+      100 Hz the feet chatter, the switches flip thousands of times an episode and the paper's gait stalls.
+"""
+_V1_HISTORY = """    - v1: the robot's contact model by default (``RobotContactParams``): each servo stops within
+      ``servo_deadband_deg`` = 0.25 of its target, where the worm drive holds the joint, and each foot switch
+      reports a change once it has held for ``switch_debounce_ms`` = 30 (3 ticks). With action noise of sd 0.003
+      the paper's gait rolls on (BeastRoll, seeds 0 and 1: 5 tumbles, 0.80 m in 80 s, against 0 tumbles on v0).
+"""
+
+
+def _doc(summary, rewards, start, end, args, *, score: str, v1: str | None = None) -> str:
+    """A beast id's docstring; ``v1`` (what its reward changed, or None for a -v0 id) makes it the -v1 id's."""
+    params = SensorParams if v1 is None else RobotContactParams
+    history = _V0_HISTORY if v1 is None else _V0_HISTORY + _V1_HISTORY + v1
     return f"""{summary}
 {_SHARED}
     ## Rewards
@@ -76,6 +107,8 @@ def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
     Each term is in ``info["reward_<name>"]``; they sum to the reward. ``info["sim_unstable"]`` is True on the step
     where the simulation diverged, ``info["episode_metrics"]`` holds the running metrics (final at the episode end).
 
+    ## Task score
+{score}
     ## Starting State
 {start}
     ## Episode End
@@ -86,17 +119,13 @@ def _doc(summary: str, rewards: str, start: str, end: str, args: str) -> str:
     ## Arguments
     | argument | default | meaning |
     | --- | --- | --- |
-{args}{_ARGS}
+{args}{_common_args(params)}
     ## Version History
-    - v0: first version (MuJoCo 4.0). Since 2026-12 a drawn start state is rounded to 1e-9, so an episode no
-      longer depends on the CPU kernels numpy and OpenBLAS pick (the same start distribution; the reference
-      leaderboard was regenerated with it, a version bump was not warranted for a last-bit change).
-"""
+{history}"""
 
 
-class BeastTumbleEnv(BeastEnv):
-    __doc__ = _doc(
-        """One canonical tumble (1234) of a Platonic beast (Pai, Barman and Ralph, section 3).
+_TUMBLE = (
+    """One canonical tumble (1234) of a Platonic beast (Pai, Barman and Ralph, section 3).
 
     ## Description
     The 4-beast stands on limbs 1, 2, 3 with limb 4 straight up, in the working tumble's start stance K0 (feet on
@@ -104,22 +133,112 @@ class BeastTumbleEnv(BeastEnv):
     paper's canonical tumble: move the centre of mass over the edge of feet 1 and 2, place foot 4 so that it lands
     after the tip, and end standing on limbs 1, 4 and 2 with limb 3 free. The tumble goes along world +x. For the
     6- and 8-beast any tumble (a new stance after the body has rolled by more than 45 degrees) counts.""",
-        """    - ``progress``: body velocity along +x (m/s);
+    """    - ``progress``: body velocity along +x (m/s);
     - ``success``: ``success_reward`` on the step the tumble completes;
     - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
 """,
-        """    K0 (or the start stance of the 6-/8-beast: three or four feet down, free limbs straight out), turned by a
+    """    K0 (or the start stance of the 6-/8-beast: three or four feet down, free limbs straight out), turned by a
     random yaw of up to 2 degrees and shifted up to 5 mm; free limbs jittered by up to 2 degrees; the encoders'
     positions in their backlash band drawn at random. ``reset(options={"qpos": ..., "qvel": ...})`` starts from a
     given MuJoCo state instead.
 """,
-        """    Terminates on success: limbs 1, 4, 2 on the floor and 3 free, nothing else touching the floor (a stance,
+    """    Terminates on success: limbs 1, 4, 2 on the floor and 3 free, nothing else touching the floor (a stance,
     not a fall), held 0.2 s, after the body rolled by more than 45 degrees. Metrics: ``success`` (0/1), ``time_s`` (time to success, or elapsed), ``distance_m`` (along +x).
     Truncated after 3000 steps (30 s; the working tumble takes 17 s at 20 deg/s) by the registry's time limit.
 """,
-        """    | success_reward | 10 | reward for completing the tumble |
+    """    | success_reward | 10 | reward for completing the tumble |
 """,
-    )
+)
+
+_ROLL = (
+    """Rolling along a commanded heading by a sequence of tumbles (the paper's rolling gait, section 3).
+
+    ## Description
+    A Platonic beast starts in its start stance (the working tumble's K0 for the 4-beast) and is rewarded for
+    moving its body along the commanded heading. The start stance is turned so that the straight strip of
+    support triangles of the working tumble's sequence (1234)(4213)(4321)(1342), which runs from foot 3 towards
+    foot 2, points along the heading (for the 6- and 8-beast, the first tumble's direction does). The feasibility
+    study's rolling gait makes about 0.155 m per tumble and 17 s per tumble at 20 deg/s joint rates.""",
+    """    - ``forward``: body velocity along the commanded heading (m/s);
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+    """    The start stance turned to the heading (see Description), plus a random yaw of up to 2 degrees and a shift
+    of up to 5 mm; free limbs jittered by up to 2 degrees; encoder backlash positions random.
+""",
+    """    Never terminates; truncated after 8000 steps (80 s) by the registry's time limit. Metrics: ``distance_m``
+    (body displacement along the heading), ``tumbles`` (support changes after which the body has rolled by more
+    than 45 degrees), ``speed_m_s`` (distance / elapsed time).
+""",
+    """    | heading_deg | 0 | commanded heading, counter-clockwise from world +x, [-180, 180] |
+""",
+)
+
+_TURN = (
+    """The sharp turn of a Platonic beast (paper section 5, Figures 10 and 11): change the rolling direction.
+
+    ## Description
+    The beast starts as in ``BeastRoll-v0``, facing world +x along its strip, and must roll off in the direction
+    turned by ``turn_deg`` from it, as a beast turning a sharp corner or passing a wall does: the paper keeps limb 1
+    planted while the robot rolls about it, synthesising a cone. The heading of travel is measured over the last
+    two tumbles (a straight strip zig-zags by +-30 degrees from one tumble to the next, and two tumbles follow it).
+    The commanded turn is part of the observation (``command``). On a straight strip every limb stays planted
+    through two tumbles in a row; turning keeps one planted through a third, which winds its joint 1 by 360
+    degrees, so here joint 1's range defaults to +-250 degrees (a cable wrap, *ours*; ``physics`` may override it:
+    with +-180 the 4-beast can only roll along its strip).""",
+    """    - ``forward``: body velocity along the target direction (+x turned by ``turn_deg``) (m/s);
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+    """    As ``BeastRoll-v0`` with heading 0: the strip along world +x; random yaw up to 2 degrees, shift up to 5 mm.
+""",
+    """    Never terminates; truncated after 8000 steps (80 s). Metrics: ``heading_change_deg`` (direction of the body's
+    displacement over the last two tumbles, counter-clockwise from +x; 0 before two tumbles), ``heading_error_deg``
+    (its difference from ``turn_deg``, 180 before two tumbles), ``tumbles``, ``distance_m`` (along the target).
+""",
+    """    | turn_deg | 60 | commanded change of heading, counter-clockwise, [-180, 180] |
+""",
+)
+
+_RECOVER = (
+    """Recovering from a throw (paper section 5: a Platonic beast has no preferred "up" and can recover from a
+    topple).
+
+    ## Description
+    The beast starts in the air in a random orientation with random joint angles, moving and spinning as if
+    thrown, falls, and must reach a stance: three or more feet on the floor, nothing else touching it, the body
+    turning slower than 0.1 rad/s, held for 0.2 s.""",
+    """    - ``support``: 0.01 x (feet on the floor - 3 if the body or a link touches the floor);
+    - ``success``: ``success_reward`` on the step the stance is reached;
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+    """    Orientation uniform over rotations; joint angles uniform over their ranges (redrawn while limbs or body
+    overlap; after 20 draws the limbs straight out); lowest point 5-25 cm above the floor; horizontal velocity up to
+    0.5 m/s, angular velocity up to 2 rad/s about each axis. All drawn from the env's generator.
+""",
+    """    Terminates on success. Metrics: ``success`` (0/1), ``time_to_stance_s`` (time when the final stance began;
+    the elapsed time if none). Truncated after 2000 steps (20 s).
+""",
+    """    | success_reward | 10 | reward for reaching the stance |
+""",
+)
+
+
+#: Each task's score (the registry row's ``score``), decided from the paper before any trained agent was looked at.
+_TUMBLE_SCORE = """    ``success`` (max, ceiling 1; ties broken by ``time_s``, min): the paper verifies its prototype by performing
+    the canonical tumble (section 2, Figure 4), which is done or not; moving forward without tumbling is not it.
+"""
+_ROLL_SCORE = """    ``distance_m`` along the commanded heading (max): the rolling gait is locomotion along a straight path
+    (section 3, Figures 6 and 7), and how far the body got along it is what a path asks for.
+"""
+_TURN_SCORE = """    ``heading_error_deg`` at the episode's end (min, floor 0): the sharp turn changes the direction of rolling to
+    pass a corner or a wall (section 5, Figures 10 and 11); only the direction rolled off in matters.
+"""
+_RECOVER_SCORE = """    ``success`` (max, ceiling 1; ties broken by ``time_to_stance_s``, min): the paper's claim is that a beast can
+    recover from a topple, "a statically stable foot placement is available in all orientations" (section 5).
+"""
+
+
+class BeastTumbleEnv(BeastEnv):
+    __doc__ = _doc(*_TUMBLE, score=_TUMBLE_SCORE)
     reward_names = ("progress", "success", "ctrl")
     metric_names = ("success", "time_s", "distance_m")
 
@@ -147,28 +266,7 @@ class BeastTumbleEnv(BeastEnv):
 
 
 class BeastRollEnv(BeastEnv):
-    __doc__ = _doc(
-        """Rolling along a commanded heading by a sequence of tumbles (the paper's rolling gait, section 3).
-
-    ## Description
-    A Platonic beast starts in its start stance (the working tumble's K0 for the 4-beast) and is rewarded for
-    moving its body along the commanded heading. The start stance is turned so that the straight strip of
-    support triangles of the working tumble's sequence (1234)(4213)(4321)(1342), which runs from foot 3 towards
-    foot 2, points along the heading (for the 6- and 8-beast, the first tumble's direction does). The feasibility
-    study's rolling gait makes about 0.155 m per tumble and 17 s per tumble at 20 deg/s joint rates.""",
-        """    - ``forward``: body velocity along the commanded heading (m/s);
-    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
-""",
-        """    The start stance turned to the heading (see Description), plus a random yaw of up to 2 degrees and a shift
-    of up to 5 mm; free limbs jittered by up to 2 degrees; encoder backlash positions random.
-""",
-        """    Never terminates; truncated after 8000 steps (80 s) by the registry's time limit. Metrics: ``distance_m``
-    (body displacement along the heading), ``tumbles`` (support changes after which the body has rolled by more
-    than 45 degrees), ``speed_m_s`` (distance / elapsed time).
-""",
-        """    | heading_deg | 0 | commanded heading, counter-clockwise from world +x, [-180, 180] |
-""",
-    )
+    __doc__ = _doc(*_ROLL, score=_ROLL_SCORE)
     reward_names = ("forward", "ctrl")
     metric_names = ("distance_m", "tumbles", "speed_m_s")
 
@@ -197,30 +295,7 @@ class BeastRollEnv(BeastEnv):
 
 
 class BeastTurnEnv(BeastEnv):
-    __doc__ = _doc(
-        """The sharp turn of a Platonic beast (paper section 5, Figures 10 and 11): change the rolling direction.
-
-    ## Description
-    The beast starts as in ``BeastRoll-v0``, facing world +x along its strip, and must roll off in the direction
-    turned by ``turn_deg`` from it, as a beast turning a sharp corner or passing a wall does: the paper keeps limb 1
-    planted while the robot rolls about it, synthesising a cone. The heading of travel is measured over the last
-    two tumbles (a straight strip zig-zags by +-30 degrees from one tumble to the next, and two tumbles follow it).
-    The commanded turn is part of the observation (``command``). On a straight strip every limb stays planted
-    through two tumbles in a row; turning keeps one planted through a third, which winds its joint 1 by 360
-    degrees, so here joint 1's range defaults to +-250 degrees (a cable wrap, *ours*; ``physics`` may override it:
-    with +-180 the 4-beast can only roll along its strip).""",
-        """    - ``forward``: body velocity along the target direction (+x turned by ``turn_deg``) (m/s);
-    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
-""",
-        """    As ``BeastRoll-v0`` with heading 0: the strip along world +x; random yaw up to 2 degrees, shift up to 5 mm.
-""",
-        """    Never terminates; truncated after 8000 steps (80 s). Metrics: ``heading_change_deg`` (direction of the body's
-    displacement over the last two tumbles, counter-clockwise from +x; 0 before two tumbles), ``heading_error_deg``
-    (its difference from ``turn_deg``, 180 before two tumbles), ``tumbles``, ``distance_m`` (along the target).
-""",
-        """    | turn_deg | 60 | commanded change of heading, counter-clockwise, [-180, 180] |
-""",
-    )
+    __doc__ = _doc(*_TURN, score=_TURN_SCORE)
     reward_names = ("forward", "ctrl")
     metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m")
 
@@ -256,28 +331,7 @@ class BeastTurnEnv(BeastEnv):
 
 
 class BeastRecoverEnv(BeastEnv):
-    __doc__ = _doc(
-        """Recovering from a throw (paper section 5: a Platonic beast has no preferred "up" and can recover from a
-    topple).
-
-    ## Description
-    The beast starts in the air in a random orientation with random joint angles, moving and spinning as if
-    thrown, falls, and must reach a stance: three or more feet on the floor, nothing else touching it, the body
-    turning slower than 0.1 rad/s, held for 0.2 s.""",
-        """    - ``support``: 0.01 x (feet on the floor - 3 if the body or a link touches the floor);
-    - ``success``: ``success_reward`` on the step the stance is reached;
-    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
-""",
-        """    Orientation uniform over rotations; joint angles uniform over their ranges (redrawn while limbs or body
-    overlap; after 20 draws the limbs straight out); lowest point 5-25 cm above the floor; horizontal velocity up to
-    0.5 m/s, angular velocity up to 2 rad/s about each axis. All drawn from the env's generator.
-""",
-        """    Terminates on success. Metrics: ``success`` (0/1), ``time_to_stance_s`` (time when the final stance began;
-    the elapsed time if none). Truncated after 2000 steps (20 s).
-""",
-        """    | success_reward | 10 | reward for reaching the stance |
-""",
-    )
+    __doc__ = _doc(*_RECOVER, score=_RECOVER_SCORE)
     reward_names = ("support", "success", "ctrl")
     metric_names = ("success", "time_to_stance_s")
 
@@ -328,6 +382,111 @@ class BeastRecoverEnv(BeastEnv):
         support = 0.01 * (n_feet - (3.0 if other else 0.0))
         bonus = self.success_reward if success else 0.0
         return (support, bonus, -self.ctrl_cost_weight * torque_sq), success
+
+
+class _RobotContact:
+    """Mixin of the -v1 ids: the robot's contact model (:class:`polyenvs.beast.env.RobotContactParams`) as the
+    defaults of the servo dead band and the foot-switch debounce."""
+
+    def __init__(
+        self,
+        *,
+        servo_deadband_deg: float = RobotContactParams.servo_deadband_deg,
+        switch_debounce_ms: float = RobotContactParams.switch_debounce_ms,
+        **kwargs,
+    ):
+        super().__init__(servo_deadband_deg=servo_deadband_deg, switch_debounce_ms=switch_debounce_ms, **kwargs)
+
+
+_TIME_COST = """    - ``time``: minus ``time_cost`` per second (0.2: 6 over the 30 s limit, less than ``success_reward``, so
+      any success outscores every failure and a sooner one a later one);
+"""
+
+
+class _PaysSuccessAndTime:
+    """v1's reward for a task whose score is a success and its time: v0's success bonus and control cost, its shaping
+    term replaced by ``time``, minus ``time_cost`` per second."""
+
+    reward_names = ("success", "time", "ctrl")
+
+    def __init__(self, *, time_cost: float = 0.2, **kwargs):
+        self.time_cost = check_in_range("time_cost", time_cost, 0.0, 10.0)
+        super().__init__(**kwargs)
+
+    def _task_step(self, *summary):
+        (_, bonus, ctrl), success = super()._task_step(*summary)
+        return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
+
+
+class BeastTumbleV1Env(_PaysSuccessAndTime, _RobotContact, BeastTumbleEnv):
+    __doc__ = _doc(
+        _TUMBLE[0],
+        """    - ``success``: ``success_reward`` on the step the tumble completes;
+"""
+        + _TIME_COST
+        + """    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        *_TUMBLE[2:4],
+        _TUMBLE[4] + "    | time_cost | 0.2 | reward lost per second until the tumble completes, [0, 10] |\n",
+        score=_TUMBLE_SCORE,
+        v1="""      The reward is the score's: v0's ``progress`` (body velocity) paid for shuffling forward without tumbling
+      (a PPO agent: 0.55 normalised return, 1 success in 100 episodes), v1 pays the success and charges time.
+""",
+    )
+
+
+class BeastRollV1Env(_RobotContact, BeastRollEnv):
+    __doc__ = _doc(
+        *_ROLL,
+        score=_ROLL_SCORE,
+        v1="""      The reward is v0's, which already tracks the score: ``forward`` sums to the distance along the heading
+      divided by the 10 ms tick (locomotion of any kind that goes along the heading is what the score measures).
+""",
+    )
+
+
+class BeastTurnV1Env(_RobotContact, BeastTurnEnv):
+    __doc__ = _doc(
+        _TURN[0],
+        """    - ``heading``: ``heading_reward`` x (the heading error's decrease) / 180 degrees, paid when a tumble
+      changes it (it starts at 180), so an episode's terms sum to ``heading_reward`` x (1 - final error / 180);
+    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        *_TURN[2:4],
+        _TURN[4] + "    | heading_reward | 10 | reward for a final heading error of 0, [0, 1000] |\n",
+        score=_TURN_SCORE,
+        v1="""      The reward is the score's: v0's ``forward`` (velocity along the target direction) paid rolling straight
+      on at cos(60 degrees) of the turn's rate; v1 pays the decrease of the heading error.
+""",
+    )
+    reward_names = ("heading", "ctrl")
+
+    def __init__(self, heading_reward: float = 10.0, **kwargs):
+        self.heading_reward = check_in_range("heading_reward", heading_reward, 0.0, 1000.0)
+        super().__init__(**kwargs)
+
+    def _task_step(self, *summary):
+        before = self._metrics["heading_error_deg"]
+        (_, ctrl), terminated = super()._task_step(*summary)
+        gain = self.heading_reward * (before - self._metrics["heading_error_deg"]) / 180.0
+        return (gain, ctrl), terminated
+
+
+class BeastRecoverV1Env(_PaysSuccessAndTime, _RobotContact, BeastRecoverEnv):
+    __doc__ = _doc(
+        _RECOVER[0],
+        """    - ``success``: ``success_reward`` on the step the stance is reached;
+"""
+        + _TIME_COST.replace("30 s", "20 s").replace("6 over", "4 over")
+        + """    - ``ctrl``: minus ``ctrl_cost_weight`` x mean squared joint torque / limit^2.
+""",
+        *_RECOVER[2:4],
+        _RECOVER[4] + "    | time_cost | 0.2 | reward lost per second until the stance is reached, [0, 10] |\n",
+        score=_RECOVER_SCORE,
+        v1="""      The reward is the score's: v0's ``support`` paid 0.03 a step for standing on three feet without
+      keeping still (60 over the 20 s limit against a success bonus of 10); v1 pays the success and charges time.
+""",
+    )
 
 
 def _turned(qpos: np.ndarray, yaw: float) -> np.ndarray:

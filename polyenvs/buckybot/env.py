@@ -36,11 +36,20 @@ from gymnasium import spaces
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.floor_plans import MAX_RANDOM_SEGMENTS, RANDOM_ROOM_BOUNDS, make_floor_plan, random_room
+from polyenvs.buckybot.floor_plans import (
+    LAYOUT_SPLIT,
+    MAX_RANDOM_SEGMENTS,
+    RANDOM_ROOM_BOUNDS,
+    layout_plan,
+    make_floor_plan,
+    plan_width,
+    random_room,
+)
 from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
+from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
@@ -185,11 +194,16 @@ class BuckybotEnv(RowsEnv):
     task_observation_high: tuple[float, ...] = ()
     #: Reset options a task adds to "pose" and "face".
     task_option_names: tuple[str, ...] = ()
+    #: The task's own floor plan (its ``floor_plan`` default); ``layouts="train"`` or ``"test"`` replaces it.
+    default_floor_plan = "rectangle"
+    #: How ``layouts=`` splits the plans (:data:`polyenvs.buckybot.floor_plans.LAYOUT_SPLIT`).
+    layout_split = LAYOUT_SPLIT
 
     def __init__(
         self,
         *,
-        floor_plan="rectangle",
+        floor_plan=default_floor_plan,
+        layouts: str = "default",
         noise_scale: float = BuckybotParams.noise_scale,
         range_noise_scale: float = BuckybotParams.range_noise_scale,
         step_forward_cm: float = BuckybotParams.step_forward_cm,
@@ -200,7 +214,9 @@ class BuckybotEnv(RowsEnv):
         heading_sd_deg: float = BuckybotParams.heading_sd_deg,
         body_radius_cm: float = BuckybotParams.body_radius_cm,
         render_mode: str | None = None,
+        num_rows: int = 1,
     ):
+        self._use_rows(num_rows)
         p = BuckybotParams(
             noise_scale, range_noise_scale, step_forward_cm, step_forward_sd_cm, step_lateral_cm, step_lateral_sd_cm,
             heading_change_deg, heading_sd_deg, body_radius_cm,
@@ -213,7 +229,9 @@ class BuckybotEnv(RowsEnv):
         # A start this far from every wall leaves all three tips free: each lands one step away, the body needs
         # its radius.
         self.start_clearance_cm = self.body_radius_cm + geo.STEP_LENGTH_CM + 1.0
-        self.floor_plan = make_floor_plan(floor_plan)  # None: a random room at every reset
+        self.layouts = self._check_layouts(layouts, floor_plan)
+        # None: a plan drawn at every reset (a random room, or one of the layouts' distribution).
+        self.floor_plan = make_floor_plan(floor_plan) if self.layouts == "default" else None
         if self.floor_plan is not None:
             self._check_plan(self.floor_plan, "floor_plan")
         self.render_mode = render_mode
@@ -295,6 +313,22 @@ class BuckybotEnv(RowsEnv):
         return {}
 
     # --- helpers ----------------------------------------------------------------------------------------------
+    def _check_layouts(self, layouts, floor_plan) -> str:
+        """``layouts``, checked; "train" and "test" draw their own plans, so they refuse a ``floor_plan`` other than
+        the task's default rather than ignore it."""
+        layouts = check_layouts(layouts)
+        own_plan = isinstance(floor_plan, str) and floor_plan == self.default_floor_plan
+        if layouts != "default" and not own_plan:
+            raise ValueError(
+                f"layouts={layouts!r} draws its own floor plans: leave floor_plan at its default "
+                f"({self.default_floor_plan!r}), or use layouts='default' with floor_plan={show(floor_plan)}"
+            )
+        return layouts
+
+    def episode_layout(self) -> dict[str, float]:
+        """Row 0's layout as :attr:`layout_split` classifies it: ``{"room width": cm}``."""
+        return {"room width": plan_width(self.plan)}
+
     def _check_plan(self, plan: FloorPlan, name: str) -> None:
         if not plan.has_room(self.start_clearance_cm):
             raise ValueError(f"{name} leaves no room for the robot ({self.start_clearance_cm:.1f} cm from every wall)")
@@ -427,8 +461,9 @@ class BuckybotEnv(RowsEnv):
         return int(face) - 1
 
     def _random_plan(self, rng: np.random.Generator) -> FloorPlan:
+        """A random room (``floor_plan="random"``) or a plan of the ``layouts`` distribution, usable by the task."""
         for _ in range(100):
-            plan = random_room(rng)
+            plan = random_room(rng) if self.layouts == "default" else layout_plan(rng, self.layouts)
             if plan.has_room(self.start_clearance_cm) and self._task_plan_usable(plan):
                 return plan
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover

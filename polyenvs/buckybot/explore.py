@@ -6,7 +6,7 @@ import numpy as np
 
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
-from polyenvs.buckybot.floor_plans import RANDOM_ROOM_BOUNDS
+from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT, RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams_rotated, placement_gaps_rotated
 from polyenvs.buckybot.simulator import (
     A_STATE,
@@ -18,16 +18,17 @@ from polyenvs.buckybot.simulator import (
 )
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["BuckybotExploreEnv"]
 
 #: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("coverage", "blocked")
-METRICS = ("coverage", "map_error_cm")
+METRICS = ("coverage", "map_error_cm", "steps")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_COVERAGE, _R_BLOCKED = OUT.term_columns("coverage", "blocked")
-_M_COVERAGE, _M_MAP_ERROR = OUT.metric_columns("coverage", "map_error_cm")
+_M_COVERAGE, _M_MAP_ERROR, _M_STEPS = OUT.metric_columns("coverage", "map_error_cm", "steps")
 _M_BASE = OUT.metric_columns(*BASE_METRICS)
 _REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
@@ -67,6 +68,7 @@ def _write_out(b, state, task, grid, tp, out):
     coverage = task[b, _SEEN] / grid[_FREE_TOTAL]
     out[b, _M_COVERAGE] = coverage
     out[b, _M_MAP_ERROR] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
+    out[b, _M_STEPS] = state[b, S.STEPS]
     out[b, _REWARD] = out[b, _R_COVERAGE] + out[b, _R_BLOCKED]
     out[b, _TERMINATED] = 1.0 if coverage >= tp[_GOAL] else 0.0
 
@@ -110,6 +112,7 @@ def _step_kernel(actions, kernel):
         _write_out(b, state, task, grids[w], tp, out)
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class BuckybotExploreEnv(BuckybotEnv):
     """Map an unknown floor plan: sweep as much of its free area as possible with the six range finders.
 
@@ -138,15 +141,24 @@ class BuckybotExploreEnv(BuckybotEnv):
     ## Episode End
     Terminates when ``coverage >= coverage_goal``; truncated after ``max_episode_steps`` (1000 at registration).
     ``info["episode_metrics"]``: ``coverage`` (fraction of the free area observed), ``map_error_cm`` (mean
-    distance between dead-reckoned and true obstacle points), ``blocked_tips``, ``oscillation_events``.
+    distance between dead-reckoned and true obstacle points), ``steps`` (tips taken, blocked ones included),
+    ``blocked_tips``, ``oscillation_events``.
+
+    ## Task score
+    ``coverage`` (max, ceiling 1; ties at the ceiling broken by fewer ``steps``). The paper's second application is
+    mapping an unknown indoor environment with the range finders (its Figure 8): what such a map is worth is how
+    much of the free area the robot has seen, so the score is the fraction of it observed, and between two robots
+    that see all of it, the one that took fewer tips did better. ``map_error_cm`` measures dead reckoning, which
+    no policy controls, so it is reported beside the score, not part of it.
 
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "office" | as BuckybotWallFollow-v0 |
+    {layouts}
     | coverage_goal | 0.95 | coverage that ends the episode, in [0.01, 1] |
     | cell_cm | 10.0 | occupancy-grid cell size, in [2, 50]; the grid over the plan may hold at most 1,000,000 cells |
-    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
     * v0: initial version.
@@ -155,8 +167,9 @@ class BuckybotExploreEnv(BuckybotEnv):
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
+    default_floor_plan = "office"
 
-    def __init__(self, *, floor_plan="office", coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
+    def __init__(self, *, floor_plan=default_floor_plan, coverage_goal: float = 0.95, cell_cm: float = 10.0, **kwargs):
         self.coverage_goal = check_in_range("coverage_goal", coverage_goal, 0.01, 1.0)
         self.cell_cm = check_in_range("cell_cm", cell_cm, 2.0, 50.0)
         super().__init__(floor_plan=floor_plan, **kwargs)

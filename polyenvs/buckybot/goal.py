@@ -8,10 +8,12 @@ import numpy as np
 
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
 from polyenvs.buckybot.simulator import A_OBS, A_STATE, BASE_METRICS, advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.validation import check_finite, check_in_range, show
 
 __all__ = ["BuckybotGoalEnv", "GOAL_DISTANCE_SCALE_CM"]
@@ -22,10 +24,10 @@ GOAL_DISTANCE_SCALE_CM = 200.0
 MAX_GOAL_DISTANCE_CM = 5000.0
 #: The reward terms and the task's own metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("progress", "goal", "blocked")
-METRICS = ("success", "final_distance_cm")
+METRICS = ("success", "final_distance_cm", "steps_to_goal")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_PROGRESS, _R_GOAL, _R_BLOCKED = OUT.term_columns("progress", "goal", "blocked")
-_M_SUCCESS, _M_FINAL_DISTANCE = OUT.metric_columns("success", "final_distance_cm")
+_M_SUCCESS, _M_FINAL_DISTANCE, _M_STEPS = OUT.metric_columns("success", "final_distance_cm", "steps_to_goal")
 _M_BASE = OUT.metric_columns(*BASE_METRICS)
 _REWARD, _TERMINATED = OUT.reward, OUT.terminated
 #: The observation's part after the sensors: the goal's bearing (cos, sin) and tanh(distance / 200 cm).
@@ -56,6 +58,7 @@ def _write_out(b, state, task, out):
     write_base_metrics(b, state, out, _M_BASE)
     out[b, _M_SUCCESS] = task[b, _SUCCESS]
     out[b, _M_FINAL_DISTANCE] = task[b, _DISTANCE]
+    out[b, _M_STEPS] = state[b, S.STEPS]  # the episode ends at the goal: its steps are the steps to it
     out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_GOAL] + out[b, _R_BLOCKED]
     out[b, _TERMINATED] = task[b, _SUCCESS]
 
@@ -97,6 +100,7 @@ def _step_kernel(actions, kernel):
         _write_out(b, state, task, out)
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class BuckybotGoalEnv(BuckybotEnv):
     """Reach a goal cell known only through dead reckoning, without bumping into walls.
 
@@ -126,15 +130,23 @@ class BuckybotGoalEnv(BuckybotEnv):
     ## Episode End
     Terminates when the true centre is within ``goal_radius_cm`` of the goal; truncated after
     ``max_episode_steps`` (300 at registration). ``info["episode_metrics"]``: ``success`` (0/1),
-    ``final_distance_cm`` (true), ``blocked_tips``, ``oscillation_events``.
+    ``final_distance_cm`` (true), ``steps_to_goal`` (the steps taken: to the goal if it was reached, else the
+    whole episode), ``blocked_tips``, ``oscillation_events``.
+
+    ## Task score
+    ``success`` (max, ceiling 1; ties at the ceiling broken by fewer ``steps_to_goal``). The paper's robot moves by
+    tips and knows its pose only by dead reckoning; the task is to get there, judged on the true position, and a
+    robot that gets there in fewer 9.13 cm tips (each tip costs the paper's robot seconds and drifts its dead
+    reckoning) did better. Blocked tips are charged in the reward, not the score: arriving is what counts.
 
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "l_room" | as BuckybotWallFollow-v0 |
+    {layouts}
     | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm), in [5, 50]; the plan must have room for a goal this size |
     | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances, 0 <= min <= max <= 5000 |
-    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode | | as BuckybotWallFollow-v0 |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
     * v0: initial version.
@@ -143,12 +155,15 @@ class BuckybotGoalEnv(BuckybotEnv):
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
+    default_floor_plan = "l_room"
     task_option_names = ("goal",)
     task_observation_sizes = OBSERVATION_PARTS
     task_observation_low = (-1.0, -1.0, 0.0)
     task_observation_high = (1.0, 1.0, 1.0)
 
-    def __init__(self, *, floor_plan="l_room", goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs):
+    def __init__(
+        self, *, floor_plan=default_floor_plan, goal_radius_cm: float = 15.0, goal_distance_cm=(100.0, 400.0), **kwargs
+    ):
         self.goal_radius_cm = check_in_range("goal_radius_cm", goal_radius_cm, 5.0, 50.0)
         if isinstance(goal_distance_cm, str) or not hasattr(goal_distance_cm, "__len__") or len(goal_distance_cm) != 2:
             raise ValueError(f"goal_distance_cm must be a (min, max) pair in cm, got {show(goal_distance_cm)}")

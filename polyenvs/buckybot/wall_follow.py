@@ -8,6 +8,7 @@ import numpy as np
 
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.env import BuckybotEnv, BuckybotParams
+from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
 from polyenvs.buckybot.simulator import (
     A_STATE,
@@ -19,6 +20,7 @@ from polyenvs.buckybot.simulator import (
 )
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.validation import check_in_range
 
@@ -124,6 +126,7 @@ def _step_kernel(actions, kernel):
 
 
 @documents_arguments(BuckybotParams)
+@documents_layouts(LAYOUT_SPLIT)
 class BuckybotWallFollowEnv(BuckybotEnv):
     """Follow the closest wall counter-clockwise at distance d*, with only six ultrasonic range finders.
 
@@ -185,15 +188,25 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     counter-clockwise turns about the room's centre), ``progress_cm``, ``blocked_tips`` and
     ``oscillation_events`` (tips that undo the previous tip).
 
+    ## Task score
+    ``perimeter_fraction`` (max, ceiling 1; ties at the ceiling broken by the lower ``wall_distance_error_cm``).
+    The paper's task is to follow the closest wall at d*, and its failure is getting stuck (in 90° corners and
+    narrow hallways), which the return can hide: hovering at d* beside one wall earns the distance term at every
+    step. The score is the fraction of the room's wall length passed within ``follow_tolerance_cm`` of d*, so
+    only following the wall, at the paper's distance and all the way round, raises it; two robots that follow it
+    all are told apart by how close to d* they kept (the distance half of the paper's eq. 5).
+
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|
     | floor_plan | "rectangle" | a built-in plan ("rectangle", "l_room", "corner", "hallway", "office"), "random", or a list of (x1, y1, x2, y2) wall segments in cm |
+    {layouts}
     | d_star_cm | 50.0 | wall-following distance d* from the centre, in [20, 150] (the paper leaves it free; the sonar sees to 184 cm) |
     | x_s_cm | 20.0 | the paper's x_s, look-ahead along the wall and weight of progress, in [1, 100] |
     | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed, in [1, 100] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.
 

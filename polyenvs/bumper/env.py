@@ -22,10 +22,11 @@ from gymnasium import spaces
 
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
-from polyenvs.bumper.maps import BumperMap, make_map
+from polyenvs.bumper.maps import LAYOUT_MAX_SEGMENTS, LAYOUT_ROOM_BOUNDS, LAYOUT_SPLIT, BumperMap, layout_map, make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import check_layouts, documents_layouts
 from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
@@ -79,6 +80,7 @@ class _RowReset:
     row: int
     rng: np.random.Generator
     reseeded: bool
+    world: BumperMap
     pose: np.ndarray
     mismatch: float
     wheel_base: float
@@ -108,13 +110,15 @@ class LocalizationContext:
 @njit(cache=True)
 def _cycle_kernel(actions, kernel):
     """Cycle every row that has an action and write the cycle's log into its observation row. ``kernel.sim =
-    (state, walls, params, normals, cursor, obs, cycles)``, as :class:`BumperCartEnv` packs it."""
+    (state, walls, params, normals, cursor, obs, cycles)``, as :class:`BumperCartEnv` packs it; ``walls`` has a map
+    slot axis first: one slot shared by every row, or one per row (``layouts="train"`` or ``"test"``)."""
     state, walls, params, normals, cursor, obs, cycles = kernel.sim
+    shared = walls.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b, 1] < 0.5:
             continue  # no action: a row that was just reset neither moves nor scores
         row = state[b]
-        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls)
+        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls[0 if shared else b])
         cursor[b] += 1
         cycles[b] += 1.0
         for k in range(_TICKS_END - _TICKS_OBS):
@@ -126,16 +130,17 @@ def _cycle_kernel(actions, kernel):
 def touch_row(b, row, touch) -> float:
     """Row ``b``'s share of the wall newly touched by its last cycle (its state row ``row``), marking the cell and
     counting the bump and any large slip. ``touch = (task, touched, cell_first, cell_count, cell_share)``, as
-    :class:`BumperCartExploreEnv` packs it."""
+    :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first, as the walls)."""
     task, touched, cell_first, cell_count, cell_share = touch
+    w = 0 if cell_first.shape[0] == 1 else b
     fresh = 0.0
     if row[C.BUMP] > 0.5:
         seg = int(row[C.CONTACT_SEG])
-        count = cell_count[seg]
-        cell = cell_first[seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
+        count = cell_count[w, seg]
+        cell = cell_first[w, seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
         if touched[b, cell] == 0:
             touched[b, cell] = 1
-            fresh = cell_share[cell]
+            fresh = cell_share[w, cell]
         task[b, BUMPS] += 1.0
     task[b, TOUCHED] += fresh
     task[b, SLIPS] += row[C.BIG_SLIP]
@@ -161,15 +166,15 @@ def _touch_kernel(actions, kernel):
 
 class BumperCartEnv(RowsEnv):
     """Base class of the bump-only cart's tasks (see :class:`BumperCartExploreEnv` for the full documentation of
-    what they share: the cart, the cycle, the log, the starting state, the arguments).
+    what they share: the cart, the cycle, the log, the layouts, the starting state, the arguments).
 
     A task provides ``reward_names``, ``metric_names`` and ``out_columns`` (its declared names), the parts it adds
     to the observation after the log (``task_observation_sizes``, with per-entry bounds ``task_observation_low``
     and ``task_observation_high``), the reset options it takes (``task_option_names``) and the hooks
-    ``_task_init`` (its arrays), ``_task_arrays`` (the tuple its kernel takes), ``_task_prepare`` (draw a row's
-    task on the reset's generator, writing nothing), ``_task_commit`` (install it), ``_task_step`` (score the rows
-    that cycled, after the log is written), ``_task_info`` / ``_vector_task_info`` (its ``info`` keys) and
-    ``draw_task`` (its layer of a frame).
+    ``_task_init`` (its arrays, once the map slots exist), ``_task_install_map`` (a map slot got a new room),
+    ``_task_arrays`` (the tuple its kernel takes), ``_task_prepare`` (draw a row's task on the reset's generator,
+    writing nothing), ``_task_commit`` (install it), ``_task_step`` (score the rows that cycled, after the log is
+    written), ``_task_info`` / ``_vector_task_info`` (its ``info`` keys) and ``draw_task`` (its layer of a frame).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
@@ -179,14 +184,22 @@ class BumperCartEnv(RowsEnv):
     task_observation_high: tuple[float, ...] = ()
     #: Reset options the task takes besides ``pose``.
     task_option_names: tuple[str, ...] = ()
+    #: The map of ``layouts="default"`` (the ``map`` keyword's default); other layouts draw their own rooms.
+    default_map = "paper"
+    #: How ``layouts="train"`` and ``"test"`` draw rooms (each task's docstring shows it with ``{layouts}``).
+    layout_split = LAYOUT_SPLIT
 
-    def __init__(self, *, map="paper", render_mode: str | None = None, **cart):
+    def __init__(self, *, map=default_map, layouts: str = "default", render_mode: str | None = None,
+                 num_rows: int = 1, **cart):  # fmt: skip
+        self._use_rows(num_rows)
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
         if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
             raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
         self.model = CartModel(**cart)
         self.start_clearance_cm = self.model.circumradius_cm + 0.5
-        self.world = make_map(map, clearance_cm=self.start_clearance_cm)
+        self.layouts = self._check_layouts(layouts, map)
+        if self.layouts == "default":
+            self.world = make_map(map, clearance_cm=self.start_clearance_cm)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
@@ -204,27 +217,82 @@ class BumperCartEnv(RowsEnv):
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
         self._cycles = np.zeros(n)
-        self._task_init()
+        self._allocate_maps()
         # What the kernels take (see _cycle_kernel).
-        sim = (self.state, self.world.walls, self.params, self.streams.normals, self.streams.cursor,
-               self._observations, self._cycles)  # fmt: skip
+        sim = (self.state, self._walls, self.params, self.streams.normals, self.streams.cursor, self._observations,
+               self._cycles)  # fmt: skip
         self._pack_kernel(sim, self._task_arrays())
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
 
+    def _check_layouts(self, layouts, map) -> str:
+        """``layouts``, checked; "train" and "test" draw their own rooms, so they refuse a ``map`` other than the
+        default rather than ignore it."""
+        layouts = check_layouts(layouts)
+        if layouts != "default" and not (isinstance(map, str) and map == self.default_map):
+            raise ValueError(
+                f"layouts={layouts!r} draws its own rooms: leave map at its default ({self.default_map!r}), or use "
+                f"layouts='default' with map={show(map)}"
+            )
+        return layouts
+
+    def _allocate_maps(self) -> None:
+        """Map slots: the one map every row shares, or (other layouts) one room per row, installed at its reset.
+        Walls ``(slots, S, 6)`` (zero rows pad a smaller room); then the task's arrays (:meth:`_task_init`)."""
+        slots = 1 if self.layouts == "default" else self._batch_size
+        n_walls = len(self.world.segments) if self.layouts == "default" else LAYOUT_MAX_SEGMENTS
+        self._walls = np.zeros((slots, n_walls, 6))
+        self._slot_worlds: list[BumperMap | None] = [None] * slots
+        self._task_init()
+        if self.layouts == "default":
+            self._install_map(0, self.world)
+
+    def _install_map(self, slot: int, world: BumperMap) -> None:
+        """Put ``world``'s walls into map slot ``slot`` (padding: no wall), then the task's tables for it."""
+        self._walls[slot] = 0.0
+        self._walls[slot, : len(world.segments)] = world.walls
+        self._slot_worlds[slot] = world
+        self._task_install_map(slot, world)
+
+    def _slot(self, row: int) -> int:
+        return 0 if len(self._slot_worlds) == 1 else row
+
+    @property
+    def world(self) -> BumperMap:
+        """Row 0's map (with ``layouts="train"`` or ``"test"``, the room of its episode; ``None`` before a reset)."""
+        return self._slot_worlds[0] if self.layouts != "default" else self._world
+
+    @world.setter
+    def world(self, value: BumperMap) -> None:
+        self._world = value
+
+    @property
+    def map_bounds(self) -> tuple[float, float, float, float]:
+        """A box holding every map this env can use: the map's bounds, or the layouts' room box."""
+        return self.world.bounds if self.layouts == "default" else LAYOUT_ROOM_BOUNDS
+
+    def episode_layout(self) -> dict[str, float]:
+        """Row 0's layout as :attr:`layout_split` classifies it: ``{"room width": cm}``."""
+        x0, _, x1, _ = self.world.bounds
+        return {"room width": float(x1 - x0)}
+
     # --- the task's part ----------------------------------------------------------------------------------------
     def _task_init(self) -> None:
-        """Allocate the task's per-row arrays (the map and the model are known)."""
+        """Allocate the task's per-row (and per map slot) arrays; the slots exist, the maps are not installed."""
+
+    def _task_install_map(self, slot: int, world: BumperMap) -> None:
+        """Map slot ``slot`` now holds ``world`` (at construction, or at a reset that drew a new room)."""
 
     def _task_arrays(self) -> tuple:
         return ()
 
-    def _task_prepare(self, row: int, rng: np.random.Generator, options: dict, pose: np.ndarray) -> Any:
-        """Draw row ``row``'s task for the episode starting at ``pose`` on ``rng``, writing nothing (may raise)."""
+    def _task_prepare(self, row: int, rng: np.random.Generator, world: BumperMap, pose: np.ndarray) -> Any:
+        """Draw row ``row``'s task for the episode in ``world`` starting at ``pose`` on ``rng``, writing nothing
+        (may raise)."""
         return None
 
     def _task_commit(self, row: int, sample: Any) -> None:
-        """Install what :meth:`_task_prepare` drew (nothing here raises)."""
+        """Install what :meth:`_task_prepare` drew (nothing here raises; the row's map is installed)."""
 
     def _task_step(self, actions: np.ndarray) -> None:
         """Score the rows that cycled (``actions[b, 1] >= 0.5``) into ``_out``, after the log is written."""
@@ -242,10 +310,10 @@ class BumperCartEnv(RowsEnv):
     def _make_renderer(self):
         from polyenvs.bumper.rendering import BumperRenderer
 
-        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.world.bounds)
+        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.map_bounds)
 
     def localization_context(self) -> LocalizationContext:
-        """The map and the cart's nominal geometry, for estimators run on this environment's logs."""
+        """The map (row 0's) and the cart's nominal geometry, for estimators run on this environment's logs."""
         m = self.model
         return LocalizationContext(
             self.world, TICK_CM, m.wheel_base_cm, m.bumper_offset_cm, m.bumper_width_cm, dict(OBSERVATION_STRUCTURE)
@@ -273,21 +341,44 @@ class BumperCartEnv(RowsEnv):
             raise ValueError(f"reset option 'pose' must be (x_cm, y_cm, heading_deg), got {show(pose)}") from None
         if not all(math.isfinite(v) for v in (x, y, heading_deg)):
             raise ValueError(f"reset option 'pose' must be finite, got {show(pose)}")
-        clearance = float(self.world.clearance(np.array([x, y])))
+        if self.layouts == "default":  # other layouts check it against the room their reset draws
+            self._check_pose(self.world, x, y)
+        return np.array([x, y, math.radians(heading_deg)])
+
+    def _check_pose(self, world: BumperMap, x: float, y: float) -> None:
+        clearance = float(world.clearance(np.array([x, y])))
         if clearance < self.start_clearance_cm:
             raise ValueError(
                 f"reset option 'pose' puts the cart {clearance:.1f} cm from a wall (at least "
                 f"{self.start_clearance_cm:.1f} cm, its body's reach, in free space)"
             )
-        return np.array([x, y, math.radians(heading_deg)])
+
+    def _draw_world(self, rng: np.random.Generator) -> BumperMap:
+        """The episode's room for ``layouts="train"`` or ``"test"`` (redrawn in the rare room without space for
+        the cart)."""
+        for _ in range(100):
+            world = layout_map(rng, self.layouts)
+            if world.has_room(self.start_clearance_cm + 0.5):
+                return world
+        raise RuntimeError("the layout room generator failed to make a room the cart fits in")  # pragma: no cover
 
     def _prepare_row(self, row: int, rng: np.random.Generator, options: dict, reseeded: bool) -> _RowReset:
-        pose = options["pose"] if "pose" in options else self.world.sample_pose(rng, self.start_clearance_cm)
+        world = self.world if self.layouts == "default" else self._draw_world(rng)
+        if "pose" in options:
+            pose = options["pose"]
+            if self.layouts != "default":
+                self._check_pose(world, pose[0], pose[1])
+        else:
+            pose = world.sample_pose(rng, self.start_clearance_cm)
         mismatch, wheel_base = self.model.draw_episode(rng)
-        return _RowReset(row, rng, reseeded, pose, mismatch, wheel_base, self._task_prepare(row, rng, options, pose))
+        task = self._task_prepare(row, rng, world, pose)
+        return _RowReset(row, rng, reseeded, world, pose, mismatch, wheel_base, task)
 
     def _commit_rows(self, prepared: list[_RowReset]) -> None:
         for r in prepared:
+            slot = self._slot(r.row)
+            if self._slot_worlds[slot] is not r.world:
+                self._install_map(slot, r.world)
             place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
             self.streams.restart(r.row, r.rng, r.reseeded)
             self._cycles[r.row] = 0.0
@@ -398,6 +489,7 @@ class BumperCartEnv(RowsEnv):
 
 
 @documents_arguments(CartModel)
+@documents_layouts(LAYOUT_SPLIT)
 class BumperCartExploreEnv(BumperCartEnv):
     """Touch as much of an unknown map's walls as possible with a cart whose only sensors are a bumper and two
     wheel encoders.
@@ -428,8 +520,8 @@ class BumperCartExploreEnv(BumperCartEnv):
 
     ## Starting State
     The cart at a uniformly random free point at least its body's reach from every wall, heading uniform; the
-    motor mismatch and the true wheel base are drawn per episode. Reset option ``pose``: ``(x_cm, y_cm,
-    heading_deg)``.
+    motor mismatch and the true wheel base are drawn per episode (with ``layouts="train"`` or ``"test"``, after the
+    episode's room). Reset option ``pose``: ``(x_cm, y_cm, heading_deg)``.
 
     ## Episode End
     Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
@@ -438,13 +530,21 @@ class BumperCartExploreEnv(BumperCartEnv):
     true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
     drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
 
+    ## Task score
+    ``wall_fraction_touched`` (max, ceiling 1): the paper's cart maps a maze by bumping into its walls, and a wall
+    it never touched is a wall missing from its map, so the score is the fraction of the wall length touched. The
+    paper's own policy is the random bounce, and on this map coverage saturates within the 200 cycles: the score
+    barely tells the bounce from a uniformly random turn (which is what it draws), a known weakness of this id.
+
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|
     | map | "paper" | a name in :data:`polyenvs.bumper.maps.MAPS` or a list of polygons (outline first, cm) |
+    {layouts}
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
@@ -458,18 +558,53 @@ class BumperCartExploreEnv(BumperCartEnv):
     metric_names = METRICS
     out_columns = OUT
 
-    def __init__(self, *, map="paper", cell_cm: float = 5.0, render_mode: str | None = None, **cart):
+    def __init__(self, *, map=BumperCartEnv.default_map, layouts: str = "default", cell_cm: float = 5.0,
+                 render_mode: str | None = None, num_rows: int = 1, **cart):  # fmt: skip
         self.cell_cm = check_in_range("cell_cm", cell_cm, 1.0, 50.0)
-        super().__init__(map=map, render_mode=render_mode, **cart)
+        super().__init__(map=map, layouts=layouts, render_mode=render_mode, num_rows=num_rows, **cart)
 
     def _task_init(self) -> None:
-        self._cell_first, self._cell_count, lengths = self.world.wall_cells(self.cell_cm)
-        self._cell_share = lengths / self.world.wall_length_cm
-        self._touched = np.zeros((self._batch_size, len(lengths)), dtype=np.uint8)
+        """Per map slot, each segment's first wall cell and cell count and each cell's share of the wall length;
+        ``_touched`` marks each row's touched cells."""
+        slots, n_walls = self._walls.shape[:2]
+        if self.layouts == "default":
+            n_cells = len(self.world.wall_cells(self.cell_cm)[2])
+        else:
+            x0, y0, x1, y1 = LAYOUT_ROOM_BOUNDS
+            # Walls of a room in the box are at most its perimeter plus its boxes'; each wall adds < 1 cell.
+            most_cm = 2 * (x1 - x0 + y1 - y0) * 2
+            n_cells = int(math.ceil(most_cm / self.cell_cm)) + n_walls
+        self._slot_cell_first = np.zeros((slots, n_walls), dtype=np.int64)
+        self._slot_cell_count = np.zeros((slots, n_walls), dtype=np.int64)
+        self._slot_cell_share = np.zeros((slots, n_cells))
+        self._touched = np.zeros((self._batch_size, n_cells), dtype=np.uint8)
         self._task = np.zeros((self._batch_size, 3))
 
+    def _task_install_map(self, slot: int, world: BumperMap) -> None:
+        first, count, lengths = world.wall_cells(self.cell_cm)
+        k = len(world.segments)
+        # Unused segments start past the last cell, so each segment's first cell stays sorted.
+        self._slot_cell_first[slot] = len(lengths)
+        self._slot_cell_first[slot, :k], self._slot_cell_count[slot] = first, 0
+        self._slot_cell_count[slot, :k] = count
+        self._slot_cell_share[slot] = 0.0
+        self._slot_cell_share[slot, : len(lengths)] = lengths / world.wall_length_cm
+
+    @property
+    def _cell_first(self) -> np.ndarray:
+        """Row 0's map: each segment's first wall cell (the renderer and the tests read these)."""
+        return self._slot_cell_first[self._slot(0)]
+
+    @property
+    def _cell_count(self) -> np.ndarray:
+        return self._slot_cell_count[self._slot(0)]
+
+    @property
+    def _cell_share(self) -> np.ndarray:
+        return self._slot_cell_share[self._slot(0)]
+
     def _task_arrays(self) -> tuple:
-        return (self._task, self._touched, self._cell_first, self._cell_count, self._cell_share)
+        return (self._task, self._touched, self._slot_cell_first, self._slot_cell_count, self._slot_cell_share)
 
     def _task_commit(self, row: int, sample: Any) -> None:
         self._touched[row] = 0

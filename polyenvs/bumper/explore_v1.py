@@ -11,8 +11,10 @@ import numpy as np
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel
 from polyenvs.bumper.env import BUMPS, SLIPS, TOUCHED, BumperCartExploreEnv, touch_row
+from polyenvs.bumper.maps import LAYOUT_SPLIT
 from polyenvs.core.columns import OutColumns
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.validation import check_int
 
@@ -40,13 +42,15 @@ def _coverage_kernel(actions, kernel):
     state, out = kernel.sim[0], kernel.out
     touch, bound = kernel.task
     task = touch[0]
+    shared = bound.shape[0] == 1
     for b in range(actions.shape[0]):
         if actions[b, 1] < 0.5:
             continue
         row = state[b]
         fresh = touch_row(b, row, touch)
-        out[b, _R_TOUCH] = 100.0 * fresh / bound[0]
-        out[b, _M_COVERAGE] = task[b, TOUCHED] / bound[0]
+        limit = bound[0 if shared else b]
+        out[b, _R_TOUCH] = 100.0 * fresh / limit
+        out[b, _M_COVERAGE] = task[b, TOUCHED] / limit
         out[b, _M_TOUCHED] = task[b, TOUCHED]
         out[b, _M_BUMPS] = task[b, BUMPS]
         out[b, _M_ODOMETRY] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
@@ -55,6 +59,7 @@ def _coverage_kernel(actions, kernel):
 
 
 @documents_arguments(CartModel)
+@documents_layouts(LAYOUT_SPLIT)
 class BumperCartExploreV1Env(BumperCartExploreEnv):
     """Touch as much wall as possible within a budget of cycles, scored against the most that budget allows.
 
@@ -81,8 +86,9 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     ``reward_touch``: 100 x the wall fraction newly touched by this cycle's bump, over the bound: an episode's
     rewards sum to 100 x ``coverage``.
 
-    Task score: ``coverage`` (max, ceiling 1), the paper's mapping goal ("letting this run long enough should
-    collect enough points to make a map") measured where it is still open. The random bounce is the paper's policy
+    ## Task score
+    ``coverage`` (max, ceiling 1), the paper's mapping goal ("letting this run long enough should collect enough
+    points to make a map") measured where it is still open. The random bounce is the paper's policy
     and random's too; the score's upper anchor is ``fixed_turn`` (the same 150° turn after every cycle).
 
     ## Starting State
@@ -99,9 +105,13 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     |----------|---------|---------|
     | budget_cycles | 50 | the cycles the coverage bound is for (the registration's ``max_episode_steps``), in [1, 100000] |
     | map | "paper" | as BumperCartExplore-v0 |
+    {layouts}
     | cell_cm | 5.0 | as BumperCartExplore-v0 |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
+
+    With ``layouts="train"`` or ``"test"`` every episode's room has its own bound (``env.coverage_bound``: row 0's).
 
     ## Version History
     * v1: a budget of 50 cycles and ``coverage`` against its upper bound (the reward scaled by the bound); v0 is
@@ -113,14 +123,24 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     metric_names = METRICS
     out_columns = OUT
 
-    def __init__(self, *, budget_cycles: int = 50, map="paper", cell_cm: float = 5.0, render_mode=None, **cart):
+    def __init__(self, *, budget_cycles: int = 50, map=BumperCartExploreEnv.default_map, layouts: str = "default",
+                 cell_cm: float = 5.0, render_mode=None, num_rows: int = 1, **cart):  # fmt: skip
         self.budget_cycles = check_int("budget_cycles", budget_cycles, 1, 100_000)
-        super().__init__(map=map, cell_cm=cell_cm, render_mode=render_mode, **cart)
+        super().__init__(map=map, layouts=layouts, cell_cm=cell_cm, render_mode=render_mode, num_rows=num_rows,
+                         **cart)  # fmt: skip
 
     def _task_init(self) -> None:
         super()._task_init()
-        self.coverage_bound = coverage_bound(self._cell_share, self.budget_cycles)
-        self._bound = np.array([self.coverage_bound])
+        self._bound = np.ones(self._walls.shape[0])  # per map slot: each room has its own bound
+
+    def _task_install_map(self, slot: int, world) -> None:
+        super()._task_install_map(slot, world)
+        self._bound[slot] = coverage_bound(self._slot_cell_share[slot], self.budget_cycles)
+
+    @property
+    def coverage_bound(self) -> float:
+        """Row 0's bound: the most of its map's wall ``budget_cycles`` cycles can touch."""
+        return float(self._bound[self._slot(0)])
 
     def _task_arrays(self) -> tuple:
         return (super()._task_arrays(), self._bound)

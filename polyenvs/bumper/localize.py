@@ -21,9 +21,11 @@ from polyenvs.bumper import cart as C
 from polyenvs.bumper.bump_space import BumpSpaceFilter, densest_cluster, log_index, update_rows
 from polyenvs.bumper.cart import CartModel
 from polyenvs.bumper.env import LOG_SIZE, OBSERVATION_STRUCTURE, BumperCartEnv
+from polyenvs.bumper.maps import LAYOUT_SPLIT
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import documents_layouts
 from polyenvs.core.parameters import argument_rows, check_parameters, documents_arguments, parameter
 
 __all__ = ["BELIEF_STRUCTURE", "LOCALIZED_BONUS", "BumperCartLocalizeEnv", "LocalizeParams"]
@@ -174,6 +176,7 @@ def _document_task_arguments(cls):
 
 @_document_task_arguments
 @documents_arguments(CartModel)
+@documents_layouts(LAYOUT_SPLIT)
 class BumperCartLocalizeEnv(BumperCartEnv):
     """Localize a bump-only cart in a known map as fast as possible: the paper's bump-space Monte Carlo localizer
     runs on the cart's own logs, and the policy chooses the turns that make its bumps informative.
@@ -221,9 +224,11 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     so the return is ``10 - cycles_to_localize`` for a localized episode and ``-budget`` otherwise: it tracks the
     score.
 
-    Task score: ``cycles_to_localize`` (min), the paper's measure of a localizer ("converges within 5 to 10
-    bumps"), with ``distance_cm`` (min) to break ties. The random bounce is the paper's policy and random's too,
-    so the score's upper anchor is ``greedy_split`` (a turn chosen to split the particle set best).
+    ## Task score
+    ``cycles_to_localize`` (min, floor ``hold_cycles``: no run localizes sooner), the paper's measure of a
+    localizer ("converges within 5 to 10 bumps"), with ``distance_cm`` (min) to break ties at the floor. The
+    random bounce is the paper's policy and random's too, so the score's upper anchor is ``greedy_split`` (a turn
+    chosen to split the particle set best).
 
     ## Starting State
     As BumperCartExplore-v0: the cart uniform in free space, heading uniform, motor mismatch and wheel base drawn;
@@ -247,9 +252,16 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | map | "paper" | as BumperCartExplore-v0: the map the cart knows |
+    {layouts}
     {task_arguments}
     {arguments}
     | render_mode | None | "rgb_array" (particles grey, the estimate blue) or "human" |
+    | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
+
+    With ``layouts="train"`` or ``"test"`` each episode draws its room (as BumperCartExplore-v0) and the cart knows
+    it: the filter runs on that row's room, and the summary's positions are fractions of the box holding every
+    such room. ``greedy_split`` knows only the map it is given (``map="paper"``), so it is this id's anchor on the
+    default layout only.
 
     ## Version History
     * v0: initial version.
@@ -265,22 +277,25 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     def __init__(
         self,
         *,
-        map="paper",
+        map=BumperCartEnv.default_map,
+        layouts: str = "default",
         particles: int = 3000,
         position_tolerance_cm: float = 10.0,
         heading_tolerance_deg: float = 30.0,
         hold_cycles: int = 3,
         render_mode: str | None = None,
+        num_rows: int = 1,
         **cart,
     ):
         self.task = LocalizeParams(particles, position_tolerance_cm, heading_tolerance_deg, hold_cycles)
-        super().__init__(map=map, render_mode=render_mode, **cart)
+        super().__init__(map=map, layouts=layouts, render_mode=render_mode, num_rows=num_rows, **cart)
 
     def _task_init(self) -> None:
         n, rows = self.task.particles, self._batch_size
         self.localizer = BumpSpaceFilter(n)
-        self.localizer.configure(self.localization_context())
-        x0, y0, x1, y1 = self.world.bounds
+        # One packing for every room a row may get: the estimate's grid and the summary's box span them all.
+        x0, y0, x1, y1 = self.map_bounds
+        self.localizer.configure(self.localization_context(), bounds=self.map_bounds)
         self._task_params = np.array([
             self.task.position_tolerance_cm, math.radians(self.task.heading_tolerance_deg), self.task.hold_cycles,
             x0, y0, x1 - x0, y1 - y0, math.hypot(x1 - x0, y1 - y0), n, TICK_CM,
@@ -291,13 +306,13 @@ class BumperCartLocalizeEnv(BumperCartEnv):
         self._noise = np.zeros((rows, n, 3, 3), dtype=np.float32)  # float32 draws, as BumpSpaceMCL's
         self._spare = np.zeros((n, 3))
         ticks, bump = log_index(self.localization_context())
-        self._filter = (self.localizer.params, self.localizer.walls, ticks.reshape(-1).astype(np.int64), bump)
+        self._filter = (self.localizer.params, self._walls, ticks.reshape(-1).astype(np.int64), bump)
 
     def _task_arrays(self) -> tuple:
         return (self._state, self._estimates, self._particles, self._task_params)
 
-    def _task_prepare(self, row: int, rng: np.random.Generator, options: dict, pose: np.ndarray) -> np.ndarray:
-        return self.localizer.seed_particles(rng)
+    def _task_prepare(self, row: int, rng: np.random.Generator, world, pose: np.ndarray) -> np.ndarray:
+        return self.localizer.seed_particles(rng, world)
 
     def _task_commit(self, row: int, sample: np.ndarray) -> None:
         self._particles[row] = sample
@@ -320,7 +335,8 @@ class BumperCartLocalizeEnv(BumperCartEnv):
         update_rows(actions, clouds, self._observations, self._filter, self._estimates)
         for b in moved:
             if self._estimates[b, _EKEPT] == 0:  # the paper's failure: no particle in the bump space; seed afresh
-                self._particles[b] = self.localizer.seed_particles(self.streams.generators[b])
+                world = self._slot_worlds[self._slot(b)]
+                self._particles[b] = self.localizer.seed_particles(self.streams.generators[b], world)
                 self._estimate_afresh(b)
                 self._state[b, _EMPTY] += 1.0
         _score_kernel(actions, self._kernel)

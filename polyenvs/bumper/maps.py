@@ -14,6 +14,10 @@ Built-in maps (``MAPS``):
 | ``obstacles`` | the paper's arena with two boxes in it |
 | ``maze`` | a 200 x 200 cm maze of free-standing 2 cm walls with gaps the cart fits through |
 
+Held-out layouts (``layouts=`` of the cart ids, :data:`LAYOUT_SPLIT`): random rooms with boxes
+(:func:`random_room_map`), a rectangle 70-120 cm deep, one corner cut at 45° half the time, and up to two boxes;
+"train" rooms are 90-140 cm wide, "test" rooms 150-200 cm. The default map (``paper``) is not a test room.
+
 A user map is a sequence of polygons, each a sequence of ``(x, y)`` vertices (or a single polygon). Bad maps raise
 ``ValueError`` naming ``map``: fewer than 3 vertices, non-finite or huge coordinates, edges under ``MIN_EDGE_CM``,
 self-intersecting or crossing polygons, obstacles outside the outline, more than ``MAX_SEGMENTS`` edges, or no room
@@ -29,8 +33,22 @@ import numpy as np
 
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.jit import njit
+from polyenvs.core.layouts import LayoutSplit, SplitParameter
 
-__all__ = ["MAPS", "MAX_EXTENT_CM", "MAX_SEGMENTS", "MIN_EDGE_CM", "BumperMap", "free_at", "make_map"]
+__all__ = [
+    "LAYOUT_MAX_SEGMENTS",
+    "LAYOUT_ROOM_BOUNDS",
+    "LAYOUT_SPLIT",
+    "MAPS",
+    "MAX_EXTENT_CM",
+    "MAX_SEGMENTS",
+    "MIN_EDGE_CM",
+    "BumperMap",
+    "free_at",
+    "layout_map",
+    "make_map",
+    "random_room_map",
+]
 
 #: The widest map accepted (20 m); the cart is 12 cm long.
 MAX_EXTENT_CM = 2000.0
@@ -298,3 +316,58 @@ def make_map(spec, clearance_cm: float = 0.0) -> BumperMap:
 @functools.cache
 def _builtin(name: str) -> BumperMap:
     return BumperMap(MAPS[name], name=name)
+
+
+#: The split of the layouts (:mod:`polyenvs.core.layouts`): the room's width, train 90-140 cm, test 150-200 cm.
+LAYOUT_SPLIT = LayoutSplit(
+    (SplitParameter("room width", "cm", train=(90.0, 140.0), test=(150.0, 200.0)),),
+    varies="a random room (a rectangle 70-120 cm deep, one corner cut at 45° half the time, up to two boxes)",
+)
+#: Every layout room lies in this box (x_min, y_min, x_max, y_max), so frames keep one size.
+LAYOUT_ROOM_BOUNDS = (0.0, 0.0, LAYOUT_SPLIT.parameters[0].test[1], 120.0)
+_DEPTHS_CM = (70.0, 120.0)
+_CUT_CM = (15.0, 35.0)
+_BOX_CM = (8.0, 20.0)
+#: Boxes stand at least this far from the walls and from each other (cm), room for the cart (12 cm long) to pass.
+_BOX_GAP_CM = 25.0
+_MAX_BOXES = 2
+#: The most edges a layout room has: a five-sided outline and two boxes.
+LAYOUT_MAX_SEGMENTS = 5 + 4 * _MAX_BOXES
+
+
+def _uniform(rng: np.random.Generator, interval) -> float:
+    return interval[0] + (interval[1] - interval[0]) * rng.random()
+
+
+def random_room_map(rng: np.random.Generator, widths: tuple[float, float]) -> BumperMap:
+    """A random room ``widths`` cm wide from ``rng``: a rectangle 70-120 cm deep, its north-west corner cut at 45°
+    half the time (as the paper's arena is), and 0-2 boxes of 8-20 cm, each at least 25 cm from the walls and from
+    each other (placed by rejection; a box that finds no place is left out)."""
+    width, depth = _uniform(rng, widths), _uniform(rng, _DEPTHS_CM)
+    outline = [(0.0, 0.0), (width, 0.0), (width, depth)]
+    if rng.random() < 0.5:
+        cut = _uniform(rng, _CUT_CM)
+        outline += [(cut, depth), (0.0, depth - cut)]
+    else:
+        outline.append((0.0, depth))
+    room = BumperMap([outline])
+    boxes: list[tuple[float, float, float, float]] = []
+    for _ in range(int(rng.integers(0, _MAX_BOXES + 1))):
+        for _ in range(20):
+            w, h = _uniform(rng, _BOX_CM), _uniform(rng, _BOX_CM)
+            x, y = _uniform(rng, (0.0, width - w)), _uniform(rng, (0.0, depth - h))
+            corners = np.array([(x, y), (x + w, y), (x + w, y + h), (x, y + h)])
+            apart = all(
+                x > bx + bw + _BOX_GAP_CM or bx > x + w + _BOX_GAP_CM or y > by + bh + _BOX_GAP_CM
+                or by > y + h + _BOX_GAP_CM
+                for bx, by, bw, bh in boxes
+            )  # fmt: skip
+            if apart and (room.clearance(corners) >= _BOX_GAP_CM).all():
+                boxes.append((x, y, w, h))
+                break
+    return BumperMap([outline, *(_box(x, y, x + w, y + h) for x, y, w, h in boxes)], name="random room")
+
+
+def layout_map(rng: np.random.Generator, layouts: str) -> BumperMap:
+    """A room of the ``layouts`` ("train" or "test") distribution, drawn from ``rng``."""
+    return random_room_map(rng, LAYOUT_SPLIT.parameters[0].interval(layouts))

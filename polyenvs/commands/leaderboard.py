@@ -1,8 +1,9 @@
-"""``polyenvs leaderboard``: evaluate every baseline and trained agent on every environment; write the table and plots."""
+"""``polyenvs leaderboard``: evaluate every baseline and trained agent on every environment; write the table and charts."""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
 from polyenvs.files import check_writable_directory
 from polyenvs.leaderboard import DEFAULT_AGENTS_DIR
-from polyenvs.limits import MAX_EPISODES
+from polyenvs.limits import MAX_EPISODES, MAX_JOBS
 
 __all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
 
@@ -24,11 +25,12 @@ REFERENCE_TABLE = Path("benchmarks/LEADERBOARD.md")
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "leaderboard",
-        help="evaluate every baseline and trained agent on every environment; write the table and plots",
+        help="evaluate every baseline and trained agent on every environment; write the table and charts",
         description=f"Evaluate random, every hand baseline and every committed trained agent "
         f"({DEFAULT_AGENTS_DIR}/<env>/<algo>/seed<N>/, in the current directory or else in the checkout polyenvs runs "
-        f"from; a line says which and what it holds) on every environment and write the table, with one PNG per "
-        f"environment beside it. By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
+        f"from; a line says which and what it holds) on every environment, on its default and (where it takes "
+        f"layouts=) held-out layouts, in parallel over the CPUs (--jobs), and write the table ranked by each "
+        f"environment's task score, with charts beside it (matplotlib: the plots extra). By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
     p.add_argument(
@@ -43,6 +45,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--output", default=None, help=f"the Markdown table (default {DEFAULT_LEADERBOARD_DIR}/LEADERBOARD.md)"
     )
     p.add_argument("--redo", action="store_true", help="re-evaluate even where results exist")
+    p.add_argument(
+        "--jobs",
+        default=None,
+        help=f"evaluations run in parallel, 1 to {MAX_JOBS} (default: the CPU count); the results are the same",
+    )
     p.add_argument(
         "--agents-dir",
         default=None,
@@ -77,6 +84,7 @@ class _Plan:
     env_ids: list[str]
     missing: dict[str, str]
     agents_found: str
+    workers: int
 
 
 def run(args: argparse.Namespace) -> int:
@@ -145,10 +153,11 @@ def _agents(args: argparse.Namespace) -> tuple[Path | None, list[Path]]:
 
 def _plan(args: argparse.Namespace) -> _Plan:
     """Check every flag (CliError, one line) and say what is evaluated and where it is written."""
-    from polyenvs.leaderboard import agents_line, plot_path
+    from polyenvs.leaderboard import agents_line, plot_path, profile_path
     from polyenvs.registry import ALL_IDS
 
     episodes = _episodes(args)
+    workers = int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else os.cpu_count() or 1
     results_dir, output = _outputs(args)
     agents_dir, looked = _agents(args)
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
@@ -164,9 +173,9 @@ def _plan(args: argparse.Namespace) -> _Plan:
     check_output_file(output, "--output")
     if results_dir.absolute() == output.absolute():
         raise CliError(f"--output {output} is the results directory")
-    for env_id in env_ids:  # the plots go beside the table
-        check_output_file(plot_path(output, env_id), "--output")
-    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found)
+    for chart in [profile_path(output), *(plot_path(output, env_id) for env_id in env_ids)]:  # beside the table
+        check_output_file(chart, "--output")
+    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found, min(workers, MAX_JOBS))
 
 
 def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
@@ -190,6 +199,7 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
             on_episode=lambda _: bar.advance(),
             agents_dir=plan.agents_dir,
             extra_agents=args.policy or (),
+            workers=plan.workers,
         )
     finally:
         bar.close()
@@ -197,7 +207,7 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
 
 def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
     """Write the table (and its plots) of ``selected`` and every other environment's stored results; print it."""
-    from polyenvs.leaderboard import plot_path, stored_results, write_leaderboard
+    from polyenvs.leaderboard import stored_results, write_leaderboard
     from polyenvs.registry import ALL_IDS
 
     # The table shows every environment with results in the directory, not only the ones just evaluated.
@@ -209,12 +219,12 @@ def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
     )
     order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
     documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
-    text = write_leaderboard(documents, plan.output)
+    text = write_leaderboard(documents, plan.output, progress=bar.message)
     print(text)
-    plots = sorted({plot_path(plan.output, d["env_id"]).name for d in documents})
+    charts = text.count("![")
     print(
-        f"wrote {plan.output} ({len(documents)} results from {plan.results_dir}) and {len(plots)} plot"
-        f"{'s' if len(plots) != 1 else ''} beside it",
+        f"wrote {plan.output} ({len(documents)} results from {plan.results_dir}) and {charts} chart"
+        f"{'s' if charts != 1 else ''} beside it",
         file=sys.stderr,
     )
 
@@ -223,6 +233,7 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
     """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
     from polyenvs.errors import InputError
     from polyenvs.evaluation import make_env
+    from polyenvs.leaderboard import old_versions_quietly
     from polyenvs.registry import entry
 
     missing = {}
@@ -231,7 +242,8 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
         if extra is None:
             continue
         try:
-            make_env(env_id).close()
+            with old_versions_quietly():
+                make_env(env_id).close()
         except InputError as exc:
             if not isinstance(exc.__cause__, ModuleNotFoundError):
                 raise

@@ -32,7 +32,10 @@ __all__ = [
     "nearest_squared",
     "nearest_wall_points",
     "pack_segments",
+    "point_segment_distance_sq",
+    "ray_circle_hit",
     "ray_distance",
+    "ray_segment_hit",
     "segment_crosses",
 ]
 
@@ -77,22 +80,64 @@ class SegmentTable:
         return self.packed.shape[0]
 
 
+@njit(cache=True, inline="always")
+def ray_segment_hit(ray, segment, best):
+    """The smaller of ``best`` and the distance along the ray ``(ox, oy, dx, dy)`` to the segment ``(sx, sy, ex,
+    ey)`` (start, then end minus start); a ray parallel to the segment never hits it. Scalars in tuples, inlined into
+    compiled loops (a tuple costs nothing there)."""
+    ox, oy, dx, dy = ray
+    sx, sy, ex, ey = segment
+    denom = dx * ey - dy * ex
+    if denom == 0.0:
+        return best
+    qx, qy = sx - ox, sy - oy
+    t = (qx * ey - qy * ex) / denom
+    u = (qx * dy - qy * dx) / denom
+    if 0.0 <= t < best and 0.0 <= u <= 1.0:
+        return t
+    return best
+
+
+@njit(cache=True, inline="always")
+def ray_circle_hit(ray, circle, best):
+    """The smaller of ``best`` and the distance along the unit ray ``(ox, oy, dx, dy)`` to the circle ``(cx, cy,
+    r)``: 0 when the ray starts inside it."""
+    ox, oy, dx, dy = ray
+    cx, cy, r = circle
+    fx, fy = ox - cx, oy - cy
+    c = fx * fx + fy * fy - r * r
+    if c <= 0.0:
+        return 0.0
+    b = fx * dx + fy * dy
+    if b >= 0.0:
+        return best
+    disc = b * b - c
+    if disc < 0.0:
+        return best
+    t = -b - math.sqrt(disc)
+    return t if t < best else best
+
+
+@njit(cache=True, inline="always")
+def point_segment_distance_sq(px, py, segment):
+    """Squared distance from (px, py) to the segment ``(x0, y0, x1, y1)`` (its end points)."""
+    x0, y0, x1, y1 = segment
+    dx, dy = x1 - x0, y1 - y0
+    length_sq = dx * dx + dy * dy
+    t = 0.0
+    if length_sq > 0.0:
+        t = min(max(((px - x0) * dx + (py - y0) * dy) / length_sq, 0.0), 1.0)
+    ex, ey = x0 + t * dx - px, y0 + t * dy - py
+    return ex * ex + ey * ey
+
+
 @njit(cache=True)
 def ray_distance(ox, oy, dx, dy, walls):
     """Distance along the ray (o, d) to the first wall of ``walls`` (S, 6); ``inf`` if none."""
     best = math.inf
     for k in range(walls.shape[0]):
-        if walls[k, _REAL] == 0.0:
-            continue
-        ex, ey = walls[k, _VX], walls[k, _VY]
-        denom = dx * ey - dy * ex
-        if denom == 0.0:
-            continue  # parallel
-        qx, qy = walls[k, _SX] - ox, walls[k, _SY] - oy
-        t = (qx * ey - qy * ex) / denom
-        u = (qx * dy - qy * dx) / denom
-        if t >= 0.0 and 0.0 <= u <= 1.0 and t < best:
-            best = t
+        if walls[k, _REAL] != 0.0:
+            best = ray_segment_hit((ox, oy, dx, dy), (walls[k, _SX], walls[k, _SY], walls[k, _VX], walls[k, _VY]), best)
     return best
 
 

@@ -55,12 +55,18 @@ if not DISABLE_JIT:
         code as ``kernel.sim``, ``kernel.out``, ``kernel.task`` (see the module docstring)."""
 
         def __new__(cls, sim, out, task):
-            return structref.StructRefProxy.__new__(cls, sim, out, task)
+            # Built by a cached compiled function: StructRefProxy's own constructor compiles afresh in every
+            # process (about 1.4 s of the first gym.make).
+            return _new_kernel_args(sim, out, task)
 
         def __reduce__(self):
             raise TypeError("KernelArgs is not picklable: pickle the arrays and build it again")
 
     structref.define_proxy(KernelArgs, KernelArgsType, ["sim", "out", "task"])
+
+    @njit(cache=True)
+    def _new_kernel_args(sim, out, task):
+        return KernelArgs(sim, out, task)
 
 else:  # pragma: no cover - without compilation the kernels run as Python and read the same attributes
 

@@ -3,7 +3,13 @@ batch of many, so a family's equations exist once, in compiled kernels over pack
 
 :class:`RowsEnv` is the single-agent Gymnasium surface; :class:`RowsVectorEnv` builds the same class with
 ``num_envs`` rows behind Gymnasium's ``VectorEnv`` API. A family subclasses :class:`RowsEnv` (Buckybot:
-:class:`polyenvs.buckybot.env.BuckybotEnv`) and provides
+:class:`polyenvs.buckybot.env.BuckybotEnv`; the cart: :class:`polyenvs.bumper.env.BumperCartExploreEnv`) and provides
+what follows. The hooks are underscore names, as Gymnasium's ``MujocoEnv`` hooks (``_get_obs``) are: they are the
+protocol between a family and this base, documented here, not calls for users.
+
+- a keyword-only constructor argument ``num_rows: int = 1``, passed first to :meth:`RowsEnv._use_rows`: the rows
+  the instance simulates; ``gym.make`` builds one, :class:`RowsVectorEnv` builds ``num_envs`` (``cls(num_rows=n,
+  **kwargs)``, the same validation, spaces and kernels as the single env);
 
 - ``out_columns``: the named columns (:class:`polyenvs.core.columns.OutColumns`) of the ``_out`` table its kernels
   write, reward terms, metrics, reward and terminated, from the task's declared names (``reward_names`` and
@@ -51,6 +57,7 @@ from polyenvs.core.validation import check_int, check_options, show
 
 __all__ = [
     "NO_ACTION",
+    "BatchVectorEnv",
     "RowsEnv",
     "RowsVectorEnv",
     "check_autoreset_mode",
@@ -59,6 +66,9 @@ __all__ = [
     "only_rows",
     "vector_convention",
 ]
+
+#: The most rows one instance simulates (a vector env's ``num_envs`` has the same bound).
+MAX_ROWS = 1_000_000
 
 #: The action a row gets in the step that restarted it (next-step autoreset): it neither moves nor scores.
 NO_ACTION = -1
@@ -79,7 +89,7 @@ def check_autoreset_mode(value) -> AutoresetMode:
 def check_vector_arguments(num_envs, max_episode_steps, autoreset_mode) -> tuple[int, int | None, AutoresetMode]:
     """The arguments every native vector env takes, checked: ``num_envs`` in [1, 1e6], ``max_episode_steps``
     None or >= 1, ``autoreset_mode`` (:func:`check_autoreset_mode`)."""
-    num_envs = check_int("num_envs", num_envs, 1, 1_000_000)
+    num_envs = check_int("num_envs", num_envs, 1, MAX_ROWS)
     if max_episode_steps is not None:
         max_episode_steps = check_int("max_episode_steps", max_episode_steps, 1)
     return num_envs, max_episode_steps, check_autoreset_mode(autoreset_mode)
@@ -98,12 +108,17 @@ class RowsEnv(gym.Env):
     metric_names: tuple[str, ...] = ()
     #: The columns of the ``_out`` table the kernels write, made from those names by the task's module.
     out_columns: OutColumns = OutColumns((), ())
-    #: Rows this instance simulates: 1 for ``gym.make``; :class:`RowsVectorEnv` builds the class with more.
+    #: Rows this instance simulates (its ``num_rows``): 1 for ``gym.make``; :class:`RowsVectorEnv` builds more.
     _batch_size = 1
 
     @property
     def all_metric_names(self) -> tuple[str, ...]:
         return self.metric_names
+
+    def _use_rows(self, num_rows) -> None:
+        """Simulate ``num_rows`` rows (checked: an integer in [1, 1,000,000]); a family's constructor calls this
+        before it allocates anything."""
+        self._batch_size = check_int("num_rows", num_rows, 1, MAX_ROWS)
 
     def _allocate_rows(self, action_dtype=np.int64, action_shape: tuple[int, ...] = ()) -> None:
         """The arrays the kernels write: observation rows and ``_out`` (the columns of ``out_columns``: reward
@@ -183,6 +198,8 @@ class RowsEnv(gym.Env):
 
     # --- Gymnasium API ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        if self._batch_size != 1:
+            raise TypeError(f"an env of num_rows={self._batch_size} is driven by a RowsVectorEnv, not reset() itself")
         options = self._check_options(options)
         if seed is not None:
             rng, used_seed = seeding.np_random(seed)
@@ -223,7 +240,109 @@ class RowsEnv(gym.Env):
         )
 
 
-class RowsVectorEnv(VectorEnv):
+class BatchVectorEnv(VectorEnv):
+    """Gymnasium's ``VectorEnv`` over a batch that steps every sub-environment in one call: the seeding, the time
+    limit and both autoreset modes, written once for every family's native vector env.
+
+    Its constructor takes ``num_envs``, ``max_episode_steps``, ``render_mode`` (one of ``metadata["render_modes"]``
+    or ``None``) and ``autoreset_mode``, checks them, and hands the rest to the subclass's ``_build(num_envs,
+    render_mode, kwargs)``, which builds the batch and returns one sub-environment's ``(observation_space,
+    action_space)`` and its frame rate. A subclass also provides ``_check_batch_actions(actions)``,
+    ``_reset_rows(seeds, options)`` (validate everything, then restart every row: ``seeds[i]`` is row i's new
+    seed, or ``None`` to continue its own generator), ``_restart(rows)`` (the rows of a finished episode, on their
+    own generators), ``_advance_rows(actions, restart)`` (step the rows not in the ``restart`` mask, restart those
+    that are: they neither move nor score), ``_step_result(restart)`` (rewards, terminated, truncated by the
+    batch's own rules), ``_row_steps()`` (steps into each row's episode), ``_observations()`` (the batch's observation rows) and ``_info()`` (every row's info in
+    the vector convention).
+
+    Seeding as ``SyncVectorEnv``: ``reset(seed=s)`` seeds row ``i`` with ``s + i``; ``max_episode_steps``
+    truncates as Gymnasium's ``TimeLimit`` does (also on the step that terminates).
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs,
+    ):
+        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
+            num_envs, max_episode_steps, autoreset_mode
+        )
+        modes = self.metadata["render_modes"]
+        if render_mode not in (None, *modes):
+            raise ValueError(
+                f"render_mode must be None or one of {modes} for this vector env (gym.make(id) renders all its "
+                f"modes), got {show(render_mode)}"
+            )
+        spaces, render_fps = self._build(num_envs, render_mode, kwargs)
+        self.metadata = {**self.metadata, "render_fps": render_fps, "autoreset_mode": autoreset_mode}
+        self.autoreset_mode = autoreset_mode
+        self.num_envs = num_envs
+        self.max_episode_steps = max_episode_steps
+        self.render_mode = render_mode
+        self.single_observation_space, self.single_action_space = spaces
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self._started = False
+        self._closed = False
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise ClosedEnvironmentError("this vector env is closed")
+
+    def _seeds(self, seed) -> list[int | None]:
+        """Row i's seed for this reset, as ``SyncVectorEnv`` seeds sub-environment i."""
+        n = self.num_envs
+        if seed is None:
+            return [None] * n
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(n)]
+        if isinstance(seed, (list, tuple)) and len(seed) == n:
+            return list(seed)
+        raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+
+    def reset(self, *, seed=None, options: dict[str, Any] | None = None):
+        self._check_open()
+        self._reset_rows(self._seeds(seed), options)  # may raise, before anything changes
+        self._needs_reset[:] = False
+        self._started = True
+        return self._observations().copy(), self._info()
+
+    def step(self, actions):
+        self._check_open()
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        actions = self._check_batch_actions(actions)
+        restart = self._needs_reset
+        self._advance_rows(actions, restart)
+        rewards, terminated, truncated = self._step_result(restart)
+        if self.max_episode_steps is not None:  # TimeLimit's rule: also on a step that terminates
+            truncated |= self._row_steps() >= self.max_episode_steps
+        terminated &= ~restart
+        truncated &= ~restart
+        done = terminated | truncated
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
+            self._needs_reset = done
+            return self._observations().copy(), rewards, terminated, truncated, self._info()
+        # Same-step autoreset: keep what the finished rows saw, restart them now, report both.
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        observations = self._observations()
+        for row in np.flatnonzero(done).tolist():
+            final_obs[row] = observations[row].copy()
+        final_info = only_rows(self._info(), done)
+        self._restart(np.flatnonzero(done).tolist())
+        info = self._info()
+        info["final_obs"], info["_final_obs"] = final_obs, done.copy()
+        info["final_info"], info["_final_info"] = final_info, done.copy()
+        return self._observations().copy(), rewards, terminated, truncated, info
+
+
+class RowsVectorEnv(BatchVectorEnv):
     """``num_envs`` rows of one :class:`RowsEnv` class behind Gymnasium's ``VectorEnv`` API.
 
     Args:
@@ -244,89 +363,35 @@ class RowsVectorEnv(VectorEnv):
     #: The batched-rows class this vector env drives (set by each subclass).
     env_class: type[RowsEnv] = RowsEnv
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        max_episode_steps: int | None = None,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        **kwargs,
-    ):
-        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
-            num_envs, max_episode_steps, autoreset_mode
-        )
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be 'rgb_array' or None for a vector env, got {show(render_mode)}")
-        # The class built with num_envs rows: the same validation, spaces and kernels as the single env.
-        core = self.env_class.__new__(self.env_class)
-        core._batch_size = num_envs
-        core.__init__(render_mode=render_mode, **kwargs)
+    def _build(self, num_envs, render_mode, kwargs):
+        # The class itself with num_envs rows: the same validation, spaces and kernels as the single env.
+        core = self.env_class(num_rows=num_envs, render_mode=render_mode, **kwargs)
         self._core = core
-        self.metadata = {
-            **self.metadata,
-            "render_fps": core.metadata.get("render_fps", 30),
-            "autoreset_mode": autoreset_mode,
-        }
-        self.autoreset_mode = autoreset_mode
-        self.num_envs = num_envs
-        self.max_episode_steps = max_episode_steps
-        self.render_mode = render_mode
-        self.single_action_space = core.action_space
-        self.action_space = batch_space(core.action_space, num_envs)
-        self.single_observation_space = core.observation_space
-        self.observation_space = batch_space(core.observation_space, num_envs)
         self.observation_structure = getattr(core, "observation_structure", None)
-        self._needs_reset = np.zeros(num_envs, dtype=bool)
-        self._started = False
-        self._closed = False
+        return (core.observation_space, core.action_space), core.metadata.get("render_fps", 30)
 
-    def _check_open(self) -> None:
-        if self._closed:
-            raise ClosedEnvironmentError("this vector env is closed")
-
-    def _row_generators(self, seed) -> list[tuple[np.random.Generator, bool]]:
-        """Row i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i, and whether it is a
-        new seed's."""
-        n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]
-        elif isinstance(seed, (list, tuple)) and len(seed) == n:
-            seeds = list(seed)
-        else:
-            raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+    def _reset_rows(self, seeds, options) -> None:
+        core = self._core
+        options = core._check_options(options)
         generators = []
         for row, s in enumerate(seeds):
-            current = self._core._row_generator(row)
+            current = core._row_generator(row)
             if s is None and current is not None:
                 generators.append((copy_generator(current), False))
             else:
                 generators.append((seeding.np_random(s)[0], True))
-        return generators
+        prepared = [core._prepare_row(row, rng, options, new) for row, (rng, new) in enumerate(generators)]  # may raise
+        core._commit_rows(prepared)
 
     def _restart(self, rows) -> None:
         core = self._core
         core._commit_rows([core._prepare_row(row, core._row_generator(row), {}, False) for row in rows])
 
-    def reset(self, *, seed=None, options: dict[str, Any] | None = None):
-        self._check_open()
-        core = self._core
-        options = core._check_options(options)
-        generators = self._row_generators(seed)
-        prepared = [core._prepare_row(row, rng, options, new) for row, (rng, new) in enumerate(generators)]  # may raise
-        core._commit_rows(prepared)
-        self._needs_reset[:] = False
-        self._started = True
-        return core._observations.copy(), core._vector_info()
+    def _check_batch_actions(self, actions):
+        return self._core._check_actions(actions)
 
-    def step(self, actions):
-        self._check_open()
-        if not self._started:
-            raise ResetNeeded("call reset() before step()")
+    def _advance_rows(self, actions, restart) -> None:
         core = self._core
-        actions = core._check_actions(actions)
-        restart = self._needs_reset
         core._actions[:] = actions
         if restart.any():
             self._restart(np.flatnonzero(restart).tolist())
@@ -334,28 +399,20 @@ class RowsVectorEnv(VectorEnv):
         core._advance(core._actions)
         if not restart[0]:
             core._on_row0_step()
-        out = core._out
-        rewards = out[:, core._reward_column].copy()
-        terminated = out[:, core._terminated_column] > 0.5
-        terminated &= ~restart
-        truncated = np.zeros(self.num_envs, dtype=bool)
-        if self.max_episode_steps is not None:
-            # As Gymnasium's TimeLimit: the last allowed step is truncated even if it also terminates.
-            truncated = (core._row_steps() >= self.max_episode_steps) & ~restart
-        done = terminated | truncated
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
-            self._needs_reset = done
-            return core._observations.copy(), rewards, terminated, truncated, core._vector_info()
-        # Same-step autoreset: keep what the finished rows saw, restart them now, report both.
-        final_obs = np.full(self.num_envs, None, dtype=object)
-        for row in np.flatnonzero(done).tolist():
-            final_obs[row] = core._observations[row].copy()
-        final_info = only_rows(core._vector_info(), done)
-        self._restart(np.flatnonzero(done).tolist())
-        info = core._vector_info()
-        info["final_obs"], info["_final_obs"] = final_obs, done.copy()
-        info["final_info"], info["_final_info"] = final_info, done.copy()
-        return core._observations.copy(), rewards, terminated, truncated, info
+
+    def _step_result(self, restart):
+        out = self._core._out
+        rewards = out[:, self._core._reward_column].copy()
+        return rewards, out[:, self._core._terminated_column] > 0.5, np.zeros(self.num_envs, dtype=bool)
+
+    def _row_steps(self) -> np.ndarray:
+        return self._core._row_steps()
+
+    def _observations(self) -> np.ndarray:
+        return self._core._observations
+
+    def _info(self) -> dict[str, Any]:
+        return self._core._vector_info()
 
     def render(self):
         """Sub-environment 0's frame."""

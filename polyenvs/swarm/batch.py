@@ -71,17 +71,22 @@ N_TRACK = 8
 
 
 @njit(cache=True)
-def account(pose, before, active, blocked, clearance, goals, per, cycles, params, track, rewards, terminated):
+def account(pose, before, active, sensed, episode, params, out):
     """Score one step for every active robot: the family's reward terms (columns ``PROGRESS``, ``COLLISION``,
     ``ARRIVAL``), arrival and termination, and the running episode metrics in ``track`` (turn, still steps, contact
-    events, time, smallest clearance). A compiled-kernel boundary: its arrays are positional, as numba takes them.
+    events, time, smallest clearance).
 
     Args:
         before: ``(N, 3)`` poses before the step.
-        goals: ``(E, 2)`` each environment's goal; ``per``: robots per environment; ``cycles``: ``(E,)`` steps
-            so far in each environment's episode.
+        sensed: ``(blocked, clearance)`` from :func:`polyenvs.swarm.core.move` and :func:`~polyenvs.swarm.core.sense`.
+        episode: ``(goals, per, cycles)``: ``(E, 2)`` each environment's goal, robots per environment, ``(E,)``
+            steps so far in each environment's episode.
         params: ``[goal_radius_m, dt_s, terminate_on_collision, still_m]``.
+        out: ``(track, rewards, terminated)``, written.
     """
+    blocked, clearance = sensed
+    goals, per, cycles = episode
+    track, rewards, terminated = out
     goal_radius, dt, stop_on_contact, still_m = params[0], params[1], params[2] > 0.5, params[3]
     for i in range(pose.shape[0]):
         terminated[i] = 0
@@ -168,7 +173,7 @@ class SwarmBatch:
 
     Args:
         task: the task (a :class:`polyenvs.swarm.env.SwarmEnv`): its validated parameters, ``layout``,
-            ``n_obstacles``, ``observation_structure``, ``reward_names``, ``sample_episode(rng)`` and
+            ``n_obstacles``, ``observation_structure``, ``reward_names``, ``draw_episode(rng)`` and
             ``terms_class``.
         n_envs: environments in the batch.
 
@@ -248,7 +253,7 @@ class SwarmBatch:
         Every episode is drawn before anything changes."""
         envs = [int(e) for e in envs]
         gens = [self.generators[e] for e in envs] if generators is None else list(generators)
-        episodes = [self.task.sample_episode(g) for g in gens]
+        episodes = [self.task.draw_episode(g) for g in gens]
         n = self.n_robots
         sense_normals = np.zeros((self.n_rows, self.sense_draws))
         floor = np.zeros((self.n_rows, 4))
@@ -314,25 +319,25 @@ class SwarmBatch:
         wheels = command * self.full_speed_mps * noise
         before = self.pose.copy()
         grid = self._grid_arrays
-        core.build_grid(self.pose, live, *grid)
-        core.move(self.pose, live, wheels, self.move_params, self.walls, self.circles, *grid, self._proposal,
-                  self._blocked)  # fmt: skip
+        core.build_grid(self.pose, live, grid)
+        core.move(self.pose, live, wheels, self.move_params, (self.walls, self.circles), grid,
+                  (self._proposal, self._blocked))  # fmt: skip
         np.add(self.cycles, self._one_step if stepping is None else stepping, out=self.cycles)
         self.powers[:] = command
         self._observe(live, todo, normals[:, 2:], floor)
-        account(self.pose, before, live, self._blocked, self.clearance, self.goals, self.n_robots, self.cycles,
-                self.account_params, self.track, self.rewards, self.terminated)  # fmt: skip
+        account(self.pose, before, live, (self._blocked, self.clearance), (self.goals, self.n_robots, self.cycles),
+                self.account_params, (self.track, self.rewards, self.terminated))  # fmt: skip
         self.terms.score(live, rows, stepping)
         self.active[self.terminated > 0] = 0
 
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""
         grid = self._grid_arrays
-        core.build_grid(self.pose, live, *grid)
-        core.sense(self.pose, live, todo, self.sense_params, self.angles, self.walls, self.circles, *grid,
-                   self.beams, self.nb_index, self.nb_range, self.clearance)  # fmt: skip
-        ir.write_observations(self.pose, live, todo, self.beams, self.nb_index, self.nb_range, self.goals,
-                              self.n_robots, self.powers, normals, floor, self.observe_params,
+        core.build_grid(self.pose, live, grid)
+        core.sense(self.pose, live, todo, self.sense_params, self.angles, (self.walls, self.circles), grid,
+                   (self.beams, self.nb_index, self.nb_range, self.clearance))  # fmt: skip
+        ir.write_observations((self.pose, live, self.powers), todo, (self.beams, self.nb_index, self.nb_range),
+                              self.goals, self.n_robots, (normals, floor), self.observe_params,
                               self.observations)  # fmt: skip
         self.terms.observe(live, todo, normals, self.observations)
 

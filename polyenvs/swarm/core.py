@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 
+from polyenvs.core.geometry2d import point_segment_distance_sq, ray_circle_hit, ray_segment_hit
 from polyenvs.core.jit import njit
 
 __all__ = ["Grid", "build_grid", "cell_size", "move", "sense"]
@@ -59,9 +60,10 @@ class Grid:
 
 
 @njit(cache=True)
-def build_grid(pose, active, geometry, shape, start, items, cell_of):
+def build_grid(pose, active, grid):
     """Counting sort of the active robots into cells (environment-major): cell ``c`` holds
-    ``items[start[c]:start[c + 1]]``."""
+    ``items[start[c]:start[c + 1]]``. ``grid``: :attr:`Grid.arrays`."""
+    geometry, shape, start, items, cell_of = grid
     nx, ny, per = shape[0], shape[1], shape[2]
     start[:] = 0
     n = pose.shape[0]
@@ -85,114 +87,95 @@ def build_grid(pose, active, geometry, shape, start, items, cell_of):
 
 
 @njit(cache=True, inline="always")
-def _segment_distance_sq(px, py, x0, y0, x1, y1):
-    dx, dy = x1 - x0, y1 - y0
-    length_sq = dx * dx + dy * dy
-    t = 0.0
-    if length_sq > 0.0:
-        t = min(max(((px - x0) * dx + (py - y0) * dy) / length_sq, 0.0), 1.0)
-    ex, ey = x0 + t * dx - px, y0 + t * dy - py
-    return ex * ex + ey * ey
+def _scene_of(scene, e):
+    """Environment ``e``'s walls and circles from ``scene = (walls, circles)`` (a leading 1 is shared)."""
+    walls, circles = scene
+    return walls[e if walls.shape[0] > 1 else 0], circles[e if circles.shape[0] > 1 else 0]
 
 
 @njit(cache=True, inline="always")
-def _ray_circle(ox, oy, dx, dy, cx, cy, r, best):
-    """Distance along the unit ray to the circle, if below ``best`` (0 when the origin is inside)."""
-    fx, fy = ox - cx, oy - cy
-    c = fx * fx + fy * fy - r * r
-    if c <= 0.0:
-        return 0.0
-    b = fx * dx + fy * dy
-    if b >= 0.0:
-        return best
-    disc = b * b - c
-    if disc < 0.0:
-        return best
-    t = -b - math.sqrt(disc)
-    return t if t < best else best
+def _cells_around(i, shape, cell_of):
+    """Robot ``i``'s environment's first cell and the 3 x 3 window of cells around its own: ``(first, x0, x1, y0,
+    y1)``, ranges clipped to the grid."""
+    nx, ny, per = shape[0], shape[1], shape[2]
+    first = (i // per) * nx * ny
+    cx, cy = (cell_of[i] - first) % nx, (cell_of[i] - first) // nx
+    return first, max(cx - 1, 0), min(cx + 2, nx), max(cy - 1, 0), min(cy + 2, ny)
 
 
 @njit(cache=True, inline="always")
-def _ray_segment(ox, oy, dx, dy, x0, y0, x1, y1, best):
-    """The smaller of ``best`` and the distance along the ray (o, d) to segment (x0, y0)-(x1, y1). Scalars, inlined
-    into the compiled beam loop: a compiled-kernel boundary (packing them would cost a tuple per wall)."""
-    ex, ey = x1 - x0, y1 - y0
-    denom = dx * ey - dy * ex
-    if denom == 0.0:
-        return best
-    wx, wy = x0 - ox, y0 - oy
-    t = (wx * ey - wy * ex) / denom
-    u = (wx * dy - wy * dx) / denom
-    if 0.0 <= t < best and 0.0 <= u <= 1.0:
-        return t
-    return best
+def _wall_segment(walls, w):
+    return walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
 
 
 @njit(cache=True)
-def move(pose, active, wheels, params, walls, circles, geometry, shape, start, items, cell_of, proposal, blocked):
-    """Advance every active robot by one control period; ``blocked[i]`` = 1 where a contact refused the move. A
-    compiled-kernel boundary: its arrays are positional, as numba takes them.
+def _propose(pose, wheels, params, proposal):
+    """One robot's next pose, an exact arc of the differential drive: row ``pose`` driven by its ``wheels`` for a
+    control period (``params = [dt_s, wheel_base_m, radius_m]``), written into row ``proposal``."""
+    dt, base = params[0], params[1]
+    v = 0.5 * (wheels[0] + wheels[1]) * dt
+    dtheta = (wheels[1] - wheels[0]) * dt / base
+    # The chord of the arc: length v * sinc(dtheta / 2) along the mean heading.
+    half = 0.5 * dtheta
+    chord = v if abs(half) < 1e-9 else v * math.sin(half) / half
+    h = pose[2] + half
+    proposal[0] = pose[0] + chord * math.cos(h)
+    proposal[1] = pose[1] + chord * math.sin(h)
+    heading = pose[2] + dtheta
+    proposal[2] = math.atan2(math.sin(heading), math.cos(heading))
+
+
+@njit(cache=True)
+def _collides(i, pose, proposal, radius, scene, grid):
+    """Whether robot ``i``'s proposed disc overlaps a wall, an obstacle, or another robot's current or proposed
+    disc (the robots of the 3 x 3 cells around it)."""
+    px, py = proposal[i, 0], proposal[i, 1]
+    r2 = radius * radius
+    walls, circles = _scene_of(scene, i // grid[1][2])
+    for w in range(walls.shape[0]):
+        if point_segment_distance_sq(px, py, _wall_segment(walls, w)) < r2:
+            return True
+    for c in range(circles.shape[0]):
+        ex, ey = px - circles[c, 0], py - circles[c, 1]
+        reach = circles[c, 2] + radius
+        if ex * ex + ey * ey < reach * reach:
+            return True
+    _, shape, start, items, cell_of = grid
+    first, x0, x1, y0, y1 = _cells_around(i, shape, cell_of)
+    contact = 4.0 * r2
+    for gy in range(y0, y1):
+        for gx in range(x0, x1):
+            c = first + gy * shape[0] + gx
+            for s in range(start[c], start[c + 1]):
+                j = items[s]
+                if j != i:
+                    ex, ey = px - pose[j, 0], py - pose[j, 1]
+                    fx, fy = px - proposal[j, 0], py - proposal[j, 1]
+                    if ex * ex + ey * ey < contact or fx * fx + fy * fy < contact:
+                        return True
+    return False
+
+
+@njit(cache=True)
+def move(pose, active, wheels, params, scene, grid, scratch):
+    """Advance every active robot by one control period; a contact refuses the move (the robot still turns).
 
     Args:
         wheels: ``(N, 2)`` left and right wheel speeds (m/s).
         params: ``[dt_s, wheel_base_m, radius_m]``.
-        proposal: ``(N, 3)`` scratch.
+        scene: ``(walls, circles)``; grid: :attr:`Grid.arrays` (built for ``pose``).
+        scratch: ``(proposal, blocked)``: ``(N, 3)`` scratch, and ``(N,)`` out, 1 where a contact refused the move.
     """
-    dt, base, radius = params[0], params[1], params[2]
-    nx, ny, per = shape[0], shape[1], shape[2]
+    proposal, blocked = scratch
     n = pose.shape[0]
-    r2 = radius * radius
-    contact = 4.0 * r2
     for i in range(n):
         blocked[i] = 0
-        if not active[i]:
-            continue
-        v = 0.5 * (wheels[i, 0] + wheels[i, 1]) * dt
-        dtheta = (wheels[i, 1] - wheels[i, 0]) * dt / base
-        # The chord of the arc: length v * sinc(dtheta / 2) along the mean heading.
-        half = 0.5 * dtheta
-        chord = v if abs(half) < 1e-9 else v * math.sin(half) / half
-        h = pose[i, 2] + half
-        proposal[i, 0] = pose[i, 0] + chord * math.cos(h)
-        proposal[i, 1] = pose[i, 1] + chord * math.sin(h)
-        heading = pose[i, 2] + dtheta
-        proposal[i, 2] = math.atan2(math.sin(heading), math.cos(heading))
+        if active[i]:
+            _propose(pose[i], wheels[i], params, proposal[i])
     for i in range(n):
-        if not active[i]:
-            continue
-        px, py = proposal[i, 0], proposal[i, 1]
-        if px == pose[i, 0] and py == pose[i, 1]:
-            continue  # turning in place never overlaps anything
-        e = i // per
-        ws = walls[e if walls.shape[0] > 1 else 0]
-        cs = circles[e if circles.shape[0] > 1 else 0]
-        hit = False
-        for w in range(ws.shape[0]):
-            if _segment_distance_sq(px, py, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3]) < r2:
-                hit = True
-                break
-        if not hit:
-            for c in range(cs.shape[0]):
-                ex, ey = px - cs[c, 0], py - cs[c, 1]
-                reach = cs[c, 2] + radius
-                if ex * ex + ey * ey < reach * reach:
-                    hit = True
-                    break
-        if not hit:
-            first = e * nx * ny
-            cx, cy = (cell_of[i] - first) % nx, (cell_of[i] - first) // nx
-            for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
-                for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                    c = first + gy * nx + gx
-                    for s in range(start[c], start[c + 1]):
-                        j = items[s]
-                        if j == i:
-                            continue
-                        ex, ey = px - pose[j, 0], py - pose[j, 1]
-                        fx, fy = px - proposal[j, 0], py - proposal[j, 1]
-                        if ex * ex + ey * ey < contact or fx * fx + fy * fy < contact:
-                            hit = True
-        blocked[i] = 1 if hit else 0
+        # Turning in place never overlaps anything.
+        if active[i] and (proposal[i, 0] != pose[i, 0] or proposal[i, 1] != pose[i, 1]):
+            blocked[i] = 1 if _collides(i, pose, proposal, params[2], scene, grid) else 0
     for i in range(n):
         if active[i]:
             if not blocked[i]:
@@ -202,93 +185,117 @@ def move(pose, active, wheels, params, walls, circles, geometry, shape, start, i
 
 
 @njit(cache=True)
-def sense(pose, active, todo, params, angles, walls, circles, geometry, shape, start, items, cell_of, beams,
-          nb_index, nb_range, clearance):  # fmt: skip
-    """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance. A
-    compiled-kernel boundary: its arrays are positional, as numba takes them (one call senses the whole batch).
+def _static_gap(x, y, radius, walls, circles):
+    """Gap (m) between the rim of a robot at (x, y) and the nearest wall or obstacle."""
+    gap = np.inf
+    for w in range(walls.shape[0]):
+        gap = min(gap, math.sqrt(point_segment_distance_sq(x, y, _wall_segment(walls, w))) - radius)
+    for c in range(circles.shape[0]):
+        gap = min(gap, math.hypot(x - circles[c, 0], y - circles[c, 1]) - circles[c, 2] - radius)
+    return gap
+
+
+@njit(cache=True)
+def _cast_beams(pose, params, angles, scene_row, ray, beams):
+    """One robot's beams (row ``pose``) against its environment's ``scene_row = (walls, circles)``: ``beams`` the
+    distance along each to the first hit, ``beam_m`` if none; ``ray`` ``(S, 4)`` out: each beam's origin on the rim
+    and its direction."""
+    walls, circles = scene_row
+    x, y, h = pose[0], pose[1], pose[2]
+    radius, beam_m = params[0], params[1]
+    for s in range(angles.shape[0]):
+        dx, dy = math.cos(h + angles[s]), math.sin(h + angles[s])
+        ox, oy = x + radius * dx, y + radius * dy
+        ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3] = ox, oy, dx, dy
+        best = beam_m
+        for w in range(walls.shape[0]):
+            x0, y0, x1, y1 = _wall_segment(walls, w)
+            best = ray_segment_hit((ox, oy, dx, dy), (x0, y0, x1 - x0, y1 - y0), best)
+        for c in range(circles.shape[0]):
+            best = ray_circle_hit((ox, oy, dx, dy), (circles[c, 0], circles[c, 1], circles[c, 2]), best)
+        beams[s] = best
+
+
+@njit(cache=True, inline="always")
+def _insert_neighbour(index, distance, j, d):
+    """Robot ``j`` at centre distance ``d`` into the sorted slots ``index``/``distance`` if it is among the k
+    nearest (ties by index: the same order every run)."""
+    q = index.shape[0] - 1
+    if d < distance[q] or (d == distance[q] and j < index[q]):
+        while q > 0 and (d < distance[q - 1] or (d == distance[q - 1] and j < index[q - 1])):
+            distance[q] = distance[q - 1]
+            index[q] = index[q - 1]
+            q -= 1
+        distance[q] = d
+        index[q] = j
+
+
+@njit(cache=True)
+def _meet_robots(i, pose, params, grid, ray, out, gap):
+    """Robot ``i`` against the robots of the 3 x 3 cells around it: they block its beams (``ray`` from
+    :func:`_cast_beams`) and narrow its gap within a beam's reach, and fill its k nearest-neighbour slots within
+    ``comm_range_m``. Returns the gap."""
+    beams, nb_index, nb_range, _ = out
+    radius, beam_m, comm = params[0], params[1], params[2]
+    comm_sq = comm * comm
+    # A robot farther than this (centre to centre) is beyond every beam of robot i.
+    seen_sq = (2.0 * radius + beam_m) ** 2
+    _, shape, start, items, cell_of = grid
+    first, x0, x1, y0, y1 = _cells_around(i, shape, cell_of)
+    x, y = pose[i, 0], pose[i, 1]
+    for gy in range(y0, y1):
+        for gx in range(x0, x1):
+            c = first + gy * shape[0] + gx
+            for t in range(start[c], start[c + 1]):
+                j = items[t]
+                if j == i:
+                    continue
+                ex, ey = pose[j, 0] - x, pose[j, 1] - y
+                d_sq = ex * ex + ey * ey
+                if d_sq <= seen_sq:
+                    gap = min(gap, math.sqrt(d_sq) - 2.0 * radius)
+                    for s in range(beams.shape[1]):
+                        beam = (ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3])
+                        beams[i, s] = ray_circle_hit(beam, (pose[j, 0], pose[j, 1], radius), beams[i, s])
+                if d_sq <= comm_sq:
+                    _insert_neighbour(nb_index[i], nb_range[i], j, math.sqrt(d_sq))
+    return gap
+
+
+@njit(cache=True)
+def sense(pose, active, todo, params, angles, scene, grid, out):
+    """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance (one call
+    senses the whole batch).
 
     Args:
         todo: ``(N,)`` uint8: the rows to sense (a vector env re-senses only the environments it has just reset);
             the outputs of the other rows are left as they are.
         params: ``[radius_m, beam_m, comm_range_m]``.
         angles: ``(S,)`` sensor angles (rad) relative to the heading; beams start on the rim.
-        beams: ``(N, S)`` out: distance along each beam to the first wall, obstacle or robot, ``inf`` if none
-            within ``beam_m``.
-        nb_index, nb_range: ``(N, k)`` out: the k nearest other active robots within ``comm_range_m`` by centre
-            distance, nearest first (index -1 and range ``inf`` in unused slots).
-        clearance: ``(N,)`` out: gap (m) between the robot's rim and the nearest wall, obstacle or robot (robots
-            count only within a beam's reach, ``beam_m``).
+        scene: ``(walls, circles)``; grid: :attr:`Grid.arrays` (built for ``pose``).
+        out: ``(beams, nb_index, nb_range, clearance)``, written: ``beams`` ``(N, S)`` distance along each beam to
+            the first wall, obstacle or robot, ``inf`` if none within ``beam_m``; ``nb_index``, ``nb_range``
+            ``(N, k)`` the k nearest other active robots within ``comm_range_m`` by centre distance, nearest first
+            (index -1 and range ``inf`` in unused slots); ``clearance`` ``(N,)`` gap (m) between the robot's rim
+            and the nearest wall, obstacle or robot (robots count only within a beam's reach, ``beam_m``).
     """
-    radius, beam_m, comm = params[0], params[1], params[2]
-    nx, ny, per = shape[0], shape[1], shape[2]
-    n, n_sensors = beams.shape
-    k = nb_index.shape[1]
-    comm_sq = comm * comm
-    # A robot farther than this (centre to centre) is beyond every beam of robot i.
-    seen_sq = (2.0 * radius + beam_m) ** 2
-    ray = np.empty((n_sensors, 4))
-    for i in range(n):
+    beams, nb_index, nb_range, clearance = out
+    radius, beam_m = params[0], params[1]
+    ray = np.empty((beams.shape[1], 4))
+    for i in range(pose.shape[0]):
         if not todo[i]:
             continue
-        for s in range(n_sensors):
-            beams[i, s] = np.inf
-        for q in range(k):
-            nb_index[i, q] = -1
-            nb_range[i, q] = np.inf
+        beams[i, :] = np.inf
+        nb_index[i, :] = -1
+        nb_range[i, :] = np.inf
         clearance[i] = np.inf
         if not active[i]:
             continue
-        x, y, h = pose[i, 0], pose[i, 1], pose[i, 2]
-        e = i // per
-        ws = walls[e if walls.shape[0] > 1 else 0]
-        cs = circles[e if circles.shape[0] > 1 else 0]
-        gap = np.inf
-        for w in range(ws.shape[0]):
-            d = math.sqrt(_segment_distance_sq(x, y, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3]))
-            gap = min(gap, d - radius)
-        for c in range(cs.shape[0]):
-            d = math.hypot(x - cs[c, 0], y - cs[c, 1]) - cs[c, 2] - radius
-            gap = min(gap, d)
-        for s in range(n_sensors):
-            dx, dy = math.cos(h + angles[s]), math.sin(h + angles[s])
-            ox, oy = x + radius * dx, y + radius * dy
-            ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3] = ox, oy, dx, dy
-            best = beam_m
-            for w in range(ws.shape[0]):
-                best = _ray_segment(ox, oy, dx, dy, ws[w, 0], ws[w, 1], ws[w, 2], ws[w, 3], best)
-            for c in range(cs.shape[0]):
-                best = _ray_circle(ox, oy, dx, dy, cs[c, 0], cs[c, 1], cs[c, 2], best)
-            beams[i, s] = best
-        first = e * nx * ny
-        cx, cy = (cell_of[i] - first) % nx, (cell_of[i] - first) // nx
-        for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
-            for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                c = first + gy * nx + gx
-                for t in range(start[c], start[c + 1]):
-                    j = items[t]
-                    if j == i:
-                        continue
-                    ex, ey = pose[j, 0] - x, pose[j, 1] - y
-                    d_sq = ex * ex + ey * ey
-                    if d_sq <= seen_sq:
-                        gap = min(gap, math.sqrt(d_sq) - 2.0 * radius)
-                        for s in range(n_sensors):
-                            beams[i, s] = _ray_circle(ray[s, 0], ray[s, 1], ray[s, 2], ray[s, 3], pose[j, 0], pose[j, 1],
-                                                      radius, beams[i, s])  # fmt: skip
-                    if d_sq <= comm_sq:
-                        d = math.sqrt(d_sq)
-                        q = k - 1
-                        if d < nb_range[i, q] or (d == nb_range[i, q] and j < nb_index[i, q]):
-                            # Insertion into the sorted slots (ties by index: the same order every run).
-                            while q > 0 and (
-                                d < nb_range[i, q - 1] or (d == nb_range[i, q - 1] and j < nb_index[i, q - 1])
-                            ):
-                                nb_range[i, q] = nb_range[i, q - 1]
-                                nb_index[i, q] = nb_index[i, q - 1]
-                                q -= 1
-                            nb_range[i, q] = d
-                            nb_index[i, q] = j
-        for s in range(n_sensors):
+        scene_row = _scene_of(scene, i // grid[1][2])
+        gap = _static_gap(pose[i, 0], pose[i, 1], radius, scene_row[0], scene_row[1])
+        _cast_beams(pose[i], params, angles, scene_row, ray, beams[i])
+        gap = _meet_robots(i, pose, params, grid, ray, out, gap)
+        for s in range(beams.shape[1]):
             if beams[i, s] >= beam_m:
                 beams[i, s] = np.inf
         clearance[i] = max(gap, 0.0)

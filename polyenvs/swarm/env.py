@@ -1,8 +1,9 @@
 """The PettingZoo surface shared by the swarm tasks: parameters, spaces, seeding, the agents' dictionaries.
 
 A task (``corridor_v0``, ``obstacle_field_v0``, ``formation_v0``) subclasses :class:`SwarmEnv` and provides
-``_fixed_layout`` (walls and view bounds, once per instance) and ``sample_episode`` (obstacles, starts and goal,
-drawn on the episode's generator at every reset); what it adds to the family's observation, rewards, metrics and
+``_fixed_layout`` (walls and view bounds, once per instance), ``sample_episode`` (obstacles, starts and goal,
+drawn on the episode's generator at every reset) and ``sample_layout_episode`` (the same for ``layouts="train"`` and
+``"test"``, whose split it declares with :func:`polyenvs.core.layouts.documents_layouts`); what it adds to the family's observation, rewards, metrics and
 info it declares by name in its ``terms_class`` (:class:`polyenvs.swarm.batch.TaskTerms`). The simulation is
 :class:`polyenvs.swarm.batch.SwarmBatch` with one environment (``env.batch``), the same core the vector envs run
 with many: per step one noise draw and one compiled call per kernel over the robots; only the PettingZoo
@@ -22,6 +23,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from polyenvs.core.layouts import LayoutSplit, check_layouts
 from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.validation import (
     check_action,
@@ -83,14 +85,18 @@ class SwarmParams:
         0.1, 0.02, 1.0, "s", "ours: one control step; it must move a robot less than its radius"
     )
     full_speed_mps: float = parameter(0.5, 0.05, 1.0, "m/s", "ours: wheel speed at full power")
-    terrain_noise: float = parameter(0.05, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step")
+    terrain_noise: float = parameter(
+        0.05, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step; the per-episode drift has half of it"
+    )
     ir_noise: float = parameter(0.03, 0.0, 0.2, "", "ours: relative IR reading noise")
     ir_raw_sd: float = parameter(2.0, 0.0, 20.0, "A/D units", "ours: raw IR reading noise")
     comm_range_m: float = parameter(3.0, 0.5, 10.0, "m", "ours: trilateration reach")
     range_noise_m: float = parameter(0.02, 0.0, 0.2, "m", "ours: trilateration range noise")
     bearing_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: trilateration bearing noise")
     light_noise_deg: float = parameter(2.0, 0.0, 20.0, "deg", "ours: light-bearing noise")
-    goal_radius_m: float = parameter(0.4, 0.1, 3.0, "m", "ours: a robot this close to the light has arrived")
+    goal_radius_m: float = parameter(
+        0.4, 0.1, 3.0, "m", "ours: a robot this close to the light has arrived (a task may narrow the range)"
+    )
 
     def __post_init__(self):
         check_parameters(self)
@@ -155,10 +161,16 @@ class SwarmEnv(ParallelEnv):
     #: What the task adds to the family's observation, rewards, metrics and info (by name); the family's own
     #: tasks add nothing.
     terms_class: type[TaskTerms] = TaskTerms
+    #: The task's physical and sensing parameters: :class:`SwarmParams`, or a subclass that changes a default or
+    #: narrows a range (declared once there, for the validation, the constructor's default and the docstring).
+    params_class: type[SwarmParams] = SwarmParams
+    #: How ``layouts=`` splits the task's layouts (set by :func:`polyenvs.core.layouts.documents_layouts`).
+    layout_split: LayoutSplit
 
     def __init__(
         self,
         *,
+        layouts: str = "default",
         n_robots: int = 1,
         platform: str | None = None,
         max_cycles: int = 500,
@@ -178,10 +190,11 @@ class SwarmEnv(ParallelEnv):
         flat_info: bool = False,
         render_mode: str | None = None,
     ):
+        self.layouts = check_layouts(layouts)
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
         self.platform = get_platform(self.default_platform if platform is None else platform)
         self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
-        params = SwarmParams(
+        params = self.params_class(
             control_period_s, full_speed_mps, terrain_noise, ir_noise, ir_raw_sd, comm_range_m, range_noise_m,
             bearing_noise_deg, light_noise_deg, goal_radius_m,
         )  # fmt: skip
@@ -247,6 +260,20 @@ class SwarmEnv(ParallelEnv):
     def sample_episode(self, rng: np.random.Generator) -> Episode:
         """Draw an episode (obstacles, starts, goal) on ``rng``; the task's."""
         raise NotImplementedError
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        """Draw an episode of the ``layouts`` ("train" or "test") distribution on ``rng``; the task's."""
+        raise NotImplementedError
+
+    def draw_episode(self, rng: np.random.Generator) -> Episode:
+        """The episode a reset draws on ``rng``: the task's own (``layouts="default"``) or one of its layouts."""
+        if self.layouts == "default":
+            return self.sample_episode(rng)
+        return self.sample_layout_episode(rng, self.layouts)
+
+    def episode_layout(self) -> dict[str, np.ndarray]:
+        """The episode's layout as :attr:`layout_split` classifies it: ``{"obstacle radius": (C,) m}``."""
+        return {"obstacle radius": self.circles[:, 2].copy()}
 
     # --- names and state ----------------------------------------------------------------------------------------
     @property

@@ -10,13 +10,15 @@ import math
 import numpy as np
 
 from polyenvs.core.jit import njit
-from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
+from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
-from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, random_obstacles
+from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, layout_obstacle_slots, random_obstacles
 from polyenvs.swarm.sensors import wrap_angle
 
 __all__ = [
+    "FORMATION_HOLDS_ERROR",
     "FORMATION_PENALTY",
     "FormationEnv",
     "FormationTerms",
@@ -39,10 +41,23 @@ FIELD_WIDTH_M = 8.0
 OBSTACLE_RADIUS_M = (0.15, 0.3)
 #: Obstacles keep this gap rim to rim: wide enough for a robot, narrow enough to bend the formation.
 GAP_M = 0.8
+#: Held-out layouts (*ours*): 3-7 obstacles and the goal at 35-65 % of the field's width; the radius splits them:
+#: train 0.15-0.3 m (the default's), test 0.33-0.45 m.
+LAYOUT_SPLIT = LayoutSplit(
+    (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.33, 0.45)),),
+    varies="3-7 obstacles placed as in the default field, the goal at 35-65 % of the field's width",
+)
+LAYOUT_GOAL_SPAN = (0.35, 0.65)
+LAYOUT_COUNTS = (3, 7)
+N_OBSTACLES = 5
 #: The lattice spacing R (m) a formation accepts.
 SPACING_RANGE_M = (0.5, 3.0)
 #: Reward weight (*ours*): per unit of a robot's own formation error, per step.
 FORMATION_PENALTY = 0.1
+#: The swarm's formation error (mean |r - R| / R over the lattice pairs) up to which the formation holds (*ours*):
+#: a quarter of R keeps neighbours on average within 0.75-1.25 R, short of the springs' 1.5 R reach, and above the
+#: feasibility study's worst held formation (0.17). ``formation_progress_m`` counts progress only while it holds.
+FORMATION_HOLDS_ERROR = 0.25
 #: The robot of each environment that broadcasts (AP-lite's leader-follower form): ``robot_0``.
 LEADER = 0
 #: The formation's observation parts (name -> lower bounds; upper bounds 1), between the family's ``neighbours``
@@ -120,11 +135,14 @@ class FormationTerms(TaskTerms):
     """What the formation adds to the family, for a whole batch: the leader's broadcast in the observation, the
     ``formation`` reward term (-0.1 x a robot's own error), the ``formation_error`` metric (per robot: its mean
     error over the steps; per environment: the mean over the steps of the swarm's error) and info key (a robot's
-    own error now). The first readings after a reset count as a step of the sums, not of the reward."""
+    own error now). The first readings after a reset count as a step of the sums, not of the reward. The
+    ``formation_progress_m`` metric (per environment, and the same for each of its robots) sums the decrease of
+    the distance from the centroid of all N robots (those that arrived stay where they left) to the goal over the
+    steps where the swarm's error is at most :data:`FORMATION_HOLDS_ERROR`."""
 
     observation_parts = OBSERVATION_PARTS
     reward_names = ("formation",)
-    metric_names = ("formation_error",)
+    metric_names = ("formation_error", "formation_progress_m")
     info_names = ("formation_error",)
 
     def __init__(self, task: FormationEnv, batch):
@@ -135,6 +153,8 @@ class FormationTerms(TaskTerms):
         self.leader_params = np.array([task.range_noise_m, math.radians(task.bearing_noise_deg), task.comm_range_m])
         #: Each robot's error now, its sum over the steps, and each environment's sum of the swarm's error.
         self.per_robot, self.robot_sum, self.swarm_sum = np.zeros(rows), np.zeros(rows), np.zeros(envs)
+        #: Each environment's centroid-to-goal distance after the last step, and its progress while in formation.
+        self.centroid_distance, self.progress_sum = np.zeros(envs), np.zeros(envs)
         self._scratch = np.zeros(rows), np.zeros(rows), np.zeros(envs)  # per robot, pairs per robot, swarm
         self._reward_column = batch.reward_column("formation")
 
@@ -147,19 +167,31 @@ class FormationTerms(TaskTerms):
         formation_error(self.batch.pose, live, self.pairs, self.spacing_m, per_robot, count, swarm)
         return per_robot, swarm
 
+    def _centroid_distance(self) -> np.ndarray:
+        """Each environment's distance from the centroid of its N robots to its goal, ``(E,)``."""
+        batch = self.batch
+        centroid = batch.pose[:, :2].reshape(batch.n_envs, batch.n_robots, 2).mean(axis=1)
+        return np.hypot(*(centroid - batch.goals).T)
+
     def score(self, live, rows, envs) -> None:
         per_robot, swarm = self._errors(live)
         reward = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
+        distance = self._centroid_distance()
+        progress = np.where(swarm <= FORMATION_HOLDS_ERROR, self.centroid_distance - distance, 0.0)
         if rows is None:  # every row stepped
             self.per_robot[:] = per_robot
             self.batch.rewards[:, self._reward_column] = reward
             self.robot_sum += np.where(live, per_robot, 0.0)
             self.swarm_sum += swarm
+            self.progress_sum += progress
+            self.centroid_distance[:] = distance
         else:
             self.per_robot[rows] = per_robot[rows]
             self.batch.rewards[rows, self._reward_column] = reward[rows]
             self.robot_sum[rows] += np.where(live, per_robot, 0.0)[rows]
             self.swarm_sum[envs] += swarm[envs]
+            self.progress_sum[envs] += progress[envs]
+            self.centroid_distance[envs] = distance[envs]
 
     def restart(self, rows, envs) -> None:
         active = self.batch.active
@@ -167,20 +199,28 @@ class FormationTerms(TaskTerms):
         self.per_robot[rows] = per_robot[rows]
         self.robot_sum[rows] = np.where(active, per_robot, 0.0)[rows]
         self.swarm_sum[envs] = swarm[envs]
+        self.centroid_distance[envs] = self._centroid_distance()[envs]
+        self.progress_sum[envs] = 0.0
 
     def env_metrics(self) -> dict[str, np.ndarray]:
-        return {"formation_error": self.swarm_sum / (self.batch.cycles + 1)}
+        return {
+            "formation_error": self.swarm_sum / (self.batch.cycles + 1),
+            "formation_progress_m": self.progress_sum.copy(),
+        }
 
     def robot_metrics(self) -> dict[str, np.ndarray]:
         cycles = self.batch.cycles
+        progress = np.repeat(self.progress_sum, self.batch.n_robots)
         if len(cycles) == 1:  # the common case of a PettingZoo step, in one division
-            return {"formation_error": self.robot_sum / max(int(cycles[0]), 1)}
-        return {"formation_error": self.robot_sum / np.maximum(np.repeat(cycles, self.batch.n_robots), 1)}
+            return {"formation_error": self.robot_sum / max(int(cycles[0]), 1), "formation_progress_m": progress}
+        errors = self.robot_sum / np.maximum(np.repeat(cycles, self.batch.n_robots), 1)
+        return {"formation_error": errors, "formation_progress_m": progress}
 
     def robot_info(self) -> dict[str, np.ndarray]:
         return {"formation_error": self.per_robot.copy()}
 
 
+@documents_layouts(LAYOUT_SPLIT)
 class FormationEnv(SwarmEnv):
     """N Maxelbot-like robots in a hexagonal lattice of spacing R (``robot_0``, the leader, at its centre) cross an
     obstacle field to a goal light while keeping formation.
@@ -190,7 +230,9 @@ class FormationEnv(SwarmEnv):
     Hooke's-law springs between neighbours. AP-lite is a leader-follower scheme: only the leader broadcasts, and
     followers sense range and bearing to the leader and to their neighbours by trilateration. Formation error is
     the mean of ``|r - R| / R`` over the lattice's neighbouring pairs (robots one R apart at the start) still in
-    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study).
+    the episode. The 7-robot default is a hexagon around the leader with R = 0.9 m (the feasibility study). The
+    ``formation`` baseline springs every robot to all it senses and does not read ``leader``, a deviation from the
+    paper's leader-follower wording whose reason and measurements are in ``baselines.swarm.FormationController``.
 
     ## Action Space
     ``Box(-1, 1, (2,), float32)`` per robot: left and right motor power as fractions of full power.
@@ -216,13 +258,27 @@ class FormationEnv(SwarmEnv):
 
     ## Info
     As in ``corridor_v0`` plus ``formation_error`` (the robot's own, now); its ``episode_metrics`` add the
-    robot's mean ``formation_error``, and ``env.episode_metrics()`` the swarm's mean over steps.
+    robot's mean ``formation_error``, and ``env.episode_metrics()`` the swarm's mean over steps; both add
+    ``formation_progress_m``, the metres the centroid of the N robots came closer to the goal during steps in
+    which the formation held (the swarm's error at most ``FORMATION_HOLDS_ERROR`` = 0.25).
+
+    ## Task score
+    ``formation_progress_m`` (max). The paper's task is to reach the goal *while keeping the formation*
+    (physicomimetics springs hold the lattice; AP-lite steers it past obstacles). Success alone ignores the
+    formation, and the mean formation error rewards standing still (a swarm that never moves keeps its start
+    lattice). Counting the centroid's progress to the goal only while the lattice holds asks for both: standing
+    still scores 0, and so does a swarm that scatters to the goal.
 
     ## Arguments
-    ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200),
+    ``n_robots`` (default 7), ``spacing_m`` (R, default 0.9, 0.5-3 m), ``n_obstacles`` (default 5, 0-200;
+    ``layouts="train"`` and ``"test"`` draw their own count and refuse another),
     ``goal_radius_m`` (default 2R up to 3 m, i.e. 3 m for R >= 1.5 m; 0.1-3 m), ``comm_range_m`` (default 3 m,
     or 1.5 R for R > 2 m: the springs reach 1.5 R, and a ``comm_range_m`` below 1.5 R is refused), then every
-    keyword of ``corridor_v0`` with ``platform="maxelbot"`` and ``max_cycles=1500`` as defaults.
+    keyword of ``corridor_v0`` with ``platform="maxelbot"`` and ``max_cycles=1500`` as defaults, and
+
+    | keyword | default | meaning (range) |
+    | --- | --- | --- |
+    {layouts}
 
     ## Version History
     - v0: initial version.
@@ -234,15 +290,15 @@ class FormationEnv(SwarmEnv):
     #: The robot that broadcasts (drawn in its own colour).
     leader = LEADER
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = 5,
+    def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = N_OBSTACLES,
                  goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
-                 **kwargs):  # fmt: skip
+                 layouts: str = "default", **kwargs):  # fmt: skip
         self.spacing_m = check_in_range("spacing_m", spacing_m, *SPACING_RANGE_M)
-        self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
+        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
         goal_radius_m = default_goal_radius(self.spacing_m) if goal_radius_m is None else goal_radius_m
         comm_range_m = default_comm_range(self.spacing_m) if comm_range_m is None else comm_range_m
         super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, comm_range_m=comm_range_m,
-                         max_cycles=max_cycles, **kwargs)  # fmt: skip
+                         max_cycles=max_cycles, layouts=layouts, **kwargs)  # fmt: skip
 
     def _task_init(self) -> None:
         if 1.5 * self.spacing_m > self.comm_range_m:
@@ -259,15 +315,27 @@ class FormationEnv(SwarmEnv):
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
 
     def sample_episode(self, rng: np.random.Generator) -> Episode:
+        return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
+        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts))
+
+    def _field(self, rng: np.random.Generator, count: int, goal_span, radii) -> Episode:
+        """The lattice at the start, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``:
+        mid-height) and ``count`` obstacles of radii in ``radii`` between them."""
         n = self.n_robots
         _, _, length, width = self.layout.bounds
         centre = np.array([1.5 + self._lattice_radius, width / 2])
         xy = centre + self.lattice + 0.05 * (2 * rng.random((n, 2)) - 1)
         heading = np.radians(5.0 * rng.standard_normal(n))
-        goal = np.array([length - 1.5, width / 2])
+        if goal_span is None:
+            goal = np.array([length - 1.5, width / 2])
+        else:
+            goal = np.array([length - 1.5, width * (goal_span[0] + (goal_span[1] - goal_span[0]) * rng.random())])
         keep_out = [(goal[0], goal[1], self.goal_radius_m), (centre[0], centre[1], self._lattice_radius + 1.0)]
         region = (centre[0] + self._lattice_radius + 1.0, 0.6, length - 2.0, width - 0.6)
-        circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
+        circles = random_obstacles(rng, count, region, radii, GAP_M, keep_out)
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
 

@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 
-__all__ = ["box_walls", "hex_lattice", "lattice_pairs", "random_obstacles", "start_block"]
+from polyenvs.core.layouts import check_layouts
+from polyenvs.core.validation import check_int
+
+__all__ = ["box_walls", "hex_lattice", "lattice_pairs", "layout_obstacle_slots", "random_obstacles", "start_block"]
 
 
 def box_walls(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:
@@ -57,3 +60,17 @@ def random_obstacles(rng: np.random.Generator, count: int, region, radius_range,
         if all(math.hypot(x - a, y - b) >= r + c + gap for a, b, c in discs + placed):
             placed.append((x, y, r))
     return np.array(placed, dtype=np.float64).reshape(-1, 3)
+
+
+def layout_obstacle_slots(n_obstacles, layouts, default: int, most: int) -> int:
+    """The obstacle slots of a field: ``n_obstacles`` (checked), or with ``layouts="train"`` or ``"test"``, which
+    draw their own count, the most they draw (a ``n_obstacles`` other than ``default`` is refused, not ignored)."""
+    n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
+    if check_layouts(layouts) == "default":
+        return n_obstacles
+    if n_obstacles != default:
+        raise ValueError(
+            f"layouts={layouts!r} draws its own obstacles: leave n_obstacles at its default ({default}), or use "
+            f"layouts='default' with n_obstacles={n_obstacles}"
+        )
+    return most

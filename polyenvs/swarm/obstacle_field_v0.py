@@ -7,12 +7,14 @@ for eight).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from polyenvs.core.validation import check_in_range, check_int
-from polyenvs.swarm.env import Episode, Layout, SwarmEnv, module_constructors
-from polyenvs.swarm.layouts import box_walls, random_obstacles, start_block
+from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
+from polyenvs.core.parameters import documents_arguments, parameter
+from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
+from polyenvs.swarm.layouts import box_walls, layout_obstacle_slots, random_obstacles, start_block
 
 __all__ = ["MAX_CYCLES", "N_ROBOTS", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
 
@@ -26,8 +28,29 @@ START_SPACING_M = 0.5
 #: Obstacles (*ours*): radius 0.15-0.35 m, at least GAP_M apart rim to rim and from the goal and the starts.
 OBSTACLE_RADIUS_M = (0.15, 0.35)
 GAP_M = 0.6
+N_OBSTACLES = 5
+#: Held-out layouts (*ours*): 3-7 obstacles and the goal anywhere in the middle three fifths of the far end; the
+#: radius splits them: train 0.15-0.35 m (the default's), test 0.38-0.5 m (larger rocks than any default field).
+LAYOUT_SPLIT = LayoutSplit(
+    (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.38, 0.5)),),
+    varies="3-7 obstacles placed as in the default field, the goal anywhere in the middle three fifths of the far end",
+)
+LAYOUT_COUNTS = (3, 7)
+LAYOUT_GOAL_SPAN = (0.2, 0.8)
 
 
+@dataclass(frozen=True)
+class ObstacleFieldParams(SwarmParams):
+    """The swarm's parameters, with the obstacle field's rougher ground and wider arrival distance."""
+
+    terrain_noise: float = parameter(
+        0.1, 0.0, 0.3, "", "ours: sd of the per-wheel speed factor per step (rough ground: twice the corridor's)"
+    )
+    goal_radius_m: float = parameter(0.5, 0.1, 1.5, "m", "ours: a robot this close to the light has arrived")
+
+
+@documents_layouts(LAYOUT_SPLIT)
+@documents_arguments(ObstacleFieldParams)
 class ObstacleFieldEnv(SwarmEnv):
     """N Maxelbot-like robots cross an open field with obstacles at seeded random places to a goal light.
 
@@ -64,10 +87,21 @@ class ObstacleFieldEnv(SwarmEnv):
     As in ``corridor_v0``: ``pose``, ``collisions``, ``distance_to_goal_m``, ``nearest_obstacle_cm``,
     ``motor_powers``, ``turning_angle_deg``, ``stopped``, reward terms and ``episode_metrics``.
 
+    ## Task score
+    ``success_rate`` (max, ceiling 1; ties at the ceiling broken by the lower ``time_to_goal_s``): the fraction of
+    the robots that reached the goal light. The paper's outdoor experiment asks the Maxelbots to cross the field to
+    the light, and its failure mode is the halt short of it (the potential-field trap, counted by ``stopped``),
+    which success measures directly.
+
     ## Arguments
-    ``n_robots`` (default 3), ``n_obstacles`` (default 5, 0-200) and ``terrain_noise`` (default 0.1, 0-0.3), then
-    every keyword of ``corridor_v0`` with ``platform="maxelbot"``, ``max_cycles=1000`` and ``goal_radius_m=0.5``
-    (0.1-1.5 m) as defaults.
+    ``n_robots`` (default 3) and ``n_obstacles`` (default 5, 0-200; ``layouts="train"`` and ``"test"`` draw their own
+    count and refuse another), then every keyword of ``corridor_v0`` with ``platform="maxelbot"`` and
+    ``max_cycles=1000`` as defaults, and its physical and sensing parameters:
+
+    | keyword | default | meaning (range) |
+    | --- | --- | --- |
+    {layouts}
+    {arguments}
 
     ## Version History
     - v0: initial version.
@@ -76,14 +110,15 @@ class ObstacleFieldEnv(SwarmEnv):
     metadata = {**SwarmEnv.metadata, "name": "obstacle_field_v0"}
     default_platform = "maxelbot"
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = 5, terrain_noise: float = 0.1,
-                 max_cycles: int = MAX_CYCLES, goal_radius_m: float = 0.5, **kwargs):  # fmt: skip
-        self.n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)
-        super().__init__(n_robots=n_robots, terrain_noise=terrain_noise, max_cycles=max_cycles,
-                         goal_radius_m=goal_radius_m, **kwargs)  # fmt: skip
+    params_class = ObstacleFieldParams
 
-    def _task_init(self) -> None:
-        check_in_range("goal_radius_m", self.goal_radius_m, 0.1, 1.5)
+    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = N_OBSTACLES,
+                 terrain_noise: float = ObstacleFieldParams.terrain_noise, max_cycles: int = MAX_CYCLES,
+                 goal_radius_m: float = ObstacleFieldParams.goal_radius_m, layouts: str = "default",
+                 **kwargs):  # fmt: skip
+        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
+        super().__init__(n_robots=n_robots, terrain_noise=terrain_noise, max_cycles=max_cycles,
+                         goal_radius_m=goal_radius_m, layouts=layouts, **kwargs)  # fmt: skip
 
     def _block(self) -> tuple[int, float]:
         columns = math.ceil(math.sqrt(self.n_robots))
@@ -95,15 +130,28 @@ class ObstacleFieldEnv(SwarmEnv):
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
 
     def sample_episode(self, rng: np.random.Generator) -> Episode:
+        return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
+        count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
+        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts))
+
+    def _field(self, rng: np.random.Generator, count: int, goal_span, radii) -> Episode:
+        """Starts in their block, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``: the
+        middle third) and ``count`` obstacles of radii in ``radii`` between them."""
         n = self.n_robots
         columns, side = self._block()
         _, _, length, width = self.layout.bounds
         xy = start_block(n, columns, START_SPACING_M) + np.array([1.0, 0.5 * (width - side)])
         heading = np.radians(10.0 * rng.standard_normal(n))
-        goal = np.array([length - 1.0, width / 3.0 + (width / 3.0) * rng.random()])
+        if goal_span is None:  # the default field's own expression, bit for bit
+            goal = np.array([length - 1.0, width / 3.0 + (width / 3.0) * rng.random()])
+        else:
+            low, high = goal_span[0] * width, goal_span[1] * width
+            goal = np.array([length - 1.0, low + (high - low) * rng.random()])
         keep_out = [(goal[0], goal[1], self.goal_radius_m), (1.0 + side / 2, width / 2, side / 2 + 0.7 * 1.5)]
         region = (2.0 + side, 0.6, length - 1.5, width - 0.6)
-        circles = random_obstacles(rng, self.n_obstacles, region, OBSTACLE_RADIUS_M, GAP_M, keep_out)
+        circles = random_obstacles(rng, count, region, radii, GAP_M, keep_out)
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
 

@@ -141,27 +141,30 @@ def wrap_angle(angle):
 
 
 @njit(cache=True)
-def write_observations(pose, active, todo, beams, nb_index, nb_range, goals, per, powers, normals, floor, params,
-                       out):  # fmt: skip
+def write_observations(robots, todo, sensed, goals, per, draws, params, out):
     """The family's part of every robot's observation row in ``todo``, written into ``out`` ``(N, D)`` float32
-    (rows of inactive robots are 0; rows not in ``todo`` are left as they are). A compiled-kernel boundary: its
-    arrays are positional, as numba takes them.
+    (rows of inactive robots are 0; rows not in ``todo`` are left as they are).
 
     Layout (``env.observation_structure``): IR 0-3, light 4-5, neighbours 6.. (range / comm, bearing / pi, mask
     per slot), and the last powers in the last two columns; the columns between (a task's own parts) are zeroed
     here and written by the task.
 
     Args:
+        robots: ``(pose, active, powers)``: poses, who is in the episode, and the last commanded powers.
         todo: ``(N,)`` uint8: the rows to write.
+        sensed: ``(beams, nb_index, nb_range)``: ``(N, 4)`` true beam distances (m, ``inf`` for nothing within
+            reach) and the ``(N, k)`` trilateration neighbours from :func:`polyenvs.swarm.core.sense`.
         goals: ``(E, 2)`` each environment's light; ``per``: robots per environment (row i is in environment
             ``i // per``).
-        beams: ``(N, 4)`` true beam distances (m, ``inf`` for nothing within reach).
-        nb_index, nb_range: ``(N, k)`` the trilateration neighbours from :func:`polyenvs.swarm.core.sense`.
-        normals: ``(N, 9 + 2k + ...)`` standard normals: IR (distance, raw) x 4, light bearing, k ranges, k
-            bearings (then the task's, unread here). ``floor``: ``(N, 4)`` uniforms for the IR noise floor.
+        draws: ``(normals, floor)``: ``(N, 9 + 2k + ...)`` standard normals: IR (distance, raw) x 4, light
+            bearing, k ranges, k bearings (then the task's, unread here); ``(N, 4)`` uniforms for the IR noise
+            floor.
         params: ``[ir_noise, ir_raw_sd, light_noise_rad, range_noise_m, bearing_noise_rad, comm_range_m,
             x80pro (0/1), light_reference_m]``.
     """
+    pose, active, powers = robots
+    beams, nb_index, nb_range = sensed
+    normals, floor = draws
     n, width = out.shape
     k = nb_index.shape[1]
     ir_noise, raw_sd, light_noise, range_noise = params[0], params[1], params[2], params[3]

@@ -43,6 +43,15 @@ class _SingleRobot(gym.Env):
         self._done = True
         self._ended_by = ""
 
+    @property
+    def layout_split(self):
+        """How ``layouts=`` splits the task's layouts (the swarm task's)."""
+        return self.swarm.layout_split
+
+    def episode_layout(self) -> dict:
+        """The episode's layout as :attr:`layout_split` classifies it (the swarm task's)."""
+        return self.swarm.episode_layout()
+
     def reset(self, *, seed=None, options=None):
         check_options(options, ())  # before anything changes, the seeding below included
         super().reset(seed=seed)

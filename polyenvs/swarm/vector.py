@@ -17,13 +17,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium.error import ClosedEnvironmentError, ResetNeeded
 from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
 
-from polyenvs.core.rows import check_vector_arguments, only_rows, vector_convention
-from polyenvs.core.validation import check_options, real_array, show
+from polyenvs.core.rows import BatchVectorEnv, vector_convention
+from polyenvs.core.validation import check_options, real_array
 from polyenvs.swarm.batch import SwarmBatch
 from polyenvs.swarm.corridor_v0 import CorridorEnv
 from polyenvs.swarm.env import SwarmEnv
@@ -33,7 +30,7 @@ from polyenvs.swarm.single import single_robot_swarm
 __all__ = ["APLiteCorridorVectorEnv", "APLiteObstacleFieldVectorEnv", "SingleRobotVectorEnv"]
 
 
-class SingleRobotVectorEnv(VectorEnv):
+class SingleRobotVectorEnv(BatchVectorEnv):
     """``num_envs`` single-robot swarm environments (see the module docstring).
 
     Args:
@@ -44,119 +41,58 @@ class SingleRobotVectorEnv(VectorEnv):
         **kwargs: the single-robot id's keywords (those of its swarm task, without ``n_robots`` and ``max_cycles``).
     """
 
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
     #: The swarm task of the id (set by each subclass).
     swarm_class: type[SwarmEnv] = CorridorEnv
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        max_episode_steps: int | None = None,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        **kwargs,
-    ):
-        num_envs, max_episode_steps, autoreset_mode = check_vector_arguments(
-            num_envs, max_episode_steps, autoreset_mode
-        )
-        if render_mode is not None:
-            raise ValueError(
-                f"render_mode: this vector env does not render (render gym.make(id)), got {show(render_mode)}"
-            )
+    def _build(self, num_envs, render_mode, kwargs):
         #: The task (one robot): its parameters and episodes.
         self.task = single_robot_swarm(self.swarm_class, kwargs)
         self.batch = SwarmBatch(self.task, num_envs)
-        self.metadata = {
-            **self.metadata,
-            "render_fps": self.task.metadata["render_fps"],
-            "autoreset_mode": autoreset_mode,
-        }
-        self.autoreset_mode = autoreset_mode
-        self.num_envs = num_envs
-        self.max_episode_steps = max_episode_steps
-        self.render_mode = None
-        self.single_observation_space = self.task.observation_space("robot_0")
-        self.single_action_space = self.task.action_space("robot_0")
-        self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self.action_space = batch_space(self.single_action_space, num_envs)
         self.observation_structure = self.task.observation_structure
         self.reward_names = self.task.reward_names
-        self._needs_reset = np.zeros(num_envs, dtype=bool)
-        self._started = False
-        self._closed = False
+        spaces = (self.task.observation_space("robot_0"), self.task.action_space("robot_0"))
+        return spaces, self.task.metadata["render_fps"]
 
-    def _check_open(self) -> None:
-        if self._closed:
-            raise ClosedEnvironmentError("this vector env is closed")
-
-    def _generators(self, seed) -> list[np.random.Generator]:
-        """Sub-env i's generator for this reset, as ``SyncVectorEnv`` seeds sub-environment i (``None``: its own,
-        as an unseeded ``reset`` continues it)."""
-        n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]
-        elif isinstance(seed, (list, tuple)) and len(seed) == n:
-            seeds = list(seed)
-        else:
-            raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+    def _reset_rows(self, seeds, options) -> None:
+        check_options(options, ())
         current = self.batch.generators
-        return [
+        generators = [
             current[i] if s is None and current[i] is not None else seeding.np_random(s)[0] for i, s in enumerate(seeds)
         ]
+        self.batch.reset(range(self.num_envs), generators)
 
-    def _check_actions(self, actions) -> np.ndarray:
+    def _restart(self, rows) -> None:
+        self.batch.reset(rows)
+
+    def _check_batch_actions(self, actions) -> np.ndarray:
         """The ``(num_envs, 2)`` powers as float64 of their float32 values (as the single env takes them)."""
         values = real_array("actions", actions, np.float32)  # complex, bool, string and object input refused
         if values.shape != (self.num_envs, 2) or not (np.abs(values) <= 1.0).all():
             raise ValueError(f"actions must be an array of shape ({self.num_envs}, 2) in [-1, 1] without NaN")
         return values.astype(np.float64)
 
+    def _advance_rows(self, actions, restart) -> None:
+        if restart.any():  # next-step autoreset: these sub-envs only start their new episode
+            self.batch.reset(np.flatnonzero(restart))
+            self.batch.step(actions, ~restart)
+        else:
+            self.batch.step(actions)
+
+    def _step_result(self, restart):
+        batch = self.batch
+        terminated = batch.terminated > 0
+        truncated = (batch.cycles >= self.task.max_cycles) & ~terminated  # the swarm's own cap
+        return batch.rewards.sum(axis=1), terminated, truncated
+
+    def _row_steps(self) -> np.ndarray:
+        return self.batch.cycles
+
+    def _observations(self) -> np.ndarray:
+        return self.batch.observations
+
     def _info(self) -> dict[str, Any]:
         info, metrics = self.batch.robot_columns()
         return vector_convention(info, metrics, self.num_envs)
-
-    def reset(self, *, seed=None, options: dict[str, Any] | None = None):
-        self._check_open()
-        check_options(options, ())
-        generators = self._generators(seed)  # may raise, before anything changes
-        self.batch.reset(range(self.num_envs), generators)
-        self._needs_reset[:] = False
-        self._started = True
-        return self.batch.observations.copy(), self._info()
-
-    def step(self, actions):
-        self._check_open()
-        if not self._started:
-            raise ResetNeeded("call reset() before step()")
-        command = self._check_actions(actions)
-        batch, restart = self.batch, self._needs_reset
-        if restart.any():  # next-step autoreset: these sub-envs only start their new episode
-            batch.reset(np.flatnonzero(restart))
-            batch.step(command, ~restart)
-        else:
-            batch.step(command)
-        rewards = batch.rewards.sum(axis=1)
-        terminated = batch.terminated > 0
-        truncated = (batch.cycles >= self.task.max_cycles) & ~terminated  # the swarm's own cap
-        if self.max_episode_steps is not None:
-            truncated |= batch.cycles >= self.max_episode_steps  # TimeLimit's rule
-        truncated &= ~restart
-        done = terminated | truncated
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
-            self._needs_reset = done
-            return batch.observations.copy(), rewards, terminated, truncated, self._info()
-        # Same-step autoreset: keep what the finished sub-envs saw, restart them now, report both.
-        final_obs = np.full(self.num_envs, None, dtype=object)
-        for row in np.flatnonzero(done).tolist():
-            final_obs[row] = batch.observations[row].copy()
-        final_info = only_rows(self._info(), done)
-        batch.reset(np.flatnonzero(done))
-        info = self._info()
-        info["final_obs"], info["_final_obs"] = final_obs, done.copy()
-        info["final_info"], info["_final_info"] = final_info, done.copy()
-        return batch.observations.copy(), rewards, terminated, truncated, info
 
     def render(self):
         """Nothing: this vector env does not render (``render_mode`` is ``None``)."""

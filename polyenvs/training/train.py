@@ -425,6 +425,8 @@ class _Job:
     wrappers: list
     run: dict[str, Any]
     previous: dict[str, Any] | None
+    #: The environment, resolved once (its name, keywords, kind and spaces), for everything that builds it.
+    target: Any
 
 
 def _check_request(request: _Request) -> _Request:
@@ -464,21 +466,20 @@ def _check_request(request: _Request) -> _Request:
 def _plan(request: _Request, action: str) -> _Job:
     """Check the environment, the config and (``action == "resume"``) the run to resume; the run.json to write."""
     from baselines.algorithms import check_action_space
-    from polyenvs.evaluation import make_env
-    from polyenvs.rollout import agent_spaces
+    from polyenvs.evaluation import resolve_env
     from polyenvs.training.config import default_config_path, load_config
 
-    env_id, algo, out_dir, env_kwargs = request.env_id, request.algo, request.out_dir, request.env_kwargs
-    probe = make_env(env_id, env_kwargs)  # an unknown id or bad keyword arguments raise InputError here
-    try:
-        check_action_space(algo, env_id, agent_spaces(probe)[1])  # a parallel env's: one robot's
-    finally:
-        probe.close()
+    env_id, algo, out_dir = request.env_id, request.algo, request.out_dir
+    # Resolved once (an unknown id or bad keywords raise InputError here, before the config is read), and again
+    # only where the config adds keywords of its own, which may change the spaces: checked under the command line's.
+    target = resolve_env(env_id, request.env_kwargs)
+    check_action_space(algo, env_id, target.action_space)  # a parallel env's: one robot's
     config_path = Path(request.config) if request.config is not None else default_config_path(algo)
     cfg = load_config(config_path, env_id, algo)
-    if cfg.env_kwargs:  # the config's keywords under the command line's: check them together
-        env_kwargs = {**cfg.env_kwargs, **env_kwargs}
-        make_env(env_id, env_kwargs).close()
+    env_kwargs = {**cfg.env_kwargs, **request.env_kwargs}
+    if cfg.env_kwargs:
+        target = resolve_env(env_id, env_kwargs)
+        check_action_space(algo, env_id, target.action_space)
     _check_extras(request.progress_bar, request.tensorboard)
     wrappers = cfg.wrapper_callables()
     n_envs = request.n_envs if request.n_envs is not None else cfg.n_envs
@@ -513,7 +514,7 @@ def _plan(request: _Request, action: str) -> _Job:
                 f"cannot resume {out_dir}: it has a model but no {VECNORMALIZE_FILE} (the config normalises); "
                 "--overwrite to train it again from the start"
             )
-    return _Job(request=request, cfg=cfg, wrappers=wrappers, run=run, previous=previous)
+    return _Job(request=request, cfg=cfg, wrappers=wrappers, run=run, previous=previous, target=target)
 
 
 def _build_and_train(job: _Job) -> tuple[Any, bool]:
@@ -527,9 +528,8 @@ def _build_and_train(job: _Job) -> tuple[Any, bool]:
     request, run = job.request, job.run
     torch.set_num_threads(1)  # small MLPs: more threads only contend (intermittently 10-100x slower on 2 cores)
     venv = make_training_vec_env(
-        request.env_id, run["n_envs"], seed=request.seed, env_kwargs=run["env_kwargs"], wrappers=job.wrappers,
-        vec_env=request.vec_env,
-    )  # fmt: skip
+        job.target, run["n_envs"], seed=request.seed, wrappers=job.wrappers, vec_env=request.vec_env
+    )
     try:
         run["vec_env"] = type(_innermost(venv)).__name__
         venv = _wrap_vec_env(job, venv)

@@ -44,11 +44,11 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
 from polyenvs.errors import InputError
+from polyenvs.evaluation import EnvTarget, resolve_env
 from polyenvs.registry import bare_id
 
 __all__ = [
     "NativeVecEnvAdapter",
-    "has_native_vector_env",
     "make_native_vector_env",
     "ParallelVecEnvAdapter",
     "make_training_vec_env",
@@ -213,17 +213,6 @@ class NativeVecEnvAdapter(VecEnv):
 # ------------------------------------------------------------------------------------------------- builders
 
 
-def has_native_vector_env(env_id: str) -> bool:
-    """Whether ``env_id`` is registered with a ``vector_entry_point``."""
-    import polyenvs  # noqa: F401  (registers the ids)
-
-    try:
-        spec = gym.spec(bare_id(env_id))
-    except gym.error.Error:
-        return False
-    return spec.vector_entry_point is not None
-
-
 def make_native_vector_env(env_id: str, num_envs: int, env_kwargs: dict | None = None) -> gym.vector.VectorEnv:
     """``gym.make_vec`` of the id's native vector env in same-step autoreset mode (max_episode_steps from the spec
     unless ``env_kwargs`` sets it)."""
@@ -257,7 +246,7 @@ def _native_same_step(env_id: str, n_envs: int, env_kwargs: dict, required: bool
 
 
 def make_training_vec_env(
-    env_id: str,
+    env: str | EnvTarget,
     n_envs: int = 1,
     *,
     seed: int | None = None,
@@ -267,27 +256,25 @@ def make_training_vec_env(
 ) -> VecEnv:
     """The SB3 ``VecEnv`` that training uses, with per-episode returns and lengths in ``infos[i]["episode"]``.
 
-    ``vec_env``: ``"native"`` (:class:`NativeVecEnvAdapter` under ``VecMonitor``), ``"dummy"`` (SB3's
-    ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``), or ``"auto"``: native where
-    the id has a native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and
-    the native env is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first reset seeds sub-env ``i`` with ``seed + i``.
-    Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
+    ``env``: an id or module path with its ``env_kwargs``, or an :class:`~polyenvs.evaluation.EnvTarget` resolved
+    already (``polyenvs train`` resolves the name once; ``env_kwargs`` are then the target's). ``vec_env``:
+    ``"native"`` (:class:`NativeVecEnvAdapter` under ``VecMonitor``), ``"dummy"`` (SB3's ``make_vec_env``:
+    ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``), or ``"auto"``: native where the id has a
+    native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and the native env
+    is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first
+    reset seeds sub-env ``i`` with ``seed + i``. Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
     """
-    import polyenvs  # noqa: F401
     from polyenvs.evaluation import make_env
-    from polyenvs.rollout import is_parallel
 
-    env_id = bare_id(env_id)
-    if env_id not in gym.registry:
-        probe = make_env(env_id, env_kwargs)
-        if is_parallel(probe):
-            probe.close()
-            if wrappers or vec_env == "native":
-                raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, without wrappers")
-            venv = ParallelVecEnvAdapter([make_env(env_id, env_kwargs) for _ in range(n_envs)])
-            if seed is not None:
-                venv.seed(seed)
-            return venv
+    target = env if isinstance(env, EnvTarget) else resolve_env(env, env_kwargs)
+    env_id, env_kwargs = target.env_id, target.env_kwargs
+    if target.parallel:
+        if wrappers or vec_env == "native":
+            raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, without wrappers")
+        venv = ParallelVecEnvAdapter([make_env(env_id, env_kwargs) for _ in range(n_envs)])
+        if seed is not None:
+            venv.seed(seed)
+        return venv
     if vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
     if vec_env == "native" and wrappers:
@@ -295,8 +282,8 @@ def make_training_vec_env(
     env_kwargs = dict(env_kwargs or {})
     venv: VecEnv | None = None
     try:
-        if vec_env == "native" or (vec_env == "auto" and has_native_vector_env(env_id) and not wrappers):
-            if not has_native_vector_env(env_id):
+        if vec_env == "native" or (vec_env == "auto" and target.native_vector and not wrappers):
+            if not target.native_vector:
                 raise InputError(f"{env_id} has no native vector env (no vector_entry_point)")
             native = _native_same_step(env_id, n_envs, env_kwargs, required=vec_env == "native")
             if native is not None:

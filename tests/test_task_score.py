@@ -1,0 +1,224 @@
+"""The task score: declared on every registry row, emitted by its environment, and what the leaderboard ranks,
+normalises and charts by (default and held-out layouts), evaluated one by one or on a process pool alike."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import polyenvs.leaderboard
+import polyenvs.rollout
+from polyenvs import charts
+from polyenvs.cli import main
+from polyenvs.evaluation import make_env
+from polyenvs.leaderboard import leaderboard_markdown, leaderboard_tables, result_path, write_leaderboard
+from polyenvs.registry import REGISTRY, Score
+from polyenvs.rollout import is_parallel
+
+GOAL, TURN, WALL = "polyenvs/BuckybotGoal-v0", "polyenvs/BeastTurn-v0", "polyenvs/BuckybotWallFollow-v0"
+
+
+def _one_step_metrics(env_id: str) -> dict:
+    env = make_env(env_id)
+    try:
+        if is_parallel(env):
+            env.reset(seed=0)
+            env.step({a: env.action_space(a).sample() for a in env.agents})
+            return env.unwrapped.episode_metrics()
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        return env.step(env.action_space.sample())[4]["episode_metrics"]
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("row", REGISTRY, ids=lambda r: r.id)
+def test_every_row_scores_a_metric_its_environment_emits(row):
+    assert isinstance(row.score, Score), f"{row.id} declares no task score"
+    metrics = _one_step_metrics(row.id)
+    for name in filter(None, (row.score.metric, row.score.tie_break)):
+        assert name in metrics, f"{row.id} scores {name!r}, which its episode metrics lack: {sorted(metrics)}"
+    if row.score.upper_anchor is not None:
+        assert row.score.upper_anchor in [b.name for b in row.baselines]
+
+
+def test_a_bad_direction_is_refused():
+    with pytest.raises(ValueError, match="direction"):
+        Score("success", "up")
+
+
+def _doc(env_id: str, policy: str, values: list[float], metric: str, layouts: str = "default", **extra) -> dict:
+    episodes = [
+        {"seed": 1000 + i, "return": 10 * v, "length": 5, "metrics": {metric: v, **{k: x[i] for k, x in extra.items()}}}
+        for i, v in enumerate(values)
+    ]
+    kwargs = {} if layouts == "default" else {"layouts": layouts}
+    return {"env_id": env_id, "policy": policy, "episodes": episodes, "summary": {}, "n_episodes": len(values),
+            "env_kwargs": kwargs}  # fmt: skip
+
+
+def test_rows_are_ranked_by_the_score_and_the_tie_break_at_the_ceiling():
+    docs = [
+        _doc(GOAL, "random", [0.0] * 4, "success", steps_to_goal=[300] * 4),
+        _doc(GOAL, "goal_seeker", [1.0] * 4, "success", steps_to_goal=[30, 30, 30, 30]),
+        _doc(GOAL, "fast", [1.0] * 4, "success", steps_to_goal=[20, 20, 20, 20]),
+    ]
+    docs[2]["agent"] = {"algo": "ppo", "label": "ppo", "training_seed": 0}
+    table = leaderboard_tables(docs)[GOAL]
+    assert [r["label"] for r in table["rows"]] == ["ppo", "goal_seeker", "random"]  # fewer steps wins at 1
+    assert table["discriminative"] and table["rows"][1]["normalised"] == pytest.approx(1.0)
+    # A score where lower is better (the turn's heading error) ranks the other way, floor 0.
+    turn = leaderboard_tables(
+        [
+            _doc(TURN, "random", [180.0] * 4, "heading_error_deg"),
+            _doc(TURN, "sharp_turn", [5.0] * 4, "heading_error_deg"),
+        ]
+    )[TURN]
+    assert [r["label"] for r in turn["rows"]] == ["sharp_turn", "random"]
+    assert turn["rows"][0]["normalised"] == pytest.approx(1.0) and turn["rows"][1]["normalised"] == 0.0
+
+
+def test_overlapping_intervals_are_reported_not_normalised():
+    docs = [
+        _doc(WALL, "random", [0.1, 0.2, 0.3, 0.4], "perimeter_fraction"),
+        _doc(WALL, "wall_follower", [0.2, 0.3, 0.4, 0.5], "perimeter_fraction"),
+    ]
+    table = leaderboard_tables(docs)[WALL]
+    assert not table["discriminative"] and all(r["normalised"] is None for r in table["rows"])
+    text = leaderboard_markdown(docs)
+    assert "**Not discriminative**" in text and "| wall_follower | 0.35 [0.2, 0.5] | not discriminative |" in text
+
+
+def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeypatch, capsys):
+    """An environment that takes layouts= is evaluated on "default" (no keyword: today's episodes) and "test"."""
+    calls = []
+
+    def fake_evaluate(env_id, policy, episodes, seed, env_kwargs=None, on_episode=None):
+        calls.append((policy, env_kwargs))
+        held_out = (env_kwargs or {}).get("layouts") == "test"
+        values = [0.0] * episodes if policy == "random" else [0.5 if held_out else 1.0] * episodes
+        return _doc(env_id, policy, values, "success", "test" if held_out else "default",
+                    steps_to_goal=[30] * episodes)  # fmt: skip
+
+    monkeypatch.setattr(polyenvs.rollout, "takes_layouts", lambda env: True)
+    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", fake_evaluate)
+    (tmp_path / "agents").mkdir()
+    args = ["leaderboard", "--only", "Goal", "--episodes", "2", "--jobs", "1", "--agents-dir", str(tmp_path / "agents"),
+            "--results-dir", str(tmp_path / "results"), "--output", str(tmp_path / "LB.md")]  # fmt: skip
+    assert main(args) == 0
+    assert sorted(calls, key=str) == sorted(
+        [(p, kw) for p in ("random", "goal_seeker") for kw in (None, {"layouts": "test"})], key=str
+    )
+    assert result_path(tmp_path / "results", GOAL, "goal_seeker", "test").name.endswith("__layouts-test.json")
+    text = (tmp_path / "LB.md").read_text()
+    assert "| goal_seeker | 1 [1, 1] | 1.00 | 10.00 [10.00, 10.00] | 0.5 [0.5, 0.5] | 0.5 |" in text
+    calls.clear()
+    assert main(args) == 0 and calls == []  # both layouts' files are reused
+    assert "done before" in capsys.readouterr().err
+
+
+def test_environments_without_layouts_are_named_once_and_skipped(tmp_path, capsys, monkeypatch):
+    """A row whose environment does not take layouts= (a user's, or a new one) is evaluated on its default alone."""
+    monkeypatch.setattr(polyenvs.rollout, "takes_layouts", lambda env: False)
+    args = ["leaderboard", "--only", "Goal", "--episodes", "1", "--jobs", "1", "--agents-dir", str(tmp_path),
+            "--results-dir", str(tmp_path / "results"), "--output", str(tmp_path / "LB.md")]  # fmt: skip
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "held-out layouts left out (the environment takes no layouts= keyword yet): polyenvs/BuckybotGoal-v0" in err
+    assert not list((tmp_path / "results").glob("*layouts*"))
+
+
+def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
+    pytest.importorskip("matplotlib")
+    rng = np.random.default_rng(0)
+    docs = [
+        _doc(WALL, "random", list(rng.uniform(0.0, 0.2, 8)), "perimeter_fraction"),
+        _doc(WALL, "wall_follower", list(rng.uniform(0.6, 0.9, 8)), "perimeter_fraction"),
+        _doc(WALL, "wall_follower", list(rng.uniform(0.3, 0.5, 8)), "perimeter_fraction", "test"),
+    ]
+    text = write_leaderboard(docs, tmp_path / "LB.md")
+    for name in ("LB_polyenvs__BuckybotWallFollow-v0.png", "LB_profile.png"):
+        assert f"]({name})" in text and (tmp_path / name).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+def test_without_matplotlib_the_table_is_written_and_says_why(tmp_path, monkeypatch):
+    monkeypatch.setattr(charts, "available", lambda: False)
+    said = []
+    write_leaderboard(
+        [_doc(WALL, "random", [0.1, 0.2], "perimeter_fraction")], tmp_path / "LB.md", progress=said.append
+    )
+    assert (tmp_path / "LB.md").is_file() and not list(tmp_path.glob("*.png"))
+    assert said == [f"charts left out: they need matplotlib: {charts.INSTALL_HINT}"]
+
+
+@pytest.mark.slow
+def test_a_process_pool_gives_the_serial_results(tmp_path, capsys):
+    """The main job's --jobs: the same result files as one by one (apart from the date), a line per evaluation."""
+    files = {}
+    for jobs in ("1", "2"):
+        out = tmp_path / jobs
+        args = ["leaderboard", "--only", "Goal", "--episodes", "2", "--jobs", jobs, "--agents-dir", str(tmp_path),
+                "--results-dir", str(out), "--output", str(out / "LB.md")]  # fmt: skip
+        assert main(args) == 0
+        err = capsys.readouterr().err
+        assert "goal_seeker: 2 episodes in" in err and "random: 2 episodes in" in err
+        files[jobs] = {p.name: json.loads(p.read_text()) for p in sorted(out.glob("*.json"))}
+        for doc in files[jobs].values():
+            doc.pop("date")
+    assert files["1"] == files["2"] and {"polyenvs__BuckybotGoal-v0__random.json"} <= set(files["1"])
+
+
+def test_the_committed_reference_is_read_with_its_scores():
+    """Reading the committed results needs no re-evaluation: every row with results gets a table."""
+    from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
+
+    root = Path(polyenvs.leaderboard.__file__).resolve().parents[1]
+    docs = polyenvs.leaderboard.stored_results([r.id for r in REGISTRY], root / REFERENCE_RESULTS_DIR, lambda _: None)
+    assert {d["env_id"] for d in docs} <= {r.id for r in REGISTRY}
+    assert all(t["score"] is not None for t in leaderboard_tables(docs).values())
+
+
+def _formation_episode(policy: str, steps: int = 200) -> dict:
+    from baselines import make_policy
+    from polyenvs.rollout import agent_spaces, run_episode
+
+    env = make_env("polyenvs.swarm.formation_v0", {"max_cycles": steps})
+    try:
+        if policy == "still":
+            zero = np.zeros((len(env.possible_agents), 2), dtype=np.float32)
+
+            class Still:
+                def predict(self, obs, state=None, episode_start=None, deterministic=True):
+                    return zero[: len(obs)], None
+
+            agent = Still()
+        else:
+            agent = make_policy(policy, "polyenvs.swarm.formation_v0", *agent_spaces(env))
+        return run_episode(env, agent, 1000)["metrics"]
+    finally:
+        env.close()
+
+
+def test_formation_progress_counts_only_progress_in_formation(monkeypatch):
+    """The formation's score: standing still keeps the lattice and scores 0; the paper's springs score the
+    centroid's progress, which counts for nothing once the formation no longer holds."""
+    import polyenvs.swarm.formation_v0 as formation
+
+    assert _formation_episode("still")["formation_progress_m"] == 0.0
+    held = _formation_episode("formation")
+    assert held["formation_progress_m"] > 2.0, held  # 20 s at up to 0.5 m/s, in formation
+    monkeypatch.setattr(formation, "FORMATION_HOLDS_ERROR", -1.0)  # a formation that never holds
+    assert _formation_episode("formation")["formation_progress_m"] == 0.0
+
+
+def test_the_goal_tie_break_counts_the_steps_to_the_goal():
+    from baselines import make_policy
+    from polyenvs.rollout import agent_spaces, run_episode
+
+    env = make_env(GOAL)
+    result = run_episode(env, make_policy("paper", GOAL, *agent_spaces(env)), 1000)
+    env.close()
+    assert result["metrics"]["success"] == 1.0 and result["metrics"]["steps_to_goal"] == result["length"]
