@@ -61,14 +61,18 @@ def interval_plot(env_id: str, table: dict):
                 continue
             axes.barh(y + offset, stats["high"] - stats["low"], left=stats["low"], height=0.26, color=colour,
                       alpha=alpha)  # fmt: skip
-            axes.vlines(stats["iqm"], y + offset - 0.13, y + offset + 0.13, color="black", linewidth=2)
+            axes.vlines(stats["value"], y + offset - 0.13, y + offset + 0.13, color="black", linewidth=2)
     ends = [v for r in rows for stats in (r["score"], r["held_out"]) if stats for v in (stats["low"], stats["high"])]
     if ends:  # padded by hand: bars stick to their edges, so an IQM at the ceiling would sit on the frame
         pad = 0.04 * (max(ends) - min(ends)) or 0.05 * max(abs(max(ends)), 1.0)
         axes.set_xlim(min(ends) - pad, max(ends) + pad)
     axes.set_yticks(range(len(rows)), [r["label"] for r in reversed(rows)])
     score = table["score"]
-    axes.set_xlabel(f"{score.metric} (IQM, 95% CI)" if score is not None else "task score")
+    axes.set_xlabel(
+        f"{score.metric} ({score.aggregate.upper() if score.aggregate == 'iqm' else 'mean'}, 95% CI)"
+        if score is not None
+        else "task score"
+    )
     held_out = any(r["held_out"] is not None for r in rows)
     subtitle = "upper bar: default layouts; lower, lighter: held-out layouts" if held_out else "default layouts"
     axes.set_title(f"{env_id}\n{subtitle}", fontsize=10)
@@ -86,8 +90,8 @@ def _normalised_groups(tables: dict[str, dict]) -> dict[str, list[np.ndarray]]:
         if not table["discriminative"]:
             continue
         anchor_kind = "anchor" if table["score"].upper_anchor else "paper"
-        rand = next(r["score"]["iqm"] for r in rows if r["kind"] == "random")
-        anchor = next(r["score"]["iqm"] for r in rows if r["kind"] == anchor_kind)
+        rand = next(r["score"]["value"] for r in rows if r["kind"] == "random")
+        anchor = next(r["score"]["value"] for r in rows if r["kind"] == anchor_kind)
         for row in rows:
             name = {"random": "random", "paper": "paper's algorithm"}.get(row["kind"], row["label"])
             if row["kind"] in ("random", "paper", "agent"):

@@ -42,7 +42,7 @@ from polyenvs.errors import InputError
 from polyenvs.evaluation import evaluate
 from polyenvs.files import write_json_atomic, write_text_atomic
 from polyenvs.registry import bare_id, entry, slug
-from polyenvs.statistics import iqm_with_stratified_ci
+from polyenvs.statistics import iqm_with_stratified_ci, mean_with_stratified_ci
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
@@ -554,12 +554,14 @@ def _score_groups(docs: list[dict], metric: str | None) -> list[np.ndarray] | No
     return groups if all(np.isfinite(g).all() for g in groups) else None
 
 
-def _interval(groups: list[np.ndarray] | None) -> dict | None:
-    """``{"iqm", "low", "high", "mean"}`` over ``groups`` (stratified bootstrap), or None without values."""
+def _interval(groups: list[np.ndarray] | None, score) -> dict | None:
+    """``{"value", "low", "high", "mean"}`` over ``groups``: the score's aggregate (IQM or mean) and its stratified
+    bootstrap interval, or None without values."""
     if groups is None:
         return None
-    iqm, low, high = iqm_with_stratified_ci(groups)
-    return {"iqm": iqm, "low": low, "high": high, "mean": float(np.mean(np.concatenate(groups)))}
+    aggregate = mean_with_stratified_ci if score.aggregate == "mean" else iqm_with_stratified_ci
+    value, low, high = aggregate(groups)
+    return {"value": value, "low": low, "high": high, "mean": float(np.mean(np.concatenate(groups)))}
 
 
 def _kind(label: str, agent: bool, env_id: str, score) -> str:
@@ -593,8 +595,8 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
         "low": low,
         "high": high,
         "score_runs": _score_groups(docs, metric),
-        "score": _interval(_score_groups(docs, metric)),
-        "held_out": _interval(_score_groups(held_out, metric)) if held_out else None,
+        "score": _interval(_score_groups(docs, metric), score),
+        "held_out": _interval(_score_groups(held_out, metric), score) if held_out else None,
         "tie": metrics.get(score.tie_break) if score is not None and score.tie_break else None,
         "metrics": metrics,
         "n_timesteps": float(np.mean(timesteps)) if timesteps else None,
@@ -618,8 +620,8 @@ def _normalise(rows: list[dict], score) -> bool:
         s, h = row["score"], row["held_out"]
         row["normalised"] = None
         if discriminative and s is not None:
-            row["normalised"] = (s["iqm"] - rand["iqm"]) / (anchor["iqm"] - rand["iqm"])
-        row["gap"] = score.sign * (s["iqm"] - h["iqm"]) if s is not None and h is not None else None
+            row["normalised"] = (s["value"] - rand["value"]) / (anchor["value"] - rand["value"])
+        row["gap"] = score.sign * (s["value"] - h["value"]) if s is not None and h is not None else None
     return discriminative
 
 
@@ -629,9 +631,9 @@ def _rank_key(row: dict, score) -> tuple:
     s = row["score"]
     if score is None or s is None:
         return (1, 0.0, 0.0)
-    at_ceiling = score.ceiling is not None and s["iqm"] == score.ceiling
+    at_ceiling = score.ceiling is not None and s["value"] == score.ceiling
     tie = score.tie_sign * row["tie"] if at_ceiling and row["tie"] is not None else 0.0
-    return (0, -score.sign * s["iqm"], -tie)
+    return (0, -score.sign * s["value"], -tie)
 
 
 def leaderboard_tables(documents: list[dict]) -> dict[str, dict]:
@@ -687,7 +689,7 @@ def _format_timesteps(n: float | None) -> str:
 
 
 def _format_interval(stats: dict | None) -> str:
-    return "-" if stats is None else f"{stats['iqm']:.3g} [{stats['low']:.3g}, {stats['high']:.3g}]"
+    return "-" if stats is None else f"{stats['value']:.3g} [{stats['low']:.3g}, {stats['high']:.3g}]"
 
 
 def _score_line(env_id: str, table: dict) -> str:
@@ -696,7 +698,8 @@ def _score_line(env_id: str, table: dict) -> str:
         return "No task score is declared for this environment: rows keep table order."
     words = "higher" if score.direction == "max" else "lower"
     best = "ceiling" if score.direction == "max" else "floor"
-    line = f"Task score: `{score.metric}` ({words} is better"
+    how = "mean over episodes" if score.aggregate == "mean" else "IQM over episodes"
+    line = f"Task score: `{score.metric}`, its {how} ({words} is better"
     line += f", {best} {score.ceiling:g}" if score.ceiling is not None else ""
     if score.tie_break:
         tie_words = "higher" if score.tie_direction == "max" else "lower"
@@ -713,7 +716,7 @@ def _score_line(env_id: str, table: dict) -> str:
 
 def _headline_table(table: dict) -> list[str]:
     lines = [
-        "| policy | score IQM [95% CI] | normalised | return IQM [95% CI] | held-out score IQM [95% CI] | gap |",
+        "| policy | score [95% CI] | normalised | return IQM [95% CI] | held-out score [95% CI] | gap |",
         "|---|---|---|---|---|---|",
     ]
     for r in table["rows"]:

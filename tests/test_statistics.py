@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pytest
 
-from polyenvs.statistics import interquartile_mean, iqm_with_stratified_ci, performance_profile
+from polyenvs.statistics import interquartile_mean, iqm_with_stratified_ci, mean_with_stratified_ci, performance_profile
 
 REPS = 2000
 
@@ -61,3 +61,17 @@ def test_performance_profile_matches_rliable(rliable):
     np.testing.assert_allclose(curve, profiles["x"], atol=1e-12)
     np.testing.assert_allclose(low, bands["x"][0], atol=0.05)
     np.testing.assert_allclose(high, bands["x"][1], atol=0.05)
+
+
+def test_a_success_rate_aggregates_as_its_mean_with_a_stratified_interval():
+    """A proportion's aggregate is its mean: 38 successes in 50 episodes are 0.76 (their IQM would be 1), and the
+    interval is the mean's percentile bootstrap, resampled within each run."""
+    runs = [np.r_[np.ones(13), np.zeros(4)], np.r_[np.ones(12), np.zeros(5)], np.r_[np.ones(13), np.zeros(3)]]
+    assert interquartile_mean(np.concatenate(runs)) == 1.0
+    mean, low, high = mean_with_stratified_ci(runs)
+    assert mean == pytest.approx(38 / 50)
+    assert 0.6 < low < mean < high < 0.9
+    # By hand: the same resamples' means.
+    rng = np.random.default_rng(0)
+    means = np.concatenate([np.sort(r)[rng.integers(0, r.size, (2000, r.size))] for r in runs], axis=1).mean(axis=1)
+    assert (low, high) == pytest.approx((np.quantile(means, 0.025), np.quantile(means, 0.975)))

@@ -222,3 +222,13 @@ def test_the_goal_tie_break_counts_the_steps_to_the_goal():
     result = run_episode(env, make_policy("paper", GOAL, *agent_spaces(env)), 1000)
     env.close()
     assert result["metrics"]["success"] == 1.0 and result["metrics"]["steps_to_goal"] == result["length"]
+
+
+def test_success_scores_rank_by_their_rate_not_its_iqm():
+    """Every success score aggregates as its mean (an IQM of 0/1 episodes is 1 at a 76% success rate, which would
+    tie a policy that fails a quarter of its episodes with one that never fails), and the table uses it."""
+    successes = [row for row in REGISTRY if row.score is not None and "success" in row.score.metric]
+    assert successes and all(row.score.aggregate == "mean" for row in successes)
+    runs = [np.r_[np.ones(38), np.zeros(12)]]
+    stats = polyenvs.leaderboard._interval(runs, successes[0].score)
+    assert stats["value"] == pytest.approx(0.76) and stats["high"] < 1.0

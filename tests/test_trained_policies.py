@@ -636,7 +636,7 @@ def test_normalised_score_and_rows_for_synthetic_agents():
     assert [r["label"] for r in rows] == ["ppo", "wall_follower", "random"]  # ranked by the task score
     ppo = rows[0]
     assert ppo["iqm"] == pytest.approx(25.0)  # the return's IQM, shown beside the score
-    assert ppo["score"]["iqm"] == pytest.approx(0.8) and ppo["normalised"] == pytest.approx(2.0)
+    assert ppo["score"]["value"] == pytest.approx(0.8) and ppo["normalised"] == pytest.approx(2.0)
     assert ppo["n_timesteps"] == 1.5e6 and ppo["seeds"] == [0, 1] and ppo["episodes"] == 8
     text = polyenvs.leaderboard.leaderboard_markdown(documents)
     assert "| ppo | 0.8 [0.8, 0.8] | 2.00 | 25.00 [25.00, 25.00] | - | - |" in text  # resampled within each run
