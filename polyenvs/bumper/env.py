@@ -197,7 +197,10 @@ class BumperCartExploreEnv(RowsEnv):
     ## Version History
     * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
       wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
-      leaderboard's episodes (50 seeds, the paper map) are unchanged by it.
+      leaderboard's episodes (50 seeds, the paper map) are unchanged by it. Added since without changing a
+      default episode: turns must be real numbers (complex, boolean and string actions raise), the parameters
+      declared once with range and source (2026-12-01), ``layouts=`` (held-out training and test rooms,
+      2026-12-02).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
