@@ -42,7 +42,7 @@ CANONICAL_END = (1 << 0) | (1 << 3) | (1 << 1)
 _SHARED = """
     ## Action Space
     ``Box(-1, 1, (n_joints,), float32)``, n_joints = 3 x limbs (12 for the 4-beast), ordered limb-major: joint k of
-    limb i (1-based) is index 3(i - 1) + (k - 1), the MuJoCo joint and actuator ``limb{{i}}_joint{{k}}``. With
+    limb i (1-based) is index 3(i - 1) + (k - 1), the MuJoCo joint and actuator ``limb{i}_joint{k}``. With
     ``control="position"`` (default) an action is a joint position target scaled linearly to the joint's range,
     target = low + (a + 1)/2 (high - low), tracked by a servo of kp 300 N m/rad limited to +-6 N m; ranges (deg)
     theta1 [-180, 180], theta2 [-120, 160], theta3 [-150, 150]. With ``control="torque"`` an action is a torque,
