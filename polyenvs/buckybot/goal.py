@@ -138,7 +138,7 @@ class BuckybotGoalEnv(BuckybotEnv):
     {layouts}
     | goal_radius_cm | 15.0 | success radius (a lattice step is 9.13 cm), in [5, 50]; the plan must have room for a goal this size |
     | goal_distance_cm | (100.0, 400.0) | range of start-to-goal distances, 0 <= min <= max <= 5000 |
-    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, num_rows | | as BuckybotWallFollow-v0 |
+    | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, window_scale, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
     * v0: initial version (2026-11-22). Changed in place before any release, each time with the reference

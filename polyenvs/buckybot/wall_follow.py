@@ -198,6 +198,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed, in [1, 100] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.

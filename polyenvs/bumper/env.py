@@ -27,6 +27,7 @@ from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
+from polyenvs.core.window import check_window_scale
 
 __all__ = ["OBSERVATION_STRUCTURE", "BumperCartExploreEnv", "LocalizationContext"]
 
@@ -190,6 +191,7 @@ class BumperCartExploreEnv(RowsEnv):
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
@@ -218,6 +220,7 @@ class BumperCartExploreEnv(RowsEnv):
         layouts: str = "default",
         cell_cm: float = 5.0,
         render_mode: str | None = None,
+        window_scale: float = 1.0,
         num_rows: int = 1,
         **cart,
     ):
@@ -234,6 +237,7 @@ class BumperCartExploreEnv(RowsEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
+        self.window_scale = check_window_scale(window_scale)
 
         n = self._batch_size
         self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
@@ -338,7 +342,7 @@ class BumperCartExploreEnv(RowsEnv):
         from polyenvs.bumper.rendering import BumperRenderer
 
         bounds = self.world.bounds if self.layouts == "default" else LAYOUT_ROOM_BOUNDS
-        return BumperRenderer(self.render_mode, self.metadata["render_fps"], bounds)
+        return BumperRenderer(self.render_mode, self.metadata["render_fps"], bounds, self.window_scale)
 
     def localization_context(self) -> LocalizationContext:
         """The map and the cart's nominal geometry, for estimators run on this environment's logs."""

@@ -114,6 +114,7 @@ class CorridorEnv(SwarmEnv):
     | ``terminate_on_collision`` | False | a contact ends that robot's episode |
     | ``flat_info`` | False | episode metrics as keys ``episode_<metric>`` of every info, not a nested dict (TorchRL) |
     | ``render_mode`` | None | "rgb_array" or "human" |
+    | ``window_scale`` | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
 
     ## Version History
     - v0: initial version (2026-11-30; in the registry 2026-12-01). Added since without changing a default
