@@ -142,6 +142,10 @@ def stored_documents(results_dir: Path) -> list[dict]:
     return documents
 
 
+#: Row order of a page's leaderboard, as the leaderboard's own table: random, the paper's, other baselines, agents.
+_KIND_ORDER = {"random": 0, "paper": 1, "baseline": 2, "agent": 3}
+
+
 def leaderboard_section(rows: list[dict] | None) -> list[str]:
     lines = ["## Leaderboard", ""]
     if not rows:
@@ -159,7 +163,7 @@ def leaderboard_section(rows: list[dict] | None) -> list[str]:
         "| policy | kind | episodes | IQM [95% CI] | normalised | " + " | ".join(metrics) + " |",
         "|" + " --- |" * (5 + len(metrics)),
     ]
-    for r in rows:
+    for r in sorted(rows, key=lambda r: _KIND_ORDER.get(r["kind"], len(_KIND_ORDER))):
         cells = [
             f"`{r['label']}`",
             r["kind"],
@@ -192,8 +196,8 @@ def record(row, cache: Path) -> Path | None:
 
 def env_page(row, rows: list[dict] | None, gif_name: str | None) -> str:
     doc = docstring_markdown(env_docstring(row))
-    summary, _, body = doc.partition("\n")
-    lines = [f"# `{row.id}`", "", summary.strip(), ""]
+    summary, _, body = doc.partition("\n\n")  # the first paragraph, however many lines it wraps over
+    lines = [f"# `{row.id}`", "", " ".join(summary.split()), ""]
     if gif_name:
         lines += [
             f"![The paper's policy ({row.paper}) on {row.id}]({gif_name})",
