@@ -11,8 +11,12 @@ from __future__ import annotations
 
 import inspect
 import os
+from typing import TYPE_CHECKING
 
 from baselines.base import Policy, RandomPolicy
+
+if TYPE_CHECKING:  # a trained model is a policy too, but loading one needs polyenvs[train]
+    from baselines.trained import TrainedPolicy
 
 __all__ = ["Policy", "RandomPolicy", "available_policies", "make_policy", "paper_policy"]
 
@@ -39,7 +43,9 @@ def available_policies(env_id: str) -> list[str]:
     return names + (["paper"] if row is not None and row.paper else [])
 
 
-def make_policy(name: str, env_id: str, observation_space, action_space, seed: int | None = None, **kwargs) -> Policy:
+def make_policy(
+    name: str, env_id: str, observation_space, action_space, seed: int | None = None, **kwargs
+) -> Policy | TrainedPolicy:
     """Build policy ``name`` for ``env_id``; raises ``ValueError`` naming the choices for an unknown name.
 
     ``name`` may also be a trained model's path (a training directory or a ``.zip``): see
@@ -55,9 +61,10 @@ def make_policy(name: str, env_id: str, observation_space, action_space, seed: i
         if is_model_path(name):
             return load_trained_policy(name, env_id, observation_space, action_space, **kwargs)
     if name == "paper":
-        name = paper_policy(env_id)
-        if name is None:
+        paper = paper_policy(env_id)
+        if paper is None:
             raise ValueError(f"{env_id} has no paper baseline; choose from {available_policies(env_id)}")
+        name = paper
     if name == "random":
         if kwargs:
             raise ValueError(f"policy 'random' takes no parameters, got {sorted(kwargs)}")

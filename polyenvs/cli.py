@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from polyenvs import __version__
 from polyenvs.commands import evaluate, leaderboard, localize, record, sweep, train
 from polyenvs.commands import list as list_command
 from polyenvs.commands.flags import CliError
@@ -34,6 +35,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="polyenvs", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"polyenvs {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)

@@ -27,11 +27,12 @@ def check_count(name: str, value, minimum: int, maximum: int | None = None) -> i
     For values given in Python; the command line's flags go through :func:`int_flag`."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, Integral):
         raise InputError(f"{name} must be an integer, got {value!r}")
+    value = int(value)  # a numpy integer as a Python one (exact: it is Integral)
     if value < minimum:
         raise InputError(f"{name} must be >= {minimum}, got {value}")
     if maximum is not None and value > maximum:
         raise InputError(f"{name} must be <= {maximum}, got {value}")
-    return int(value)
+    return value
 
 
 def shown(text) -> str:

@@ -41,7 +41,7 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     env_kwargs = dict(env_kwargs or {})
     steps = env_kwargs.get("max_episode_steps")
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, Integral)
-                              or not 1 <= steps <= MAX_EPISODE_STEPS):  # fmt: skip
+                              or not 1 <= int(steps) <= MAX_EPISODE_STEPS):  # fmt: skip
         raise InputError(
             f"bad environment keyword arguments for {env_id}: max_episode_steps must be an integer from 1 to "
             f"{MAX_EPISODE_STEPS}, got {shown(repr(steps))}"
@@ -54,10 +54,10 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         from polyenvs.registry import entry
 
         try:
-            extra = entry(env_id).extra
+            needed_extra = entry(env_id).extra
         except KeyError:  # a user's own environment
-            extra = None
-        hint = f'pip install "polyenvs[{extra}]"' if extra else "see the README's Install section"
+            needed_extra = None
+        hint = f'pip install "polyenvs[{needed_extra}]"' if needed_extra else "see the README's Install section"
         raise InputError(f"{env_id} needs the package {exc.name!r}, which is not installed: {hint}") from exc
     except (TypeError, ValueError, gym.error.Error) as exc:
         if not env_kwargs:

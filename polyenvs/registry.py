@@ -411,7 +411,7 @@ ALL_IDS: list[str] = [row.id for row in REGISTRY]
 def register_all() -> None:
     """Register every Gymnasium id (idempotent: re-importing does not warn about overrides)."""
     for row in REGISTRY:
-        if row.kind == "gymnasium" and row.id not in gym.registry:
+        if isinstance(row, EnvEntry) and row.id not in gym.registry:
             gym.register(
                 id=row.id,
                 entry_point=row.entry_point,

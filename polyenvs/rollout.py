@@ -25,13 +25,13 @@ from __future__ import annotations
 import functools
 import importlib
 import inspect
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from polyenvs.registry import bare_id, entry
+from polyenvs.registry import ParallelEnvEntry, bare_id, entry
 
 __all__ = [
     "UnknownEnvironment",
@@ -93,7 +93,7 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         return gym.make(env_id, **kwargs)
     module = _parallel_module(env_id)
     try:
-        row = entry(env_id)
+        row = cast(ParallelEnvEntry, entry(env_id))  # a module path names a PettingZoo row
     except KeyError:  # a user's own module: its own defaults
         return module.parallel_env(**kwargs)
     return module.parallel_env(**{"max_cycles": row.max_cycles, **row.kwargs, **kwargs})

@@ -83,3 +83,16 @@ def test_the_installed_leaderboard_says_it_found_no_agents_and_why(installed, tm
         "polyenvs repository's benchmarks/agents/, which an installed package does not include: run from a "
         "checkout or pass --agents-dir DIR)" in done.stderr.splitlines()
     ), done.stderr
+
+
+def test_the_installed_package_has_one_version_and_ships_its_type_hints(installed, tmp_path):
+    """``polyenvs --version``, ``polyenvs.__version__`` and the distribution's metadata agree (pyproject reads the
+    constant), and ``py.typed`` travels with both packages so type checkers read their hints (PEP 561)."""
+    import polyenvs
+
+    done = _run(installed, tmp_path, "-m", "polyenvs.cli", "--version")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"polyenvs {polyenvs.__version__}"
+    metadata = next(installed.glob("polyenvs-*.dist-info")) / "METADATA"
+    assert f"Version: {polyenvs.__version__}" in metadata.read_text().splitlines()
+    assert (installed / "polyenvs" / "py.typed").is_file() and (installed / "baselines" / "py.typed").is_file()

@@ -42,7 +42,7 @@ CANONICAL_END = (1 << 0) | (1 << 3) | (1 << 1)
 _SHARED = """
     ## Action Space
     ``Box(-1, 1, (n_joints,), float32)``, n_joints = 3 x limbs (12 for the 4-beast), ordered limb-major: joint k of
-    limb i (1-based) is index 3(i - 1) + (k - 1), the MuJoCo joint and actuator ``limb{{i}}_joint{{k}}``. With
+    limb i (1-based) is index 3(i - 1) + (k - 1), the MuJoCo joint and actuator ``limb{i}_joint{k}``. With
     ``control="position"`` (default) an action is a joint position target scaled linearly to the joint's range,
     target = low + (a + 1)/2 (high - low), tracked by a servo of kp 300 N m/rad limited to +-6 N m; ranges (deg)
     theta1 [-180, 180], theta2 [-120, 160], theta3 [-150, 150]. With ``control="torque"`` an action is a torque,
@@ -88,6 +88,11 @@ _V0_HISTORY = """    - v0: first version (MuJoCo 4.0). Since 2026-12 a drawn sta
       leaderboard was regenerated with it, a version bump was not warranted for a last-bit change). Its servos
       and foot switches are ideal: under Gaussian action noise of sd 0.003 (half a degree of joint-1 target) at
       100 Hz the feet chatter, the switches flip thousands of times an episode and the paper's gait stalls.
+      Changed in place on 2026-12-01, with the reference leaderboard re-evaluated: a tumble counts only when it
+      ends in a stance on the feet (a trained agent had "succeeded" by flopping onto its body), and BeastTurn-v0
+      gives joint 1 a range of +-250 degrees and has the commanded turn (cos, sin) in its observation (Box(54)).
+      Added on 2026-12-02 without changing a default episode: ``layouts=`` (held-out friction, mass, servo gain
+      and damping).
 """
 _V1_HISTORY = """    - v1: the robot's contact model by default (``RobotContactParams``): each servo stops within
       ``servo_deadband_deg`` = 0.25 of its target, where the worm drive holds the joint, and each foot switch

@@ -53,6 +53,7 @@ from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
+from polyenvs.core.window import check_window_scale
 
 __all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
 
@@ -214,6 +215,7 @@ class BuckybotEnv(RowsEnv):
         heading_sd_deg: float = BuckybotParams.heading_sd_deg,
         body_radius_cm: float = BuckybotParams.body_radius_cm,
         render_mode: str | None = None,
+        window_scale: float = 1.0,
         num_rows: int = 1,
     ):
         self._use_rows(num_rows)
@@ -235,6 +237,7 @@ class BuckybotEnv(RowsEnv):
         if self.floor_plan is not None:
             self._check_plan(self.floor_plan, "floor_plan")
         self.render_mode = render_mode
+        self.window_scale = check_window_scale(window_scale)
 
         n = self._batch_size
         self.sim = BuckybotSimulator(n, self.tip_model, self.range_noise_scale, self.body_radius_cm)
@@ -350,7 +353,7 @@ class BuckybotEnv(RowsEnv):
     def _make_renderer(self):
         from polyenvs.buckybot.rendering import BuckybotRenderer
 
-        return BuckybotRenderer(self.render_mode, self.metadata["render_fps"], self.view_bounds)
+        return BuckybotRenderer(self.render_mode, self.metadata["render_fps"], self.view_bounds, self.window_scale)
 
     def action_masks(self) -> np.ndarray:
         """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""

@@ -11,7 +11,7 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
-from polyenvs.core.raster import Canvas
+from polyenvs.core.raster import Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
@@ -40,8 +40,8 @@ class BuckybotRenderer(FrameRenderer):
 
     caption = "polyenvs Buckybot"
 
-    def __init__(self, render_mode: str, fps: int, view_bounds):
-        super().__init__(render_mode, fps)
+    def __init__(self, render_mode: str, fps: int, view_bounds, window_scale: float = 1.0):
+        super().__init__(render_mode, fps, window_scale)
         self.view_bounds = tuple(float(v) for v in view_bounds)
 
     def frame(self, env) -> np.ndarray:
@@ -91,4 +91,6 @@ class BuckybotRenderer(FrameRenderer):
         canvas.lines(pos + 7.5 * unit, pos + env.body_radius_cm * unit, [TIP, BODY_EDGE, BODY_EDGE], 2.0)
         label_at = pos + 1.6 * env.body_radius_cm * np.array([1.0, 1.0])  # beside the body: it is too small
         canvas.text(label_at, str(face + 1), TIP, scale=2)
-        return canvas.image
+        key = [("true path", TRUE_PATH), ("dead reckoned", DEAD_RECKONED_PATH), ("echo", BEAM_VALID),
+               ("too close", BEAM_TOO_CLOSE), ("no return", BEAM_NONE)]  # fmt: skip
+        return with_legend(canvas.image, key + ([("goal", GOAL)] if goal is not None else []))

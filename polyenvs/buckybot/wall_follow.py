@@ -206,12 +206,18 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     | follow_tolerance_cm | 20.0 | \\|d - d*\\| within which the wall counts as followed, in [1, 100] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version (2026-11-22). Changed in place before any release, each time with the reference
+      leaderboard regenerated: per-row random streams (2026-11-30) and the resets' draws from one uniform call
+      each (start cell and point, heading, face, goal cell; 2026-11-30) give other episodes for the same seed.
+      Added since without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both
+      autoreset modes 2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=``
+      (held-out training and test layouts, 2026-12-02).
     """
 
     reward_names = REWARD_TERMS

@@ -31,6 +31,7 @@ from polyenvs.core.parameters import documents_arguments
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
+from polyenvs.core.window import check_window_scale
 
 __all__ = ["LOG_SIZE", "OBSERVATION_STRUCTURE", "BumperCartEnv", "BumperCartExploreEnv", "LocalizationContext"]
 
@@ -190,7 +191,7 @@ class BumperCartEnv(RowsEnv):
     layout_split = LAYOUT_SPLIT
 
     def __init__(self, *, map=default_map, layouts: str = "default", render_mode: str | None = None,
-                 num_rows: int = 1, **cart):  # fmt: skip
+                 window_scale: float = 1.0, num_rows: int = 1, **cart):  # fmt: skip
         self._use_rows(num_rows)
         unknown = sorted(set(cart) - set(C.CART_PARAMETER_RANGES))
         if unknown:  # Python's own wording, which tools probe for (TorchRL's GymEnv tries frameskip=)
@@ -203,6 +204,7 @@ class BumperCartEnv(RowsEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
+        self.window_scale = check_window_scale(window_scale)
 
         n = self._batch_size
         self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
@@ -310,7 +312,7 @@ class BumperCartEnv(RowsEnv):
     def _make_renderer(self):
         from polyenvs.bumper.rendering import BumperRenderer
 
-        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.map_bounds)
+        return BumperRenderer(self.render_mode, self.metadata["render_fps"], self.map_bounds, self.window_scale)
 
     def localization_context(self) -> LocalizationContext:
         """The map (row 0's) and the cart's nominal geometry, for estimators run on this environment's logs."""
@@ -544,6 +546,7 @@ class BumperCartExploreEnv(BumperCartEnv):
     | cell_cm | 5.0 | wall cell length for the touch reward, in [1, 50] |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
@@ -551,7 +554,11 @@ class BumperCartExploreEnv(BumperCartEnv):
     ## Version History
     * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
       wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
-      leaderboard's episodes (50 seeds, the paper map) are unchanged by it.
+      leaderboard's episodes (50 seeds, the paper map) are unchanged by it. Added since without changing a
+      default episode: turns must be real numbers (complex, boolean and string actions raise), the parameters
+      declared once with range and source (2026-12-01), ``layouts=`` (held-out training and test rooms,
+      2026-12-02), ``window_scale=`` (2026-12-02); BumperCartExplore-v1 (a 50-cycle budget) is its successor for
+      ranking.
     """
 
     reward_names = REWARD_TERMS

@@ -109,6 +109,7 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     | cell_cm | 5.0 | as BumperCartExplore-v0 |
     {arguments}
     | render_mode | None | "rgb_array" or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     With ``layouts="train"`` or ``"test"`` every episode's room has its own bound (``env.coverage_bound``: row 0's).

@@ -256,6 +256,7 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     {task_arguments}
     {arguments}
     | render_mode | None | "rgb_array" (particles grey, the estimate blue) or "human" |
+    | window_scale | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     With ``layouts="train"`` or ``"test"`` each episode draws its room (as BumperCartExplore-v0) and the cart knows

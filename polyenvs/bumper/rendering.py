@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from polyenvs.bumper import cart as C
-from polyenvs.core.raster import Canvas
+from polyenvs.core.raster import Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_belief", "draw_touched_cells"]
@@ -70,8 +70,8 @@ class BumperRenderer(FrameRenderer):
 
     caption = "polyenvs bumper cart"
 
-    def __init__(self, render_mode: str, fps: int, bounds):
-        super().__init__(render_mode, fps)
+    def __init__(self, render_mode: str, fps: int, bounds, window_scale: float = 1.0):
+        super().__init__(render_mode, fps, window_scale)
         x0, y0, x1, y1 = bounds
         pad = 0.05 * max(x1 - x0, y1 - y0)
         self.view_bounds = (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
@@ -93,4 +93,10 @@ class BumperRenderer(FrameRenderer):
         outline = body_outline((state[C.X], state[C.Y], state[C.HEADING]), env.model)
         canvas.polygon(outline, BODY, outline=BUMPER)
         canvas.lines(outline[0:1], outline[1:2], BUMPER, width_px=3.0)
-        return canvas.image
+        key = [
+            ("true path", TRUE_PATH),
+            ("dead reckoned", DEAD_RECKONED_PATH),
+            ("bump", BUMP),
+            ("wall touched", TOUCHED),
+        ]
+        return with_legend(canvas.image, key)

@@ -24,7 +24,7 @@ import numpy as np
 
 from polyenvs.core.validation import check_finite, check_positive
 
-__all__ = ["Canvas", "png_bytes", "stamp_text", "text_width"]
+__all__ = ["Canvas", "png_bytes", "stamp_text", "text_width", "with_legend"]
 
 # Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
 # bounds-checked pixel by pixel. Grown on demand for very wide strokes.
@@ -398,6 +398,27 @@ class Canvas:
         # [r, c]: crossings with covered > c, modulo 256 (only the parity matters).
         right_of = np.cumsum(histogram[:, :0:-1], axis=1, dtype=np.uint8)[:, ::-1]
         self._cells[r0:r1, c0:c1][(right_of & 1).view(bool)] = fill.view("V3")[0]
+
+
+def with_legend(image: np.ndarray, entries, scale: int = 2) -> np.ndarray:
+    """``image`` with a key below it: for each ``(label, color)`` a swatch of the colour and its label (the 3x5
+    font, capitals), left to right and wrapping, on white. Below, not over the frame, so it hides nothing; the same
+    entries give the same height, so an instance's frames keep one size."""
+    height, width, _ = image.shape
+    pad, swatch, gap, row = 2 * scale, 4 * scale + 2, 2 * scale, 5 * scale + 2 * scale
+    spots, x, y = [], pad, pad
+    for label, color in entries:
+        item = swatch + gap + text_width(str(label), scale) + 3 * gap
+        if x > pad and x + item > width:
+            x, y = pad, y + row
+        spots.append((x, y, str(label), _as_colors("color", color)))
+        x += item
+    strip = np.full((y + row + pad - 2 * scale, width, 3), 255, dtype=np.uint8)
+    strip[0] = 200  # a rule between the frame and its key
+    for left, top, label, color in spots:
+        strip[top : top + 5 * scale, left : min(left + swatch, width)] = color
+        stamp_text(strip, left + swatch + gap, top, label, (40, 40, 40), scale)
+    return np.concatenate([image, strip], axis=0)
 
 
 def png_bytes(image: np.ndarray) -> bytes:

@@ -8,15 +8,27 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FrameRenderer", "FrameWindow"]
+from polyenvs.core.validation import check_in_range
+
+__all__ = ["FrameRenderer", "FrameWindow", "WINDOW_SCALE_RANGE", "check_window_scale"]
+
+#: ``window_scale`` bounds: a quarter of a 480-pixel frame is still legible, eight times fills a 4K screen.
+WINDOW_SCALE_RANGE = (0.25, 8.0)
+
+
+def check_window_scale(value) -> float:
+    """``window_scale`` as a float in :data:`WINDOW_SCALE_RANGE`; ``ValueError`` naming it otherwise."""
+    return check_in_range("window_scale", value, *WINDOW_SCALE_RANGE)
 
 
 class FrameWindow:
-    """A pygame window titled ``caption`` showing frames at most ``fps`` times per second."""
+    """A pygame window titled ``caption`` showing frames at most ``fps`` times per second, each scaled by
+    ``scale`` (the window is the frame's size times ``scale``)."""
 
-    def __init__(self, caption: str, fps: float):
+    def __init__(self, caption: str, fps: float, scale: float = 1.0):
         self.caption = caption
         self.fps = fps
+        self.scale = check_window_scale(scale)
         self._surface = None
         self._clock = None
 
@@ -28,13 +40,17 @@ class FrameWindow:
             from gymnasium.error import DependencyNotInstalled
 
             raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
+        size = (max(1, round(frame.shape[1] * self.scale)), max(1, round(frame.shape[0] * self.scale)))
         if self._surface is None:
             pygame.init()
             pygame.display.init()
-            self._surface = pygame.display.set_mode((frame.shape[1], frame.shape[0]))
+            self._surface = pygame.display.set_mode(size)
             pygame.display.set_caption(self.caption)
             self._clock = pygame.time.Clock()
-        self._surface.blit(pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2))), (0, 0))
+        image = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+        if size != image.get_size():
+            image = pygame.transform.smoothscale(image, size)
+        self._surface.blit(image, (0, 0))
         pygame.event.pump()
         pygame.display.flip()
         self._clock.tick(self.fps)
@@ -55,10 +71,10 @@ class FrameRenderer:
 
     caption = "polyenvs"
 
-    def __init__(self, render_mode: str, fps: float):
+    def __init__(self, render_mode: str, fps: float, window_scale: float = 1.0):
         self.render_mode = render_mode
         self.fps = fps
-        self._window = FrameWindow(self.caption, fps)
+        self._window = FrameWindow(self.caption, fps, window_scale)
 
     def frame(self, env) -> np.ndarray:
         raise NotImplementedError

@@ -34,6 +34,7 @@ from polyenvs.core.validation import (
     real_array,
     show,
 )
+from polyenvs.core.window import check_window_scale
 from polyenvs.swarm.batch import (
     BEAM_M,
     LIGHT_REFERENCE_M,
@@ -189,6 +190,7 @@ class SwarmEnv(ParallelEnv):
         terminate_on_collision: bool = False,
         flat_info: bool = False,
         render_mode: str | None = None,
+        window_scale: float = 1.0,
     ):
         self.layouts = check_layouts(layouts)
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
@@ -206,6 +208,7 @@ class SwarmEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
+        self.window_scale = check_window_scale(window_scale)
         # One frame per control step.
         self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.control_period_s))}
         radius = self.platform.radius_m
@@ -431,7 +434,9 @@ class SwarmEnv(ParallelEnv):
         from polyenvs.swarm.rendering import SwarmRenderer
 
         if self._renderer is None:
-            self._renderer = SwarmRenderer(self.render_mode, self.metadata["render_fps"], self.layout.bounds)
+            self._renderer = SwarmRenderer(
+                self.render_mode, self.metadata["render_fps"], self.layout.bounds, self.window_scale
+            )
         return self._renderer.render(self)
 
     def close(self):

@@ -8,13 +8,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from polyenvs.core.raster import Canvas
+from polyenvs.core.raster import Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 from polyenvs.swarm.batch import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
 
 FRAME_WIDTH_PX = 480
+#: Robots are drawn at least this many pixels in radius: to scale, a Maxelbot on the obstacle field is 2-3 px
+#: wide at 480 px, too small to see or to tell from an obstacle.
+MIN_ROBOT_RADIUS_PX = 6.0
 WALL = (30, 30, 30)
 OBSTACLE = (120, 120, 120)
 LIGHT = (250, 200, 0)
@@ -32,8 +35,8 @@ class SwarmRenderer(FrameRenderer):
 
     caption = "polyenvs swarm"
 
-    def __init__(self, render_mode: str, fps: int, bounds):
-        super().__init__(render_mode, fps)
+    def __init__(self, render_mode: str, fps: int, bounds, window_scale: float = 1.0):
+        super().__init__(render_mode, fps, window_scale)
         self.bounds = tuple(float(v) for v in bounds)
 
     def frame(self, env) -> np.ndarray:
@@ -47,6 +50,7 @@ class SwarmRenderer(FrameRenderer):
         live = np.flatnonzero(env.active)
         pose = env.pose
         radius = env.platform.radius_m
+        drawn = max(radius, MIN_ROBOT_RADIUS_PX / canvas.scale)
         if getattr(env, "pairs", None) is not None:
             i, j = env.pairs[:, 0], env.pairs[:, 1]
             keep = (env.active[i] > 0) & (env.active[j] > 0)
@@ -61,8 +65,12 @@ class SwarmRenderer(FrameRenderer):
             canvas.lines(start.reshape(-1, 2), (start + length * unit).reshape(-1, 2), colours, width_px=1.0)
         leader = getattr(env, "leader", None)  # a task whose robot broadcasts names it
         for i in live.tolist():
-            canvas.disc(pose[i, :2], radius, LEADER if i == leader else BODY)
+            canvas.disc(pose[i, :2], drawn, LEADER if i == leader else BODY)
         if len(live):
-            tip = pose[live, :2] + radius * np.column_stack([np.cos(pose[live, 2]), np.sin(pose[live, 2])])
+            tip = pose[live, :2] + drawn * np.column_stack([np.cos(pose[live, 2]), np.sin(pose[live, 2])])
             canvas.lines(pose[live, :2], tip, HEADING, width_px=2.0)
-        return canvas.image
+        key = [("robot", BODY)] + ([("leader", LEADER)] if leader is not None else [])
+        key += [("ir echo", BEAM_HIT), ("light", LIGHT), ("obstacle", OBSTACLE)]
+        if getattr(env, "pairs", None) is not None:
+            key.append(("formation link", LINK))
+        return with_legend(canvas.image, key)
