@@ -48,6 +48,7 @@ __all__ = [
     "DEFAULT_AGENTS_DIR",
     "agents_line",
     "default_agents_dirs",
+    "environment_section",
     "EVAL_SEED",
     "PROTOCOL_EPISODES",
     "Agent",
@@ -789,7 +790,8 @@ def leaderboard_markdown(
         f"{each} on seeds {EVAL_SEED}, {EVAL_SEED + 1}, ... (the same for every policy), deterministic actions, on "
         'the default layouts and on the held-out ones (`layouts="test"`, which no training run sees). Rows are '
         "ranked by each environment's task score (the episode metric that is its paper's task, declared on its "
-        "registry row): its interquartile mean (IQM) with a 95% stratified bootstrap interval, normalised so that "
+        "registry row): its interquartile mean (IQM; the mean for a success rate) with a 95% stratified bootstrap "
+        "interval, normalised so that "
         "random = 0 and the paper's algorithm (or a stated upper anchor) = 1, unless their intervals overlap "
         '("not discriminative"). The return\'s IQM is shown beside it. The gap is the default score minus the '
         "held-out one, in the score's units, positive where the held-out layouts are worse. A trained algorithm's "
@@ -805,11 +807,18 @@ def leaderboard_markdown(
     if profile:
         lines += [f"![Performance profile of the normalised task scores over the environments]({profile})", ""]
     for env_id, table in leaderboard_tables(documents).items():
-        lines += [f"## {env_id}", "", _score_line(env_id, table), ""]
-        if plots and env_id in plots:
-            lines += [f"![IQM and 95% interval of the task score per policy on {env_id}]({plots[env_id]})", ""]
-        lines += [*_headline_table(table), "", *_details_table(env_id, table["rows"]), ""]
+        lines += [f"## {env_id}", "", *environment_section(env_id, table, (plots or {}).get(env_id))]
     return "\n".join(lines)
+
+
+def environment_section(env_id: str, table: dict, plot: str | None = None) -> list[str]:
+    """One environment's part of the leaderboard (a table of :func:`leaderboard_tables`), as Markdown lines: the
+    score's line, the link to its interval plot (``plot``, a path relative to the page), the headline table and
+    the collapsed details."""
+    lines = [_score_line(env_id, table), ""]
+    if plot:
+        lines += [f"![The task score and its 95% interval per policy on {env_id}]({plot})", ""]
+    return [*lines, *_headline_table(table), "", *_details_table(env_id, table["rows"]), ""]
 
 
 def profile_path(table: Path) -> Path:

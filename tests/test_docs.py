@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import importlib
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-from polyenvs.registry import REGISTRY, slug
+from polyenvs.registry import REGISTRY, Score, slug
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "docs" / "_ext"))
@@ -20,9 +19,9 @@ pages = importlib.import_module("polyenvs_pages")
 
 @pytest.fixture(scope="module")
 def tables():
-    from polyenvs.leaderboard import leaderboard_rows
+    from polyenvs.leaderboard import leaderboard_tables
 
-    return leaderboard_rows(pages.stored_documents(ROOT / "benchmarks" / "results"))
+    return leaderboard_tables(pages.stored_documents(ROOT / "benchmarks" / "results"))
 
 
 @pytest.mark.parametrize("row", REGISTRY, ids=lambda row: row.id)
@@ -36,8 +35,8 @@ def test_every_row_has_a_page_with_its_docstring_paper_and_leaderboard(row, tabl
         assert section in page, f"{row.id}: the page lacks {section}"
     assert f"../papers/{pages.PAPERS[row.family][0]}.md" in page
     assert ":class:`" not in page and ":mod:`" not in page  # reST roles are written as MyST roles
-    if row.id in tables:  # the committed results' rows, the paper's policy among them
-        assert f"| `{row.paper}` | paper |" in page
+    if row.id in tables:  # the committed results' ranked rows, the paper's policy among them
+        assert f"| {row.paper} |" in page and "Task score: `" in page
 
 
 def test_the_index_links_every_page_once():
@@ -46,16 +45,11 @@ def test_the_index_links_every_page_once():
         assert index.count(f"]({slug(row.id)}.md)") == 1
 
 
-def test_a_task_score_is_shown_whatever_its_shape():
-    @dataclass(frozen=True)
-    class Score:
-        metric: str
-        direction: str
-        ceiling: float | None = None
-
-    assert pages._score_text(None).startswith("not declared")
-    assert pages._score_text(Score("success", "max", 1.0)) == "metric `success`, direction `max`, ceiling `1.0`"
-    assert pages._score_text({"metric": "coverage", "direction": "max"}) == "metric `coverage`, direction `max`"
+def test_the_task_score_is_shown_with_the_fields_it_sets():
+    score = Score("success", "max", ceiling=1.0, aggregate="mean")
+    text = pages._score_text(score)
+    assert text.startswith("metric `success`, direction `max`, ceiling `1.0`") and "aggregate `mean`" in text
+    assert "upper_anchor" not in text  # unset
 
 
 def test_every_family_has_a_paper_page_and_a_recording_plan():

@@ -3,7 +3,7 @@
 Each page is made from what the code already holds, so no text is copied into ``docs/``: the row of
 :data:`polyenvs.registry.REGISTRY` (its kind, episode limit, baselines, extra and, once rows carry one, its task
 score), the environment class's Gymnasium-style docstring (its ``##`` sections are Markdown already), the
-leaderboard rows computed by :func:`polyenvs.leaderboard.leaderboard_rows` from the committed result files in
+leaderboard section written by :func:`polyenvs.leaderboard.environment_section` from the committed result files in
 ``benchmarks/results/``, and a GIF of the paper's policy recorded by ``polyenvs record`` at build time.
 
 Recordings are cached in ``<build>/recordings/`` under a name that includes their recording arguments, so a
@@ -80,15 +80,8 @@ def env_docstring(row) -> str:
 
 
 def _score_text(score) -> str:
-    """The row's task score, whatever its shape: a dataclass's fields, a mapping, or its text."""
-    if score is None:
-        return "not declared on the registry row yet"
-    if hasattr(score, "__dataclass_fields__"):
-        fields = {name: getattr(score, name) for name in score.__dataclass_fields__}
-    elif isinstance(score, dict):
-        fields = dict(score)
-    else:
-        return f"`{score}`"
+    """The row's task score (:class:`polyenvs.registry.Score`): its fields that are set."""
+    fields = {name: getattr(score, name) for name in score.__dataclass_fields__}
     return ", ".join(f"{name} `{value}`" for name, value in fields.items() if value is not None)
 
 
@@ -114,7 +107,7 @@ def facts_table(row) -> list[str]:
         f"| episode limit | {limit} |",
         f'| install | `pip install "polyenvs[{row.extra}]"` |' if row.extra else "| install | `pip install polyenvs` |",
         f"| hand baselines | {', '.join(names) or '-'} |",
-        f"| task score | {_score_text(getattr(row, 'score', None))} |",
+        f"| task score | {_score_text(row.score)} |",
         f"| paper | [{citation}](../papers/{paper_page}.md) |" if paper_page else "| paper | - |",
     ]
     estimators = getattr(row, "estimators", ())
@@ -142,38 +135,24 @@ def stored_documents(results_dir: Path) -> list[dict]:
     return documents
 
 
-#: Row order of a page's leaderboard, as the leaderboard's own table: random, the paper's, other baselines, agents.
-_KIND_ORDER = {"random": 0, "paper": 1, "baseline": 2, "agent": 3}
+def leaderboard_section(env_id: str, table: dict | None) -> list[str]:
+    """The environment's part of the leaderboard, as ``polyenvs leaderboard`` writes it (ranked by the task score,
+    normalised where the paper's algorithm is clear of random, the held-out layouts beside)."""
+    from polyenvs.leaderboard import environment_section
 
-
-def leaderboard_section(rows: list[dict] | None) -> list[str]:
     lines = ["## Leaderboard", ""]
-    if not rows:
+    if table is None:
         return lines + [
             "No committed results yet (`polyenvs leaderboard --only <name>` evaluates it; see "
             "[the protocol](../guides/leaderboard.md)).",
             "",
         ]
-    metrics = sorted(set().union(*(r["metrics"].keys() for r in rows)) - {"return", "length"})
-    lines += [
+    return lines + [
         "From the committed reference results (`benchmarks/results/`), as `polyenvs leaderboard` computes them "
-        "([the protocol](../guides/leaderboard.md)): IQM of the return with its 95% bootstrap interval, the "
-        "normalised score (0 random, 1 the paper's algorithm) and the mean task metrics.",
+        "([the protocol](../guides/leaderboard.md)).",
         "",
-        "| policy | kind | episodes | IQM [95% CI] | normalised | " + " | ".join(metrics) + " |",
-        "|" + " --- |" * (5 + len(metrics)),
+        *environment_section(env_id, table),
     ]
-    for r in sorted(rows, key=lambda r: _KIND_ORDER.get(r["kind"], len(_KIND_ORDER))):
-        cells = [
-            f"`{r['label']}`",
-            r["kind"],
-            str(r["episodes"]),
-            f"{r['iqm']:.2f} [{r['low']:.2f}, {r['high']:.2f}]",
-            f"{r['normalised']:.2f}",
-            *(f"{r['metrics'][m]:.3g}" if m in r["metrics"] else "-" for m in metrics),
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
-    return lines + [""]
 
 
 def record(row, cache: Path) -> Path | None:
@@ -194,7 +173,7 @@ def record(row, cache: Path) -> Path | None:
     return gif
 
 
-def env_page(row, rows: list[dict] | None, gif_name: str | None) -> str:
+def env_page(row, table: dict | None, gif_name: str | None) -> str:
     doc = docstring_markdown(env_docstring(row))
     summary, _, body = doc.partition("\n\n")  # the first paragraph, however many lines it wraps over
     lines = [f"# `{row.id}`", "", " ".join(summary.split()), ""]
@@ -206,7 +185,7 @@ def env_page(row, rows: list[dict] | None, gif_name: str | None) -> str:
             f"`{shlex.join(['polyenvs', 'record', row.id, '--policy', 'paper', *recording_arguments(row)])}`.*",
             "",
         ]
-    lines += [*facts_table(row), "", body.strip(), "", *leaderboard_section(rows)]
+    lines += [*facts_table(row), "", body.strip(), "", *leaderboard_section(row.id, table)]
     return "\n".join(lines)
 
 
@@ -235,13 +214,13 @@ def _write_if_changed(path: Path, text: str) -> None:
 
 
 def generate(app) -> None:
-    from polyenvs.leaderboard import leaderboard_rows
+    from polyenvs.leaderboard import leaderboard_tables
 
     root = Path(app.srcdir).parent
     out = Path(app.srcdir) / "environments"
     out.mkdir(exist_ok=True)
     cache = Path(app.outdir).parent / "recordings"
-    tables = leaderboard_rows(stored_documents(root / "benchmarks" / "results"))
+    tables = leaderboard_tables(stored_documents(root / "benchmarks" / "results"))
     for row in REGISTRY:
         gif = record(row, cache)
         gif_name = None
