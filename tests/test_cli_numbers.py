@@ -39,6 +39,7 @@ INT_FLAGS = [
     (["evaluate", GOAL], "--episodes", 1, MAX_EPISODES),
     (["evaluate", GOAL], "--seed", 0, MAX_SEED),
     (["leaderboard"], "--episodes", 1, MAX_EPISODES),
+    (["leaderboard"], "--jobs", 1, MAX_JOBS),
     (["record", GOAL], "--seed", 0, MAX_SEED),
     (["record", GOAL], "--max-steps", 1, MAX_STEPS),
     (["record", GOAL], "--every", 1, MAX_STEPS),
