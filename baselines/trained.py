@@ -35,6 +35,7 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines.algorithms import ALGOS
+from polyenvs.pool import single_threaded_torch
 from polyenvs.registry import bare_id
 
 __all__ = [
@@ -185,6 +186,10 @@ def _check_archive(model_file: Path) -> None:
 def _load_model(model_file: Path, algo: str | None):
     """``(model, algo)``: with ``algo`` that class only; without, the saved policy's algorithm first, then the rest."""
     _check_archive(model_file)
+    # One torch thread, whatever the machine: with more, batched inference sums in another order, an action's last
+    # bits change and a chaotic episode diverges (the formation's PPO agents did, 1 against 2 threads); so a result
+    # would depend on the core count.
+    single_threaded_torch()
     if algo is not None:
         order = [algo]
     else:

@@ -16,7 +16,8 @@ __all__ = ["run_local", "single_threaded_torch"]
 
 
 def single_threaded_torch() -> None:
-    """One torch thread in this process (if torch is installed): parallel workers must not each take every core."""
+    """One torch thread in this process (if torch is installed): parallel workers must not each take every core, and
+    a trained policy's actions must not depend on the machine's core count (see ``baselines.trained``)."""
     try:
         import torch
     except ImportError:  # the environments and the hand baselines need no torch

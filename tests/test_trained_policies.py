@@ -155,6 +155,18 @@ def test_predict_normalises_observations_without_updating_the_statistics(ppo_run
     env.close()
 
 
+def test_a_trained_policy_acts_with_one_torch_thread_whatever_the_machine(ppo_run):
+    """More torch threads sum a batched forward pass in another order: the committed formation agents' returns
+    changed in the 7th digit between 1 and 2 threads and then diverged. Loading a model pins torch to one thread."""
+    import torch
+
+    torch.set_num_threads(2)
+    env = gym.make(WALL)
+    make_policy(str(ppo_run), WALL, env.observation_space, env.action_space)
+    env.close()
+    assert torch.get_num_threads() == 1
+
+
 def test_trained_policy_works_with_sb3_evaluate_policy(ppo_run):
     from stable_baselines3.common.evaluation import evaluate_policy
     from stable_baselines3.common.monitor import Monitor
