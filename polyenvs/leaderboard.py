@@ -435,12 +435,8 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
     """Every evaluation of the leaderboard, with the stored document of those done before (unless ``redo``)."""
     plan: list[_Evaluation] = []
     envs: dict = {}
-    default_only = []
     try:
         for env_id in env_ids:
-            layouts = _layouts_of(env_id, envs)
-            if layouts == ("default",):
-                default_only.append(env_id)
             entries: list[tuple[str, str, Agent | None]] = [(p, p, None) for p in leaderboard_policies(env_id)]
             entries += [(a.path, a.key, a) for a in agents[env_id]]
             for policy, key, agent in entries:
@@ -451,7 +447,7 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
                         f"{env_id} {name}: trained {agent.run.get('timesteps')} of "
                         f"{agent.run.get('requested_timesteps')} requested timesteps (interrupted); included as it is"
                     )
-                for layout in layouts:
+                for layout in LAYOUTS:  # every row takes layouts= (tests/test_layouts.py)
                     item = _Evaluation(
                         env_id, policy, name, result_path(results_dir, env_id, key, layout), layout, agent
                     )
@@ -465,22 +461,7 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
     finally:
         for env in envs.values():
             env.close()
-    if default_only:  # said once every check passed, as the other notes before the evaluations
-        progress(
-            f"held-out layouts left out (the environment takes no layouts= keyword yet): {', '.join(default_only)}"
-        )
     return plan
-
-
-def _layouts_of(env_id: str, envs: dict) -> tuple[str, ...]:
-    """:data:`LAYOUTS` where the environment takes ``layouts=``, else the default alone."""
-    from polyenvs.evaluation import make_env
-    from polyenvs.rollout import takes_layouts
-
-    if env_id not in envs:
-        with old_versions_quietly():
-            envs[env_id] = make_env(env_id)
-    return LAYOUTS if takes_layouts(envs[env_id]) else ("default",)
 
 
 def _evaluate_one(job: tuple[int, str, str, int, dict]) -> tuple[dict, float]:

@@ -43,7 +43,6 @@ __all__ = [
     "policy_action",
     "run_episode",
     "takes_action_masks",
-    "takes_layouts",
 ]
 
 
@@ -122,23 +121,6 @@ def takes_action_masks(agent) -> bool:
     if function is None:
         return _signature_takes_action_masks.__wrapped__(predict)
     return _signature_takes_action_masks(function)
-
-
-def takes_layouts(env) -> bool:
-    """Whether ``env``'s class (or one it derives from) takes the ``layouts=`` constructor keyword ("default",
-    "train", "test": the held-out layouts), read from the constructors' signatures, not by trying it."""
-    for cls in type(getattr(env, "unwrapped", env)).__mro__:
-        init = cls.__dict__.get("__init__")
-        if init is not None and "layouts" in _signature_names(init):
-            return True
-    return False
-
-
-def _signature_names(function) -> tuple[str, ...]:
-    try:
-        return tuple(inspect.signature(function).parameters)
-    except (TypeError, ValueError):  # builtins without a signature
-        return ()
 
 
 def policy_action(agent, obs, state, episode_start, info: dict, deterministic: bool = True):

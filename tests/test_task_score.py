@@ -93,7 +93,7 @@ def test_overlapping_intervals_are_reported_not_normalised():
 
 
 def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeypatch, capsys):
-    """An environment that takes layouts= is evaluated on "default" (no keyword: today's episodes) and "test"."""
+    """Every environment is evaluated on "default" (no keyword: today's episodes) and "test"."""
     calls = []
 
     def fake_evaluate(env_id, policy, episodes, seed, env_kwargs=None, on_episode=None):
@@ -103,7 +103,6 @@ def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeyp
         return _doc(env_id, policy, values, "success", "test" if held_out else "default",
                     steps_to_goal=[30] * episodes)  # fmt: skip
 
-    monkeypatch.setattr(polyenvs.rollout, "takes_layouts", lambda env: True)
     monkeypatch.setattr(polyenvs.leaderboard, "evaluate", fake_evaluate)
     (tmp_path / "agents").mkdir()
     args = ["leaderboard", "--only", "Goal", "--episodes", "2", "--jobs", "1", "--agents-dir", str(tmp_path / "agents"),
@@ -118,17 +117,6 @@ def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeyp
     calls.clear()
     assert main(args) == 0 and calls == []  # both layouts' files are reused
     assert "done before" in capsys.readouterr().err
-
-
-def test_environments_without_layouts_are_named_once_and_skipped(tmp_path, capsys, monkeypatch):
-    """A row whose environment does not take layouts= (a user's, or a new one) is evaluated on its default alone."""
-    monkeypatch.setattr(polyenvs.rollout, "takes_layouts", lambda env: False)
-    args = ["leaderboard", "--only", "Goal", "--episodes", "1", "--jobs", "1", "--agents-dir", str(tmp_path),
-            "--results-dir", str(tmp_path / "results"), "--output", str(tmp_path / "LB.md")]  # fmt: skip
-    assert main(args) == 0
-    err = capsys.readouterr().err
-    assert "held-out layouts left out (the environment takes no layouts= keyword yet): polyenvs/BuckybotGoal-v0" in err
-    assert not list((tmp_path / "results").glob("*layouts*"))
 
 
 def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
