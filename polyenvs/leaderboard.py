@@ -693,7 +693,20 @@ def _score_line(env_id: str, table: dict) -> str:
             f" **Not discriminative**: {anchor}'s interval overlaps random's (or one of them has no result), so no "
             "normalised score is given."
         )
+    successor = _superseded_by(env_id)
+    if successor is not None:
+        line += (
+            f" **Superseded** by `{successor}`, which the benchmark ranks on; this version stays registered "
+            "unchanged for the results made with it."
+        )
     return line
+
+
+def _superseded_by(env_id: str) -> str | None:
+    try:
+        return entry(env_id).superseded_by
+    except KeyError:  # a result of an environment no longer (or not yet) in the registry
+        return None
 
 
 def _headline_table(table: dict) -> list[str]:

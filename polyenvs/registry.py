@@ -118,6 +118,9 @@ class EnvEntry:
     extra: str | None = None
     #: The task score the leaderboard ranks and normalises by.
     score: Score | None = None
+    #: A newer version of this task that the benchmark ranks on (this row stays registered unchanged, as Gymnasium
+    #: keeps an id's old versions, for the results made with it; its own score need not tell policies apart).
+    superseded_by: str | None = None
 
 
 @dataclass(frozen=True)
@@ -138,6 +141,8 @@ class ParallelEnvEntry:
     extra: str | None = None
     #: As :attr:`EnvEntry.score`.
     score: Score | None = None
+    #: As :attr:`EnvEntry.superseded_by`.
+    superseded_by: str | None = None
 
 
 def _buckybot(name: str, cls: str, **kwargs) -> Baseline:
@@ -308,6 +313,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=(Baseline("random_bounce", "baselines.bumper:RandomBounce"),),
         paper="random_bounce",
         score=Score("wall_fraction_touched", "max", ceiling=1.0),
+        # Coverage saturates by 200 cycles: the paper's random bounce (random by design) 0.859 [0.849, 0.867]
+        # against random 0.843 [0.835, 0.850] over the leaderboard's seeds, and no policy has room above.
+        superseded_by="polyenvs/BumperCartExplore-v1",
         estimators=(
             Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
             Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),

@@ -92,6 +92,14 @@ def test_overlapping_intervals_are_reported_not_normalised():
     assert "**Not discriminative**" in text and "| wall_follower | 0.35 [0.2, 0.5] | not discriminative |" in text
 
 
+def test_a_superseded_version_says_which_version_the_benchmark_ranks_on():
+    old = "polyenvs/BumperCartExplore-v0"
+    docs = [_doc(old, p, [0.8, 0.85, 0.9], "wall_fraction_touched") for p in ("random", "random_bounce")]
+    text = leaderboard_markdown(docs)
+    assert "**Superseded** by `polyenvs/BumperCartExplore-v1`, which the benchmark ranks on" in text
+    assert "Superseded" not in leaderboard_markdown([_doc(WALL, "random", [0.1, 0.2], "perimeter_fraction")])
+
+
 def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeypatch, capsys):
     """Every environment is evaluated on "default" (no keyword: today's episodes) and "test"."""
     calls = []
