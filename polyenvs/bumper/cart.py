@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from polyenvs.bumper.odometry import TICK_CM, odometry_step
+from polyenvs.core.geometry2d import point_segment_distance_sq
 from polyenvs.core.jit import njit
 from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 
@@ -70,6 +71,9 @@ _BACKOFF_CM = 1e-6
 #: A point this close to a line (cm) is on it: rounding may have put it a hair past the line.
 _ON_LINE_CM = 1e-9
 _INF = math.inf
+#: Slack of the swept-region test that skips walls a motion cannot reach (cm): far above rounding, so a skipped wall
+#: is one that would never have been hit.
+_NEAR_MARGIN_CM = 1.0
 
 #: Tyres add this much to the wheel base for the cart's width (the feasibility study's 6.0 cm base, 7.4 cm wide).
 TYRE_WIDTH_CM = 1.4
@@ -207,12 +211,52 @@ def _crossing(point, w, theta, segment, outward):
 
 
 @njit(cache=True)
+def _walls_near(x, y, h, a, b, d, params, walls):
+    """Which real walls the body can reach while it moves by ``(a, b)`` from ``(x, y, h)``: every body point stays
+    within the body's reach of the axle, and the axle within a quarter of ``|s theta|`` of its path's chord (an
+    arc of at most 90 degrees lies within an eighth of it), so a wall farther than their sum (and a margin) from the
+    chord is never touched, by a corner or by one of its vertices."""
+    theta, s = (b - a) / d, 0.5 * (a + b)
+    x1, y1, _ = odometry_step(x, y, h, a, b, d)
+    reach = math.hypot(max(params[P_FRONT], params[P_REAR]), params[P_HALF])
+    reach += 0.25 * abs(s * theta) + _NEAR_MARGIN_CM
+    near = np.empty(walls.shape[0], np.bool_)
+    for k in range(walls.shape[0]):
+        near[k] = walls[k, 5] != 0.0 and _segments_within(
+            (x, y, x1, y1), (walls[k, 0], walls[k, 1], walls[k, 0] + walls[k, 2], walls[k, 1] + walls[k, 3]), reach
+        )
+    return near
+
+
+@njit(cache=True)
+def _segments_within(p, q, reach) -> bool:
+    """Whether segments ``p`` and ``q`` (end points ``(x0, y0, x1, y1)``) come within ``reach`` of each other."""
+    px, py, px1, py1 = p
+    qx, qy, qx1, qy1 = q
+    mx, my, ex, ey = px1 - px, py1 - py, qx1 - qx, qy1 - qy
+    d1 = ex * (py - qy) - ey * (px - qx)
+    d2 = ex * (py1 - qy) - ey * (px1 - qx)
+    d3 = mx * (qy - py) - my * (qx - px)
+    d4 = mx * (qy1 - py) - my * (qx1 - px)
+    if d1 * d2 <= 0.0 and d3 * d4 <= 0.0:
+        return True  # they cross (or touch, or lie on one line: never skipped)
+    r2 = reach * reach
+    return (
+        point_segment_distance_sq(px, py, q) <= r2
+        or point_segment_distance_sq(px1, py1, q) <= r2
+        or point_segment_distance_sq(qx, qy, p) <= r2
+        or point_segment_distance_sq(qx1, qy1, p) <= r2
+    )
+
+
+@njit(cache=True)
 def _first_contact(x, y, h, a, b, d, params, walls):
     """First contact of the body moving by wheel travels ``(a, b)`` on base ``d`` from ``(x, y, h)``:
     ``(t, segment, contact x, contact y)``; ``t = inf`` and segment -1 when the motion is free."""
     theta, s = (b - a) / d, 0.5 * (a + b)
     c, sn = math.cos(h), math.sin(h)
     front, half, rear = params[P_FRONT], params[P_HALF], params[P_REAR]
+    near = _walls_near(x, y, h, a, b, d, params, walls)
     best, seg, cx, cy = _INF, -1, 0.0, 0.0
     for i in range(4):  # body corners: front right, front left, rear left, rear right
         lx = front if i < 2 else -rear
@@ -220,7 +264,7 @@ def _first_contact(x, y, h, a, b, d, params, walls):
         px, py = x + lx * c - ly * sn, y + lx * sn + ly * c
         wx, wy = theta * (px - x) + s * sn, theta * (py - y) - s * c
         for k in range(walls.shape[0]):
-            if walls[k, 5] == 0.0:
+            if not near[k]:
                 continue
             wall = (walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3])
             t = _crossing((px, py), (wx, wy), theta, wall, walls[k, 5])  # column 5: free space's side
@@ -230,7 +274,7 @@ def _first_contact(x, y, h, a, b, d, params, walls):
                 ka = 0.0 if theta == 0.0 else (1.0 - math.cos(phi)) / theta
                 best, seg, cx, cy = t, k, px - sa * wy - ka * wx, py + sa * wx - ka * wy
     for k in range(walls.shape[0]):  # wall vertices (every polygon is closed: the starts are all of them)
-        if walls[k, 5] == 0.0:
+        if not near[k]:
             continue
         vx, vy = walls[k, 0], walls[k, 1]
         wx, wy = -theta * (vx - x) - s * sn, -theta * (vy - y) + s * c
