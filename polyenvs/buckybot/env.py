@@ -50,7 +50,7 @@ from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.layouts import check_layouts
-from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
+from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
 from polyenvs.core.window import check_window_scale
@@ -184,8 +184,19 @@ _ACTUATOR_TABLE = _object_table(_ACTUATOR_NAMES)
 _SENSOR_FACE_TABLE = _object_table(_SENSOR_FACES)
 
 
-class BuckybotEnv(RowsEnv):
+#: The Version History every Buckybot task shares (:class:`~polyenvs.core.parameters.SharedVersionHistory`).
+VERSION_HISTORY = """* v0: initial version (2026-11-22). Changed in place before any release, each time with the reference
+  leaderboard regenerated: per-row random streams (2026-11-30) and the resets' draws from one uniform call each
+  (start cell and point, heading, face, goal cell; 2026-11-30) give other episodes for the same seed. Added since
+  without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both autoreset modes
+  2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=`` (held-out training and
+  test layouts, 2026-12-02)."""
+
+
+class BuckybotEnv(SharedVersionHistory, RowsEnv):
     """Base class of the Buckybot lattice environments (see the task classes for the full documentation)."""
+
+    version_history = VERSION_HISTORY
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
     #: Extra observation entries appended by a task: name -> size.

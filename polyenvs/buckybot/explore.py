@@ -161,12 +161,7 @@ class BuckybotExploreEnv(BuckybotEnv):
     | noise_scale, range_noise_scale, step_*, heading_*, body_radius_cm, render_mode, window_scale, num_rows | | as BuckybotWallFollow-v0 |
 
     ## Version History
-    * v0: initial version (2026-11-22). Changed in place before any release, each time with the reference
-      leaderboard regenerated: per-row random streams (2026-11-30) and the resets' draws from one uniform call
-      each (start cell and point, heading, face, goal cell; 2026-11-30) give other episodes for the same seed.
-      Added since without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both
-      autoreset modes 2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=``
-      (held-out training and test layouts, 2026-12-02).
+    {version_history}
     """
 
     reward_names = REWARD_TERMS

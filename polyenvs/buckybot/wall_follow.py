@@ -212,12 +212,7 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     Out-of-range, non-finite, ``bool`` or ``str`` values raise ``ValueError`` naming the argument.
 
     ## Version History
-    * v0: initial version (2026-11-22). Changed in place before any release, each time with the reference
-      leaderboard regenerated: per-row random streams (2026-11-30) and the resets' draws from one uniform call
-      each (start cell and point, heading, face, goal cell; 2026-11-30) give other episodes for the same seed.
-      Added since without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both
-      autoreset modes 2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=``
-      (held-out training and test layouts, 2026-12-02).
+    {version_history}
     """
 
     reward_names = REWARD_TERMS

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from polyenvs.core.parameters import fill_placeholder
 from polyenvs.core.validation import check_choice
 
 __all__ = ["LAYOUTS", "LayoutSplit", "SplitParameter", "check_layouts", "documents_layouts"]
@@ -118,10 +119,7 @@ def documents_layouts(split: LayoutSplit):
     (with that line's indentation), and keep ``split`` as the class's ``layout_split``."""
 
     def decorate(cls):
-        doc = cls.__doc__
-        at = doc.index("{layouts}")
-        indent = doc[doc.rindex("\n", 0, at) + 1 : at]
-        cls.__doc__ = doc.replace("{layouts}", split.argument_row().replace("\n", "\n" + indent))
+        cls.__doc__ = fill_placeholder(cls.__doc__, "{layouts}", split.argument_row())
         cls.layout_split = split
         return cls
 

@@ -33,6 +33,8 @@ __all__ = [
     "check_parameters",
     "documented",
     "documents_arguments",
+    "fill_placeholder",
+    "SharedVersionHistory",
     "parameter",
     "parameter_ranges",
     "parameter_table",
@@ -73,7 +75,7 @@ def parameter_table(cls) -> str:
     return "\n".join(rows)
 
 
-def _fill(doc: str, placeholder: str, text: str) -> str:
+def fill_placeholder(doc: str, placeholder: str, text: str) -> str:
     """``doc`` with ``text`` at ``placeholder``, its later lines indented as the placeholder's line is."""
     at = doc.index(placeholder)
     indent = doc[doc.rindex("\n", 0, at) + 1 : at]
@@ -82,7 +84,7 @@ def _fill(doc: str, placeholder: str, text: str) -> str:
 
 def documented(cls):
     """Class decorator (outside ``@dataclass``): put :func:`parameter_table` where the docstring says ``{parameters}``."""
-    cls.__doc__ = _fill(cls.__doc__, "{parameters}", parameter_table(cls))
+    cls.__doc__ = fill_placeholder(cls.__doc__, "{parameters}", parameter_table(cls))
     return cls
 
 
@@ -91,7 +93,7 @@ def documents_arguments(parameters_cls):
     :func:`argument_rows` where its docstring's Arguments table says ``{arguments}``."""
 
     def decorate(cls):
-        cls.__doc__ = _fill(cls.__doc__, "{arguments}", argument_rows(parameters_cls, indent=""))
+        cls.__doc__ = fill_placeholder(cls.__doc__, "{arguments}", argument_rows(parameters_cls, indent=""))
         return cls
 
     return decorate
@@ -106,3 +108,15 @@ def argument_rows(cls, indent: str = "    ") -> str:
         unit = f" {f.metadata['unit']}" if f.metadata["unit"] else ""
         rows.append(f"{indent}| {f.name} | {f.default:g} | {f.metadata['source']}, in [{low:g}, {high:g}]{unit} |")
     return "\n".join(rows)
+
+
+class SharedVersionHistory:
+    """Mixin of a family base whose tasks share a Version History: a subclass's docstring gets the base's
+    ``version_history`` where it says ``{version_history}``."""
+
+    version_history: str = ""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__doc__ and "{version_history}" in cls.__doc__:
+            cls.__doc__ = fill_placeholder(cls.__doc__, "{version_history}", cls.version_history)

@@ -123,11 +123,7 @@ class CorridorEnv(SwarmEnv):
     | ``window_scale`` | 1.0 | with render_mode="human", the window shows each frame zoomed by this factor, in [0.25, 8]; rgb_array frames are unchanged |
 
     ## Version History
-    - v0: initial version (2026-11-30; in the registry 2026-12-01). Added since without changing a default
-      episode: ``render_fps`` that follows the control period (one frame per step), the input rules of the other
-      families (a step or render before the first reset raises ``ResetNeeded``, actions must be real numbers,
-      unknown reset options raise), ``flat_info=True`` for TorchRL (2026-12-01), every parameter declared once
-      with its range and source (2026-12-01), ``layouts=`` (held-out training and test layouts, 2026-12-02).
+    {version_history}
     """
 
     metadata = {**SwarmEnv.metadata, "name": "corridor_v0"}

@@ -24,7 +24,7 @@ from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from polyenvs.core.layouts import LayoutSplit, check_layouts
-from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
+from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.validation import (
     check_action,
     check_bool,
@@ -152,8 +152,18 @@ def _check_sensor_angles(sensor_angles_deg) -> tuple[float, ...]:
     return tuple(angles)
 
 
-class SwarmEnv(ParallelEnv):
+#: The Version History every swarm task shares (:class:`~polyenvs.core.parameters.SharedVersionHistory`).
+VERSION_HISTORY = """- v0: initial version (2026-11-30; in the registry 2026-12-01). Added since without changing a default
+  episode: ``render_fps`` that follows the control period (one frame per step), the input rules of the other
+  families (a step or render before the first reset raises ``ResetNeeded``, actions must be real numbers, unknown
+  reset options raise), ``flat_info=True`` for TorchRL (2026-12-01), every parameter declared once with its range
+  and source (2026-12-01), ``layouts=`` (held-out training and test layouts, 2026-12-02)."""
+
+
+class SwarmEnv(SharedVersionHistory, ParallelEnv):
     """Base class of the swarm tasks (see the task modules for the full documentation)."""
+
+    version_history = VERSION_HISTORY
 
     metadata = {"render_modes": ["rgb_array", "human"], "name": "swarm", "is_parallelizable": True, "render_fps": 10}
     default_platform = "maxelbot"
