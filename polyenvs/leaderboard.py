@@ -344,6 +344,7 @@ class _Evaluation:
     name: str  # how progress lines name it
     path: Path
     layouts: str
+    episodes: int
     agent: Agent | None = None
     doc: dict | None = None
 
@@ -366,9 +367,15 @@ def layouts_kwargs(layouts: str) -> dict:
     return {} if layouts == "default" else {"layouts": layouts}
 
 
+def protocol_episodes(env_id: str) -> int:
+    """Episodes per policy in the protocol for ``env_id``: its score's own count, else :data:`PROTOCOL_EPISODES`."""
+    score = entry(env_id).score
+    return score.episodes if score is not None and score.episodes is not None else PROTOCOL_EPISODES
+
+
 def run_leaderboard(
     env_ids: list[str],
-    episodes: int,
+    episodes: int | None,
     *,
     results_dir: Path,
     redo: bool = False,
@@ -380,7 +387,8 @@ def run_leaderboard(
     workers: int = 1,
 ) -> list[dict]:
     """Evaluate ``random``, every hand baseline and every trained agent on each environment, on the default layouts
-    and (where the environment takes ``layouts=``) the held-out ones; returns the documents.
+    and (where the environment takes ``layouts=``) the held-out ones; returns the documents. ``episodes`` per
+    policy, or ``None`` for the protocol's count of each environment (:func:`protocol_episodes`).
 
     Agents are the committed ones under ``agents_dir`` (see :func:`find_agents`) plus ``extra_agents`` (paths whose
     run.json names one of ``env_ids``); every agent that needs evaluating is loaded and checked against its
@@ -401,10 +409,10 @@ def run_leaderboard(
     plan = _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents)
     todo = [item for item in plan if item.doc is None]
     if on_plan is not None:
-        on_plan(episodes * len(todo))
+        on_plan(sum(item.episodes for item in todo))
 
     def finish(item: _Evaluation, doc: dict, seconds: float) -> None:
-        doc["n_episodes"] = episodes
+        doc["n_episodes"] = item.episodes
         if item.agent is not None:
             doc["agent"] = item.agent.meta()
         doc.update(provenance())
@@ -412,17 +420,18 @@ def run_leaderboard(
         item.doc = doc
         done = sum(i.doc is not None for i in todo)
         progress(
-            f"{item.title}: {episodes} episode{'s' if episodes != 1 else ''} in {seconds:.1f} s ({done}/{len(todo)})"
+            f"{item.title}: {item.episodes} episode{'s' if item.episodes != 1 else ''} in {seconds:.1f} s "
+            f"({done}/{len(todo)})"
         )
 
     if workers > 1 and len(todo) > 1:
-        _evaluate_in_pool(todo, episodes, workers, finish, on_episode)
+        _evaluate_in_pool(todo, workers, finish, on_episode)
     else:
         for item in todo:
             started = time.monotonic()
             kwargs = layouts_kwargs(item.layouts)
             with old_versions_quietly():
-                doc = evaluate(item.env_id, item.policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
+                doc = evaluate(item.env_id, item.policy, episodes=item.episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
                                on_episode=on_episode)  # fmt: skip
             finish(item, doc, time.monotonic() - started)
     for item in plan:
@@ -437,6 +446,7 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
     envs: dict = {}
     try:
         for env_id in env_ids:
+            count = episodes if episodes is not None else protocol_episodes(env_id)
             entries: list[tuple[str, str, Agent | None]] = [(p, p, None) for p in leaderboard_policies(env_id)]
             entries += [(a.path, a.key, a) for a in agents[env_id]]
             for policy, key, agent in entries:
@@ -448,11 +458,10 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
                         f"{agent.run.get('requested_timesteps')} requested timesteps (interrupted); included as it is"
                     )
                 for layout in LAYOUTS:  # every row takes layouts= (tests/test_layouts.py)
-                    item = _Evaluation(
-                        env_id, policy, name, result_path(results_dir, env_id, key, layout), layout, agent
-                    )
+                    path = result_path(results_dir, env_id, key, layout)
+                    item = _Evaluation(env_id, policy, name, path, layout, count, agent)
                     if not redo:
-                        item.doc, why = load_result(item.path, env_id, policy, episodes, sha256=sha, layouts=layout)
+                        item.doc, why = load_result(path, env_id, policy, count, sha256=sha, layouts=layout)
                         if item.doc is not None:
                             progress(f"{item.title}: done before ({item.path})")
                         elif why is not None:
@@ -474,10 +483,10 @@ def _evaluate_one(job: tuple[int, str, str, int, dict]) -> tuple[dict, float]:
     return doc, time.monotonic() - started
 
 
-def _evaluate_in_pool(todo: list[_Evaluation], episodes: int, workers: int, finish, on_episode) -> None:
+def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode) -> None:
     from polyenvs.pool import run_local
 
-    jobs = [(i, item.env_id, item.policy, episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
+    jobs = [(i, item.env_id, item.policy, item.episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
 
     def on_result(job, result) -> None:
         doc, seconds = result
@@ -758,6 +767,17 @@ def _details_table(env_id: str, rows: list[dict]) -> list[str]:
     return [*lines, "", "</details>"]
 
 
+def _episode_counts(documents: list[dict]) -> str:
+    """How many episodes each policy ran: the usual count, then the environments that ran another."""
+    per_env: dict[str, set[int]] = {}
+    for doc in documents:
+        per_env.setdefault(doc["env_id"], set()).add(int(doc["n_episodes"]))
+    counts = [n for ns in per_env.values() for n in ns]
+    usual = max(set(counts), key=counts.count) if counts else 0
+    others = [f"{'/'.join(map(str, sorted(ns)))} on {env_id}" for env_id, ns in per_env.items() if ns != {usual}]
+    return f"{usual}" + (f" ({'; '.join(others)})" if others else "")
+
+
 def leaderboard_markdown(
     documents: list[dict],
     quick: bool | None = None,
@@ -774,10 +794,7 @@ def leaderboard_markdown(
     counts = sorted({int(d["n_episodes"]) for d in documents})
     if quick is None:
         quick = any(n < PROTOCOL_EPISODES for n in counts)
-    if len(counts) <= 1:
-        each = f"Each policy (each training seed of a trained agent): {counts[0] if counts else 0} evaluation episodes"
-    else:
-        each = f"Each policy (each training seed of a trained agent): evaluation episodes differ ({', '.join(map(str, counts))})"
+    each = f"Each policy (each training seed of a trained agent): {_episode_counts(documents)} evaluation episodes"
     lines = [
         "# polyenvs leaderboard",
         "",

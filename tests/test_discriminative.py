@@ -27,24 +27,7 @@ def tables() -> dict[str, dict]:
     return leaderboard_tables(docs)
 
 
-#: Rows known not to pass yet (issue 16 stays open on them); strict, so the mark must go when a row passes.
-KNOWN_GAPS = {
-    "polyenvs/BumperCartLocalize-v0": "greedy_split 8.23 [7.19, 9.46] cycles against random 10.2 [8.35, 12.5] on the "
-    "leaderboard's seeds 1000-1049 (apart over 150 other seeds: 8.26 [7.64, 9.12] against 10.97 [9.96, 12.24]). "
-    "Planning on the env's own particles does no better than greedy_split (seeds 30-89: 9.8 [8.7, 11.7] against "
-    "9.13 [7.9, 10.7], random 10.7 [9.17, 12.8]); only a cheat that also knows the true pose gets clear, 7.03 [6.4, "
-    "7.67] (benchmarks/localize_headroom.py): most of an episode's length is the in-env filter's luck, so the task "
-    "may need a new version (or more episodes) rather than a new anchor",
-}
-
-
-def _marked(row):
-    if row.id in KNOWN_GAPS:
-        return pytest.param(row, id=row.id, marks=pytest.mark.xfail(strict=True, reason=KNOWN_GAPS[row.id]))
-    return pytest.param(row, id=row.id)
-
-
-@pytest.mark.parametrize("row", [_marked(row) for row in REGISTRY])
+@pytest.mark.parametrize("row", REGISTRY, ids=lambda row: row.id)
 def test_the_paper_beats_random_on_the_task_score(tables, row):
     if row.superseded_by is not None:  # ranked on its successor, which must itself be a row that is not superseded
         successor = {r.id: r for r in REGISTRY}.get(row.superseded_by)
