@@ -34,6 +34,7 @@ FLOORS: dict[str, int] = {
     "polyenvs.statistics": EVALUATION,
     "polyenvs.leaderboard": EVALUATION,
     "polyenvs.charts": EVALUATION,
+    "polyenvs.datasets": EVALUATION,
     "polyenvs.localization.runner": EVALUATION,
     "polyenvs.localization.report": EVALUATION,
     "polyenvs.training": TRAINING,

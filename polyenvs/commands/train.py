@@ -1,7 +1,8 @@
 """The ``polyenvs train`` subcommand.
 
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
-[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress]``
+[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--bc-from DATASET [--bc-epochs N]]
+[--progress/--no-progress]``
 
 Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
 command line prints as one line (exit 2).
@@ -79,9 +80,43 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help=f"save the model every this many timesteps, so that a killed run can --resume; 0: only at the end "
         f"and on Ctrl-C (default {DEFAULT_CHECKPOINT_EVERY})",
     )
+    add_bc_flags(p)
     add_progress_flag(p)
     p.set_defaults(func=run)
     return p
+
+
+def add_bc_flags(parser) -> None:
+    """``--bc-from`` and ``--bc-epochs``: behaviour cloning before training (:mod:`polyenvs.training.bc`)."""
+    from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS
+
+    parser.add_argument(
+        "--bc-from",
+        default=None,
+        metavar="DATASET",
+        help="pretrain the policy on the demonstrations in DATASET (a directory polyenvs collect wrote, of this id) "
+        "before training: VecNormalize statistics from them, the actions' log-likelihood, the value head on their "
+        "returns (ppo, maskable_ppo)",
+    )
+    parser.add_argument(
+        "--bc-epochs",
+        default=None,
+        help=f"passes over the demonstrations, 1 to {MAX_BC_EPOCHS} (default {DEFAULT_BC_EPOCHS}; needs --bc-from)",
+    )
+
+
+def behaviour_cloning(args: argparse.Namespace):
+    """The :class:`~polyenvs.training.bc.BehaviourCloning` the flags ask for, its dataset read; or None."""
+    from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
+
+    epochs = int_flag("--bc-epochs", args.bc_epochs, 1, MAX_BC_EPOCHS)
+    if args.bc_from is None:
+        if epochs is not None:
+            raise InputError("--bc-epochs needs --bc-from (the demonstrations to clone)")
+        return None
+    bc = BehaviourCloning(Path(args.bc_from), epochs or DEFAULT_BC_EPOCHS, flag="--bc-from")
+    bc.demonstrations()
+    return bc
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
     resume, overwrite = getattr(args, "resume", False), getattr(args, "overwrite", False)
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
     progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
+    pretrain = behaviour_cloning(args)
 
     from polyenvs.training.train import TrainingInterrupted, check_out_dir, interrupted_note, read_run, train
 
@@ -124,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
             resume=resume,
             overwrite=overwrite,
             checkpoint_every=checkpoint_every,
+            pretrain=pretrain,
         )
     except TrainingInterrupted as stop:
         print(

@@ -337,6 +337,7 @@ def train(
     resume: bool = False,
     overwrite: bool = False,
     checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
+    pretrain: Any = None,
 ) -> Path:
     """Train ``algo`` on ``env_id`` and write ``out_dir``; return ``out_dir``.
 
@@ -366,6 +367,8 @@ def train(
         overwrite: replace any run in ``out_dir`` (finished or not, of any job): train again from the start.
         checkpoint_every: save the model (and run.json's timesteps) every this many timesteps; 0: only at the
             end and on Ctrl-C.
+        pretrain: a :class:`polyenvs.training.bc.BehaviourCloning` to fit a new model to demonstrations before it
+            learns (a resumed run keeps its model); run.json records it under ``"bc"``.
 
     Raises:
         InputError: before any environment is built, for anything the caller got wrong.
@@ -378,7 +381,7 @@ def train(
             env_id=env_id, algo=algo, config=config, timesteps=timesteps, seed=seed, n_envs=n_envs,
             env_kwargs=env_kwargs, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
             command=command, vec_env=vec_env, device=device, verbose=verbose, callbacks=callbacks, resume=resume,
-            overwrite=overwrite, checkpoint_every=checkpoint_every,
+            overwrite=overwrite, checkpoint_every=checkpoint_every, pretrain=pretrain,
         )
     )  # fmt: skip
     out_dir = request.out_dir
@@ -414,6 +417,7 @@ class _Request:
     resume: bool
     overwrite: bool
     checkpoint_every: int
+    pretrain: Any = None
 
 
 @dataclass
@@ -506,6 +510,8 @@ def _plan(request: _Request, action: str) -> _Job:
         "wall_clock_s": 0.0,
         "completed": False,
     }
+    if request.pretrain is not None:  # the dataset checked against the environment, before any training
+        run["bc"] = request.pretrain.check(algo, target, cfg.frame_stack)
     previous = read_run(out_dir) if action == "resume" else None
     if previous is not None:
         _check_resumable(out_dir, previous, run)
@@ -534,6 +540,8 @@ def _build_and_train(job: _Job) -> tuple[Any, bool]:
         run["vec_env"] = type(_innermost(venv)).__name__
         venv = _wrap_vec_env(job, venv)
         model = _load_model(job, venv) if job.previous is not None else _new_model(job, venv)
+        if job.previous is None and request.pretrain is not None:
+            run["bc"].update(request.pretrain.pretrain(model))
         interrupted = _learn_and_save(job, model)
     finally:
         venv.close()
