@@ -165,3 +165,26 @@ def test_bad_flags_are_one_line_before_any_work(extra, fragment, tmp_path, capsy
 def test_unknown_environment_is_one_line(tmp_path, capsys):
     code, _, err = run_main(["collect", "polyenvs/Nope-v0", "--out", str(tmp_path / "d")], capsys)
     assert code == 2 and "unknown environment id" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_robot_view_acts_for_its_robot_alone(tmp_path, monkeypatch):
+    """The recovered swarm is driven by the agent for the named robot: other actions change that robot's episode,
+    and its teammates keep their own policy's."""
+    identifier = collect("polyenvs.swarm.corridor_v0", "paper", episodes=1, out_dir=tmp_path / "d",
+                         env_kwargs={"max_cycles": 15})  # fmt: skip
+    dataset = _load(tmp_path / "d", identifier, monkeypatch)
+    env = dataset.recover_environment()
+    try:
+        obs, _ = env.reset(seed=0, options={"robot": "robot_1"})
+        observations = [obs]
+        for _ in range(14):
+            obs, _, terminated, truncated, _ = env.step(np.ones(2, dtype=np.float32))  # straight ahead, full power
+            observations.append(obs)
+        robots = [m["options"]["robot"] for m in dataset.storage.get_episode_metadata(range(dataset.total_episodes))]
+        recorded = list(dataset.iterate_episodes())[robots.index("robot_1")]
+        assert np.array_equal(observations[0], recorded.observations[0])
+        assert not np.array_equal(np.stack(observations), recorded.observations)
+        with pytest.raises(ValueError, match="robot"):
+            env.reset(seed=0, options={"robot": "robot_9"})
+    finally:
+        env.close()

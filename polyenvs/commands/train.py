@@ -107,13 +107,15 @@ def add_bc_flags(parser) -> None:
 
 def behaviour_cloning(args: argparse.Namespace):
     """The :class:`~polyenvs.training.bc.BehaviourCloning` the flags ask for, its dataset read; or None."""
-    from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
+    from polyenvs.training.bc import BC_ALGOS, DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
 
     epochs = int_flag("--bc-epochs", args.bc_epochs, 1, MAX_BC_EPOCHS)
     if args.bc_from is None:
         if epochs is not None:
             raise InputError("--bc-epochs needs --bc-from (the demonstrations to clone)")
         return None
+    if args.algo not in BC_ALGOS:
+        raise InputError(f"--bc-from pretrains an actor-critic policy: --algo must be one of {', '.join(BC_ALGOS)}")
     bc = BehaviourCloning(Path(args.bc_from), epochs or DEFAULT_BC_EPOCHS, flag="--bc-from")
     bc.demonstrations()
     return bc
