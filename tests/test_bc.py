@@ -131,7 +131,21 @@ def test_bad_bc_flags_are_one_line_before_any_work(extra, fragment, demos, tmp_p
 
 
 def test_demonstrations_of_another_environment_are_refused(demos, tmp_path, capsys):
-    code, _, err = run_main(["train", "polyenvs/APLiteObstacleField-v0", "--algo", "ppo", "--bc-from", str(demos),
-                             "--out", str(tmp_path / "run")], capsys)  # fmt: skip
+    args = [
+        "train",
+        "polyenvs/APLiteObstacleField-v0",
+        "--algo",
+        "ppo",
+        "--bc-from",
+        str(demos),
+        "--out",
+        str(tmp_path / "run"),
+        "--timesteps",
+        "64",
+        "--n-envs",
+        "1",
+        "--no-progress",
+    ]  # short, were it let through
+    code, _, err = run_main(args, capsys)
     assert code == 2 and "not of polyenvs/APLiteObstacleField-v0" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()

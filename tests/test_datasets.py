@@ -121,17 +121,23 @@ def test_the_command_writes_once_and_refuses_an_existing_directory(tmp_path, cap
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demos"]  # no temporary folder left behind
 
 
-def test_an_interrupted_collection_leaves_nothing(tmp_path, monkeypatch):
+def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monkeypatch):
+    """Written under a temporary name: a failure before the rename keeps the old dataset and leaves no trace."""
     import polyenvs.datasets as datasets
+
+    out = tmp_path / "demos"
+    kwargs = {"out_dir": out, "env_kwargs": {"max_episode_steps": 5}}
+    collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=1, **kwargs)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
 
     def broken(*args, **kwargs):
         raise RuntimeError("the machine went away")
 
     monkeypatch.setattr(datasets, "_replace_dir", broken)
     with pytest.raises(RuntimeError):
-        collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, out_dir=tmp_path / "demos",
-                env_kwargs={"max_episode_steps": 5})  # fmt: skip
-    assert list(tmp_path.iterdir()) == []
+        collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=2, overwrite=True, **kwargs)
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert [p.name for p in tmp_path.iterdir()] == ["demos"]
 
 
 @pytest.mark.parametrize(
@@ -183,7 +189,7 @@ def test_the_robot_view_acts_for_its_robot_alone(tmp_path, monkeypatch):
         robots = [m["options"]["robot"] for m in dataset.storage.get_episode_metadata(range(dataset.total_episodes))]
         recorded = list(dataset.iterate_episodes())[robots.index("robot_1")]
         assert np.array_equal(observations[0], recorded.observations[0])
-        assert not np.array_equal(np.stack(observations), recorded.observations)
+        assert not np.array_equal(np.stack(observations), recorded.observations[: len(observations)])
         with pytest.raises(ValueError, match="robot"):
             env.reset(seed=0, options={"robot": "robot_9"})
     finally:
