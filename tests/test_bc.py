@@ -97,23 +97,57 @@ def test_train_bc_from_then_ppo_is_a_policy_everywhere(demos, tmp_path, capsys):
     config.write_text(TINY_CORRIDOR_CONFIG)
     out = tmp_path / "run"
     args = ["train", CORRIDOR, "--algo", "ppo", "--config", str(config), "--bc-from", str(demos), "--bc-epochs",
-            "10", "--out", str(out), "--no-progress"]  # fmt: skip
+            "10", "--bc-log-std", "-1.7", "--out", str(out), "--no-progress"]  # fmt: skip
     code, _, err = run_main(args, capsys)
     assert code == 0, err
     run = json.loads((out / "run.json").read_text())
     bc = run["bc"]
     assert bc["dataset"]["env_id"] == CORRIDOR and bc["dataset"]["policy_name"] == PAPER
     assert bc["dataset"]["episodes"] == 15 and bc["epochs"] == 10 and bc["fit"]["action_mae"] < 0.1
+    assert bc["log_std"] == -1.7
     assert run["completed"] and run["timesteps"] >= 256
     # a few hundred PPO steps at a small learning rate keep the cloned behaviour: it reaches the goal
     doc = evaluate(CORRIDOR, str(out), episodes=3, seed=1000)
     assert doc["summary"]["success_rate"] >= 2 / 3, doc["summary"]
+    from stable_baselines3 import PPO
+
+    assert np.allclose(PPO.load(out / "model.zip", device="cpu").policy.log_std.detach().numpy(), -1.7, atol=0.05)
+
+
+def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
+    """A training directory is a policy for collect as for evaluate: its episodes replay in the recovered env."""
+    import minari
+
+    from polyenvs.evaluation import make_agent
+    from tests.test_datasets import _replay
+
+    config = tmp_path / "ppo.yml"
+    config.write_text(TINY_CORRIDOR_CONFIG)
+    run_dir = tmp_path / "run"
+    code, _, err = run_main(["train", CORRIDOR, "--algo", "ppo", "--config", str(config), "--bc-from", str(demos),
+                             "--out", str(run_dir), "--no-progress"], capsys)  # fmt: skip
+    assert code == 0, err
+    identifier = collect(CORRIDOR, str(run_dir), episodes=2, seed=3, out_dir=tmp_path / "agent",
+                         env_kwargs={"max_episode_steps": 30})  # fmt: skip
+    assert identifier == "polyenvs/APLiteCorridor-v0/trained_ppo-v0"
+    from polyenvs.datasets import _minari_root
+
+    with _minari_root(tmp_path / "agent"):
+        dataset = minari.load_dataset(identifier)
+    assert dataset.storage.metadata["polyenvs"]["policy_description"]["algo"] == "ppo"
+    env = dataset.recover_environment()
+    agent = make_agent(str(run_dir), CORRIDOR, env)
+    for seed, episode in zip((3, 4), dataset.iterate_episodes(), strict=True):
+        observations, actions = _replay(env, agent, seed, None)
+        assert np.array_equal(observations, episode.observations) and np.array_equal(actions, episode.actions)
 
 
 @pytest.mark.parametrize(
     "extra, fragment",
     [
         (["--bc-epochs", "5"], "--bc-epochs needs --bc-from"),
+        (["--bc-log-std", "-2"], "--bc-log-std needs --bc-from"),
+        (["--bc-from", "{demos}", "--bc-log-std", "nan"], "--bc-log-std"),
         (["--bc-from", "{demos}", "--bc-epochs", "0"], "--bc-epochs"),
         (["--bc-from", "nowhere"], "--bc-from nowhere"),
         (["--bc-from", "{empty}"], "no Minari dataset"),

@@ -1,7 +1,7 @@
 """The ``polyenvs train`` subcommand.
 
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
-[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--bc-from DATASET [--bc-epochs N]]
+[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]
 [--progress/--no-progress]``
 
 Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.commands.flags import add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.commands.flags import add_progress_flag, float_flag, int_flag, is_terminal, parse_json_object
 from polyenvs.errors import InputError
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.registry import bare_id
@@ -103,6 +103,12 @@ def add_bc_flags(parser) -> None:
         default=None,
         help=f"passes over the demonstrations, 1 to {MAX_BC_EPOCHS} (default {DEFAULT_BC_EPOCHS}; needs --bc-from)",
     )
+    parser.add_argument(
+        "--bc-log-std",
+        default=None,
+        help="Box actions: the Gaussian's log standard deviation after cloning, -20 to 2 (PPO's exploration from "
+        "there; default: what the fit learned; needs --bc-from)",
+    )
 
 
 def behaviour_cloning(args: argparse.Namespace):
@@ -110,13 +116,15 @@ def behaviour_cloning(args: argparse.Namespace):
     from polyenvs.training.bc import BC_ALGOS, DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
 
     epochs = int_flag("--bc-epochs", args.bc_epochs, 1, MAX_BC_EPOCHS)
+    log_std = float_flag("--bc-log-std", args.bc_log_std, -20.0, 2.0)
     if args.bc_from is None:
-        if epochs is not None:
-            raise InputError("--bc-epochs needs --bc-from (the demonstrations to clone)")
+        for flag, value in (("--bc-epochs", epochs), ("--bc-log-std", log_std)):
+            if value is not None:
+                raise InputError(f"{flag} needs --bc-from (the demonstrations to clone)")
         return None
     if args.algo not in BC_ALGOS:
         raise InputError(f"--bc-from pretrains an actor-critic policy: --algo must be one of {', '.join(BC_ALGOS)}")
-    bc = BehaviourCloning(Path(args.bc_from), epochs or DEFAULT_BC_EPOCHS, flag="--bc-from")
+    bc = BehaviourCloning(Path(args.bc_from), epochs or DEFAULT_BC_EPOCHS, log_std=log_std, flag="--bc-from")
     bc.demonstrations()
     return bc
 

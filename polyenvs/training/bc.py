@@ -50,6 +50,9 @@ class BehaviourCloning:
         batch_size: demonstration steps per gradient step.
         learning_rate: Adam's step size (its own optimiser: PPO's starts fresh afterwards).
         value_coef: the weight of the value head's squared error beside the actions' negative log-likelihood.
+        log_std: for Box actions, set the Gaussian's log standard deviation to this after the fit (PPO's
+            exploration from the cloned policy; the issue's study used -1.7 on AP-lite, -4 on the beast, whose gait
+            breaks under noise); ``None`` keeps what the fit learned.
         flag: how errors name the dataset (``--bc-from`` on the command line).
     """
 
@@ -58,6 +61,7 @@ class BehaviourCloning:
     batch_size: int = 256
     learning_rate: float = 1e-3
     value_coef: float = 0.5
+    log_std: float | None = None
     flag: str = "bc_from"
     _demonstrations: Demonstrations | None = field(default=None, repr=False)
 
@@ -80,10 +84,14 @@ class BehaviourCloning:
     def check(self, algo: str, target, frame_stack: int | None = None) -> dict[str, Any]:
         """The run.json record of the pretraining, once the dataset fits ``algo`` and the training environment
         ``target`` (:class:`polyenvs.evaluation.EnvTarget`); else an :class:`InputError`, before any training."""
+        from gymnasium import spaces
+
         from baselines.trained import _same_space
 
         if algo not in BC_ALGOS:
             raise InputError(f"{self.flag} pretrains an actor-critic policy: --algo must be one of {BC_ALGOS}")
+        if self.log_std is not None and not isinstance(target.action_space, spaces.Box):
+            raise InputError(f"{self.flag}: a log_std is for Box actions; {target.env_id} has {target.action_space}")
         if frame_stack is not None:
             raise InputError(f"{self.flag}: the config stacks frames, and the demonstrations are single frames")
         demos = self.demonstrations()
@@ -105,6 +113,7 @@ class BehaviourCloning:
             "batch_size": self.batch_size,
             "learning_rate": self.learning_rate,
             "value_coef": self.value_coef,
+            "log_std": self.log_std,
         }
 
     def pretrain(self, model) -> dict[str, Any]:
@@ -128,7 +137,11 @@ class BehaviourCloning:
             torch.as_tensor(returns, dtype=torch.float32, device=policy.device),
         )  # fmt: skip
         self._fit(policy, tensors, seed=model.seed or 0)
-        return {"fit": _fit_quality(policy, model.action_space, tensors)}
+        quality = _fit_quality(policy, model.action_space, tensors)  # of the fit itself, before log_std is set
+        if self.log_std is not None:
+            with torch.no_grad():
+                policy.log_std.fill_(self.log_std)
+        return {"fit": quality}
 
     def _fit(self, policy, tensors, seed: int) -> None:
         import torch

@@ -513,6 +513,8 @@ def _plan(request: _Request, action: str) -> _Job:
     if request.pretrain is not None:  # the dataset checked against the environment, before any training
         run["bc"] = request.pretrain.check(algo, target, cfg.frame_stack)
     previous = read_run(out_dir) if action == "resume" else None
+    if previous is not None and "bc" in previous:  # a resumed run goes on from the model it cloned then
+        run["bc"] = previous["bc"]
     if previous is not None:
         _check_resumable(out_dir, previous, run)
         if cfg.normalize and not (out_dir / VECNORMALIZE_FILE).is_file():
