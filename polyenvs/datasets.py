@@ -20,9 +20,11 @@ they are evaluated here, :data:`REFERENCE_EPISODES` episodes from :data:`polyenv
 Minari stores Gymnasium environments only; a PettingZoo swarm becomes a per-robot dataset: every robot's
 trajectory of a swarm episode is an episode of its own (its seed, and ``options={"robot": name}``), and the
 environment spec is :class:`RobotView`, the swarm as one robot sees it, its teammates driven by the dataset's
-policy. ``recover_environment().reset(seed=s, options={"robot": r})`` then replays robot ``r``'s episode exactly
-when the policy is deterministic (a hand baseline or a trained model); random teammates draw their actions in
-another order than the whole swarm did.
+policy. ``recover_environment().reset(seed=s, options={"robot": r})`` then replays robot ``r``'s episode bit for bit
+with a deterministic hand baseline; a trained model's action for one robot alone can differ from its action in the
+swarm's batch in the last bits (torch's kernels depend on the batch size: 2e-7 measured, on the committed corridor
+agent), so its replay follows the recorded episode to float32 rounding and may drift from there; random teammates
+draw their actions in another order than the whole swarm did.
 """
 
 from __future__ import annotations
@@ -146,9 +148,10 @@ class RobotView(gym.Env):
     def step(self, action):
         if self.robot not in self.swarm.agents:
             raise RuntimeError("the robot's episode has ended: call reset()")
-        others = {a: self._observations[a] for a in self.swarm.agents if a != self.robot}
-        actions = {**self._shared.act(others, self._infos), self.robot: action}
-        actions = {a: actions[a] for a in self.swarm.agents}  # the swarm's own order, as the whole rollout steps it
+        # the shared policy acts for every live robot, as in the whole swarm's rollout (a trained model's batch of
+        # the same rows gives the same bits), and the agent's action replaces its robot's
+        live = {a: self._observations[a] for a in self.swarm.agents}
+        actions = {**self._shared.act(live, self._infos), self.robot: action}
         self._observations, rewards, terminations, truncations, self._infos = self.swarm.step(actions)
         terminated = bool(terminations.get(self.robot, False))
         truncated = bool(truncations.get(self.robot, False)) or (not terminated and not self.swarm.agents)
@@ -161,7 +164,7 @@ class RobotView(gym.Env):
 
 def _robot_view_spec(module: str, policy: str, env_kwargs: dict, policy_kwargs: dict) -> gym.envs.registration.EnvSpec:
     """An (unregistered) spec of :class:`RobotView` that ``gym.make`` builds and Minari stores as JSON."""
-    kwargs = {"module": module, "teammates": os.fspath(policy), "env_kwargs": env_kwargs,
+    kwargs = {"module": module, "teammates": policy, "env_kwargs": env_kwargs,
               "policy_kwargs": policy_kwargs}  # fmt: skip
     return gym.envs.registration.EnvSpec(
         id=f"polyenvs/{_env_name(module)}-robot", entry_point="polyenvs.datasets:RobotView", kwargs=kwargs,
@@ -363,7 +366,9 @@ def collect(
         seeds = list(range(seed, seed + episodes))
         trajectories = _rollouts(env, agent, seeds, on_episode)
         parallel = is_parallel(env)
-        spec = _robot_view_spec(env_id, policy, env_kwargs, policy_kwargs) if parallel else env.spec
+        # a trained model's path made absolute, so that the recovered swarm finds its teammates from anywhere
+        teammates = str(Path(policy).absolute()) if "path" in description else os.fspath(policy)
+        spec = _robot_view_spec(env_id, teammates, env_kwargs, policy_kwargs) if parallel else env.spec
         observation_space, action_space = agent_spaces(env)
     finally:
         env.close()

@@ -87,7 +87,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def add_bc_flags(parser) -> None:
-    """``--bc-from`` and ``--bc-epochs``: behaviour cloning before training (:mod:`polyenvs.training.bc`)."""
+    """``--bc-from``, ``--bc-epochs``, ``--bc-log-std``: behaviour cloning before training (:mod:`polyenvs.training.bc`)."""
     from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS
 
     parser.add_argument(
