@@ -167,7 +167,7 @@ def _untrained_residual_agent(env_id: str, out, log_std: float = -3.0):
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", policy_kwargs={"net_arch": [16]})
     start_at_the_base(model, log_std)
     venv.close()
-    out.mkdir()
+    out.mkdir(parents=True)
     model.save(out / "model.zip")
     run = {"env_id": env_id, "algo": "ppo", "seed": 0, "residual": spec.to_json()}
     (out / "run.json").write_text(json.dumps(run))
@@ -217,3 +217,17 @@ def test_bad_residual_flags_are_one_line_before_training(flags, message, tmp_pat
     monkeypatch.setattr(adapter, "make_training_vec_env", lambda *a, **k: pytest.fail("work started"))
     code, _, stderr = run_main(["train", *flags, "--algo", "ppo", "--out", str(tmp_path / "x")], capsys)
     assert code == 2 and message in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_the_leaderboard_finds_a_residual_agent_in_its_own_row(tmp_path):
+    from polyenvs.leaderboard import find_agents
+    from polyenvs.registry import slug
+
+    rows = tmp_path / "agents" / slug(CART)
+    rows.mkdir(parents=True)
+    _untrained_residual_agent(CART, rows / "ppo_residual_paper" / "seed0")
+    (found,) = find_agents(tmp_path / "agents", CART)
+    assert (found.algo, found.label, found.key) == ("ppo", "ppo_residual_paper", "agent__ppo_residual_paper__seed0")
+    (rows / "ppo_residual_paper").rename(rows / "ppo_residual_fixed_turn")  # the run corrects another baseline
+    with pytest.raises(ValueError, match="residual baseline is 'paper', but the directory says 'fixed_turn'"):
+        find_agents(tmp_path / "agents", CART)
