@@ -231,3 +231,14 @@ def test_the_leaderboard_finds_a_residual_agent_in_its_own_row(tmp_path):
     (rows / "ppo_residual_paper").rename(rows / "ppo_residual_fixed_turn")  # the run corrects another baseline
     with pytest.raises(ValueError, match="residual baseline is 'paper', but the directory says 'fixed_turn'"):
         find_agents(tmp_path / "agents", CART)
+
+
+def test_a_finished_plain_run_is_not_taken_for_a_residual_one(tmp_path, capsys):
+    out = tmp_path / "run"
+    _untrained_residual_agent(CORRIDOR, out)
+    run = json.loads((out / "run.json").read_text())
+    run.update(completed=True, residual=None)
+    (out / "run.json").write_text(json.dumps(run))
+    argv = ["train", CORRIDOR, "--algo", "ppo", "--residual", "paper", "--out", str(out), "--no-progress"]
+    code, _, stderr = run_main(argv, capsys)
+    assert code == 2 and "holds a finished run with residual None" in stderr

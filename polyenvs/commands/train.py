@@ -137,13 +137,21 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, algo_dir, seed)
     progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
 
-    from polyenvs.training.train import TrainingInterrupted, check_out_dir, interrupted_note, read_run, train
+    from polyenvs.training.train import (
+        TrainingInterrupted,
+        check_out_dir,
+        check_same_residual,
+        interrupted_note,
+        read_run,
+        train,
+    )
 
     try:
         action = check_out_dir(out_dir, args.env_id, args.algo, seed, resume=resume, overwrite=overwrite)
     except InputError as exc:  # name the flags, as the command line spells them
         raise InputError(str(exc).replace("resume and overwrite", "--resume and --overwrite")) from None
     if action == "finished":
+        check_same_residual(out_dir, residual)
         print(f"{out_dir} already holds a finished run of {args.env_id} {args.algo} seed {seed}: nothing to do")
         return 0
     if action in ("resume", "restart"):

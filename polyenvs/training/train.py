@@ -45,6 +45,7 @@ __all__ = [
     "RUN_FILE",
     "TrainingInterrupted",
     "check_out_dir",
+    "check_same_residual",
     "finished_run",
     "interrupted_note",
     "read_run",
@@ -390,7 +391,7 @@ def train(
     out_dir = request.out_dir
     action = check_out_dir(out_dir, request.env_id, algo, request.seed, resume=resume, overwrite=overwrite)
     if action == "finished":
-        _check_same_residual(out_dir, request.residual)
+        check_same_residual(out_dir, request.residual)
         return out_dir
     job = _plan(request, action)
     model, interrupted = _build_and_train(job)
@@ -473,7 +474,7 @@ def _check_request(request: _Request) -> _Request:
     )
 
 
-def _check_same_residual(out_dir: Path, residual) -> None:
+def check_same_residual(out_dir: Path, residual) -> None:
     """A finished run counts as this job's only if it corrects the same baseline (or none, as this one)."""
     wanted = residual.to_json() if residual is not None else None
     done = (read_run(out_dir) or {}).get("residual")
