@@ -177,11 +177,34 @@ def _seed_number(path: Path) -> int:
     return int(match.group(1))
 
 
+#: A residual agent's directory, ``<algo>_residual_<baseline>`` (where ``polyenvs train --residual`` writes).
+_RESIDUAL_DIR = re.compile(r"(?P<algo>[a-z0-9_]+?)_residual_(?P<baseline>.+)")
+
+
+def _algo_dir(path: Path, algos) -> tuple[str, str | None]:
+    """``(algorithm, the baseline a residual agent corrects or None)`` an agents directory's name says."""
+    if path.name in algos:
+        return path.name, None
+    match = _RESIDUAL_DIR.fullmatch(path.name)
+    if match is None or match["algo"] not in algos:
+        raise InputError(
+            f"{path}: unknown algorithm directory; known: {', '.join(algos)} (or <algo>_residual_<baseline>)"
+        )
+    return match["algo"], match["baseline"]
+
+
+def _residual_baseline(run: dict) -> str | None:
+    residual = run.get("residual")
+    return residual.get("baseline") if isinstance(residual, dict) else None
+
+
 def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
-    """The committed agents of ``env_id``: every ``<agents_dir>/<env>/<algo>/seed<N>/``, by algorithm then seed.
+    """The committed agents of ``env_id``: every ``<agents_dir>/<env>/<algo>/seed<N>/``, by algorithm then seed;
+    a residual agent's ``<algo>`` directory is ``<algo>_residual_<baseline>``, its own row.
 
     Each must hold a ``model.zip`` and a ``run.json`` that agrees with where it sits (environment, algorithm,
-    seed); anything else raises :class:`InputError` naming the directory. Files (a README) are ignored.
+    seed, the baseline a residual agent corrects); anything else raises :class:`InputError` naming the directory.
+    Files (a README) are ignored.
     """
     if agents_dir is None:
         return []
@@ -194,10 +217,9 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     agents = []
     order = {name: i for i, name in enumerate(ALGOS)}  # ppo, dqn, maskable_ppo, sac, td3
     algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
-    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(p.name, len(order)), p.name)):
-        algo = algo_dir.name
-        if algo not in ALGOS:
-            raise InputError(f"{algo_dir}: unknown algorithm directory; known: {', '.join(ALGOS)}")
+    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(_algo_dir(p, ALGOS)[0]), p.name)):
+        algo, baseline = _algo_dir(algo_dir, ALGOS)
+        label = algo_dir.name
         seed_dirs = [p for p in algo_dir.iterdir() if p.is_dir() and not p.name.startswith(".")]
         for seed_dir in sorted(seed_dirs, key=lambda p: (_seed_number(p), p.name)):
             seed = _seed_number(seed_dir)
@@ -212,10 +234,11 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
                 ("env_id", bare_id(str(run.get("env_id", ""))), env_id),
                 ("algo", run.get("algo"), algo),
                 ("seed", run.get("seed"), seed),
+                ("residual baseline", _residual_baseline(run), baseline),
             ):
                 if found != expected:
                     raise InputError(f"{run_file}: {what} is {found!r}, but the directory says {expected!r}")
-            agents.append(Agent(env_id, algo, str(seed_dir), algo, f"agent__{algo}__seed{seed}", seed, run))
+            agents.append(Agent(env_id, algo, str(seed_dir), label, f"agent__{label}__seed{seed}", seed, run))
     return agents
 
 

@@ -171,6 +171,7 @@ def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
         (["--bc-from", "nowhere"], "--bc-from nowhere"),
         (["--bc-from", "{empty}"], "no Minari dataset"),
         (["--bc-from", "{demos}", "--algo", "sac"], "actor-critic"),
+        (["--bc-from", "{demos}", "--residual", "paper"], "exclude each other"),
     ],
 )
 def test_bad_bc_flags_are_one_line_before_any_work(extra, fragment, demos, tmp_path, capsys):

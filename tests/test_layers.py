@@ -29,6 +29,7 @@ FLOORS: dict[str, int] = {
     "baselines": BASELINES,
     "polyenvs.bumper.localizers": BASELINES,
     "polyenvs.localization": BASELINES,  # the estimator protocol and table
+    "polyenvs.wrappers": BASELINES,  # the residual wrapper runs a hand baseline
     "polyenvs.rollout": EVALUATION,
     "polyenvs.evaluation": EVALUATION,
     "polyenvs.statistics": EVALUATION,
