@@ -269,3 +269,22 @@ def test_info_holds_the_documented_entries(env_id):
     assert {key for key in vector_info if not key.startswith("_")} == set(info)
     assert vector_info["ground_truth"].shape == (3, 16)
     np.testing.assert_array_equal(vector_info["ground_truth"][0], info["ground_truth"])
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_a_pickled_env_reports_its_own_steps(env_id):
+    """A copy (pickle, deepcopy) rebuilds what it reads its kernel and info through from its own arrays."""
+    import copy
+    import pickle
+
+    env = gym.make(env_id)
+    env.reset(seed=4)
+    clones = [pickle.loads(pickle.dumps(env)), copy.deepcopy(env)]
+    for action in [1, 2, 2, 0, 1, 1]:
+        obs, reward, _, _, info = env.step(action)
+        for clone in clones:
+            clone_obs, clone_reward, _, _, clone_info = clone.step(action)
+            np.testing.assert_array_equal(clone_obs, obs)
+            assert clone_reward == reward and clone_info["episode_metrics"] == info["episode_metrics"]
+            np.testing.assert_array_equal(clone_info["ground_truth"], info["ground_truth"])
+            np.testing.assert_array_equal(clone_info["action_mask"], info["action_mask"])

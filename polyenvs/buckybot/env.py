@@ -321,12 +321,13 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         self._kernel_arrays = self._task_arrays()
         self._pack_kernel(self.sim.kernel_arrays(self._observations), self._kernel_arrays)
 
-    _packed_names = (*RowsEnv._packed_names, "_compiled_step")
+    _packed_names = (*RowsEnv._packed_names, "_compiled_step", "_row0_views")
 
     def _pack_kernel(self, sim: tuple, task: tuple) -> None:
         super()._pack_kernel(sim, task)
         # Every step passes these two: their machine code is called without numba's per-call typing.
         self._compiled_step = compiled_for(self._step_kernel, self._actions, self._kernel)
+        self._row0_views = self._info_views(0)  # made once: a single env's info reads them at every step
 
     def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         """Fill the task's tables for ``plan`` in plan slot ``slot``."""
@@ -510,13 +511,18 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
                 return plan
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 
+    def _info_views(self, row: int) -> tuple[np.ndarray, ...]:
+        """Row ``row``'s state, its action mask, its ground-truth block and its ``_out`` row, as views."""
+        state = self.sim.state[row]
+        return state, state[S.ALLOWED : S.ALLOWED + 3], state[S.INFO_START : S.INFO_STOP], self._out[row]
+
     def _get_info(self, row: int) -> dict[str, Any]:
         # Few entries, two fresh arrays: building a dict of a dozen fresh arrays cost half a CartPole step.
-        state = self.sim.state[row]
-        out = self._out[row].tolist()
+        state, mask, truth, scores = self._row0_views if row == 0 else self._info_views(row)
+        out = scores.tolist()
         info = {
-            "action_mask": state[S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
-            "ground_truth": state[S.INFO_START : S.INFO_STOP].copy(),
+            "action_mask": mask.astype(np.int8),
+            "ground_truth": truth.copy(),
             "face": int(state[S.FACE]) + 1,
             "blocked": bool(state[S.BLOCKED]),
         }
