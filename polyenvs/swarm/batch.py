@@ -352,7 +352,8 @@ class SwarmBatch:
         account(self.pose, before, live, (self._blocked, self.clearance), (self.goals, self.n_robots, self.cycles),
                 self.account_params, (self.track, self.rewards, self.terminated))  # fmt: skip
         self.terms.score(live, rows, stepping)
-        self.active[self.terminated > 0] = 0
+        if self.terminated.any():  # rarely: the mask and its assignment cost more than this test
+            self.active[self.terminated > 0] = 0
 
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""
