@@ -190,3 +190,32 @@ def test_a_task_instance_is_a_batch_of_its_own_parameters():
         SwarmVectorEnv(formation_v0.parallel_env(), num_envs=2, n_robots=3)
     with pytest.raises(ValueError, match="task"):
         SwarmVectorEnv(object, num_envs=2)
+
+
+@pytest.mark.parametrize("module", [corridor_v0, obstacle_field_v0])
+def test_a_robots_info_row_is_its_row_of_the_info_columns(module):
+    """``SwarmBatch.robot_row`` (what a swarm of one reports every step) is robot i's row of ``robot_columns``: the
+    same keys in the same order, the same values, the same types (Python numbers, arrays for the vector keys),
+    including a robot that has stopped (held at zero power) and robots in contact."""
+    env = module.parallel_env(n_robots=3, max_cycles=80)
+    env.reset(seed=4)
+    rng = np.random.default_rng(0)
+    seen_stopped = False
+    for _ in range(60):
+        actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
+        if "robot_2" in actions:
+            actions["robot_2"] = np.zeros(2, np.float32)
+        env.step(actions)
+        info, metrics = env.batch.robot_columns()
+        for i in range(3):
+            row_info, row_metrics = env.batch.robot_row(i)
+            for columns, row in ((info, row_info), (metrics, row_metrics)):
+                assert list(row) == list(columns)
+                for key, column in columns.items():
+                    expected = column[i] if column.ndim > 1 else column.tolist()[i]
+                    if isinstance(expected, np.ndarray):
+                        assert row[key].dtype == expected.dtype and np.array_equal(row[key], expected), key
+                    else:
+                        assert type(row[key]) is type(expected) and row[key] == expected, key
+            seen_stopped |= row_info["stopped"]
+    assert seen_stopped

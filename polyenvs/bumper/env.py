@@ -61,6 +61,9 @@ TOUCHED, BUMPS, SLIPS = range(3)
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
 _POSE_COLUMNS = [C.X, C.Y, C.HEADING, C.DR_X, C.DR_Y, C.DR_HEADING, C.BUMP_X, C.BUMP_Y, C.BUMP_HEADING]
+_POSE_INDEX = np.array(_POSE_COLUMNS)
+#: Multiplies the poses' headings into degrees (``np.degrees``' own factor) and leaves the positions as they are.
+_POSE_SCALE = np.array([1.0, 1.0, 180.0 / math.pi] * 3)
 
 
 def _real_array(value) -> np.ndarray | None:
@@ -455,15 +458,15 @@ class BumperCartEnv(RowsEnv):
 
     def _get_info(self, row: int) -> dict[str, Any]:
         s = self.state[row]
-        poses = s[_POSE_COLUMNS]  # one fresh array; the poses below are views of it
-        poses[2::3] = np.degrees(poses[2::3])
+        poses = s.take(_POSE_INDEX)  # one fresh array; the poses below are views of it
+        poses *= _POSE_SCALE
         out = self._out[row].tolist()
         return {
             "pose": poses[0:3],
             "dead_reckoned_pose": poses[3:6],
             "pose_at_bump": poses[6:9],
             "bumped": bool(s[C.BUMP] > 0.5),
-            "contact_point": s[[C.CONTACT_X, C.CONTACT_Y]],
+            "contact_point": s[C.CONTACT_X : C.CONTACT_Y + 1].copy(),
             **self._task_info(row),
             **dict(zip(self._reward_keys, out[self.out_columns.term_slice], strict=True)),
             "episode_metrics": dict(zip(self._metric_names, out[self.out_columns.metric_slice], strict=True)),
@@ -621,7 +624,7 @@ class BumperCartExploreEnv(BumperCartEnv):
         _touch_kernel(actions, self._kernel)
 
     def _task_info(self, row: int) -> dict[str, Any]:
-        return {"touched_cells": int(self._touched[row].sum())}
+        return {"touched_cells": int(np.count_nonzero(self._touched[row]))}
 
     def _vector_task_info(self) -> dict[str, np.ndarray]:
         return {"touched_cells": self._touched.sum(axis=1, dtype=np.int64)}

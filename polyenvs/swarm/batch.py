@@ -19,6 +19,7 @@ core knows no task.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +39,7 @@ __all__ = [
     "TASK_NORMALS",
     "TaskTerms",
     "account",
+    "drive",
 ]
 
 #: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
@@ -68,6 +70,29 @@ TASK_NORMALS = 2
 #: Columns of the per-robot bookkeeping array ``SwarmBatch.track``.
 DISTANCE, TURN, STILL, COLLISIONS, WAS_BLOCKED, ARRIVED, TIME_TO_GOAL, MIN_CLEARANCE = range(8)
 N_TRACK = 8
+
+
+@njit(cache=True)
+def drive(command, live, noise, params, out):
+    """The step's motor powers and wheel speeds: the ``(N, 2)`` power fractions ``command`` of the ``live``
+    robots (0 for the others), times full speed, times each wheel's speed factor under terrain noise, ``1 +
+    terrain_noise x normal + drift`` clipped to [0, MAX_SPEED_FACTOR].
+
+    Args:
+        noise: ``(normals, drift)``: the step's draws (the first two columns are the wheels') and the episode's
+            per-wheel drift ``(N, 2)``.
+        params: ``[terrain_noise, full_speed_mps]``.
+        out: ``(powers, wheels)``, ``(N, 2)`` each, written.
+    """
+    normals, drift = noise
+    powers, wheels = out
+    terrain, full_speed = params[0], params[1]
+    for i in range(command.shape[0]):
+        for w in range(2):
+            power = command[i, w] * live[i]
+            factor = min(max(1.0 + terrain * normals[i, w] + drift[i, w], 0.0), MAX_SPEED_FACTOR)
+            powers[i, w] = power
+            wheels[i, w] = power * full_speed * factor
 
 
 @njit(cache=True)
@@ -198,7 +223,7 @@ class SwarmBatch:
     def _constants(self, task) -> None:
         """The kernels' parameters, from the task's validated ones."""
         radius = task.platform.radius_m
-        self.terrain_noise, self.full_speed_mps = task.terrain_noise, task.full_speed_mps
+        self.terrain_noise = task.terrain_noise
         self.stopped_window = max(1, round(STOPPED_WINDOW_S / task.control_period_s))
         self.angles = np.radians(np.array(task.sensor_angles_deg))
         self.walls = np.ascontiguousarray(task.layout.walls, dtype=np.float64)[None]
@@ -212,6 +237,7 @@ class SwarmBatch:
             math.radians(task.bearing_noise_deg), task.comm_range_m, float(task.platform.ir_scale == "x80pro"),
             LIGHT_REFERENCE_M,
         ])  # fmt: skip
+        self.drive_params = np.array([task.terrain_noise, task.full_speed_mps])
         self.account_params = np.array(
             [task.goal_radius_m, task.control_period_s, float(task.terminate_on_collision), STILL_M]
         )
@@ -239,6 +265,7 @@ class SwarmBatch:
         self.clearance = np.zeros(rows)
         self._every_row = np.ones(rows, dtype=np.uint8)
         self._one_step = np.ones(e, dtype=np.int64)
+        self._wheels = np.zeros((rows, 2))
         self._proposal = np.zeros((rows, 3))
         self._blocked = np.zeros(rows, dtype=np.uint8)
 
@@ -313,22 +340,20 @@ class SwarmBatch:
         for g, env_normals, env_floor in draws:  # each environment's own generator, in its own order
             g.standard_normal(out=env_normals)
             g.random(out=env_floor)
-        command = command * live[:, None]
-        noise = 1.0 + self.terrain_noise * normals[:, :2] + self.drift
-        np.minimum(np.maximum(noise, 0.0, out=noise), MAX_SPEED_FACTOR, out=noise)  # np.clip, without its overhead
-        wheels = command * self.full_speed_mps * noise
+        wheels = self._wheels
+        drive(command, live, (normals, self.drift), self.drive_params, (self.powers, wheels))
         before = self.pose.copy()
         grid = self._grid_arrays
         core.build_grid(self.pose, live, grid)
         core.move(self.pose, live, wheels, self.move_params, (self.walls, self.circles), grid,
                   (self._proposal, self._blocked))  # fmt: skip
         np.add(self.cycles, self._one_step if stepping is None else stepping, out=self.cycles)
-        self.powers[:] = command
         self._observe(live, todo, normals[:, 2:], floor)
         account(self.pose, before, live, (self._blocked, self.clearance), (self.goals, self.n_robots, self.cycles),
                 self.account_params, (self.track, self.rewards, self.terminated))  # fmt: skip
         self.terms.score(live, rows, stepping)
-        self.active[self.terminated > 0] = 0
+        if self.terminated.any():  # rarely: the mask and its assignment cost more than this test
+            self.active[self.terminated > 0] = 0
 
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""
@@ -396,6 +421,33 @@ class SwarmBatch:
         }
         if self.terms.metric_names:
             metrics.update(self.terms.robot_metrics())
+        return info, metrics
+
+    def robot_row(self, row: int) -> tuple[dict[str, Any], dict[str, float]] | None:
+        """:meth:`robot_columns` for robot ``row`` alone, the same values as their rows give (Python numbers, fresh
+        arrays for the vector keys), without an array operation per key: what a swarm of one reports every step.
+        ``None`` when the task adds info or metrics of its own (they come as columns only)."""
+        if self.terms.info_names or self.terms.metric_names:
+            return None
+        track = self.track[row].tolist()
+        stopped = track[STILL] >= self.stopped_window and track[ARRIVED] == 0
+        info = {
+            "pose": self.pose[row].copy(),
+            "collisions": int(track[COLLISIONS]),
+            "distance_to_goal_m": track[DISTANCE],
+            "nearest_obstacle_cm": np.minimum(100.0 * self.beams[row], ir.IR_MAX_CM),
+            "motor_powers": 100.0 * self.powers[row],
+            "turning_angle_deg": math.degrees(track[TURN]),
+            "stopped": stopped,
+            **dict(zip(self._reward_keys, self.rewards[row].tolist(), strict=True)),
+        }
+        metrics = {
+            "success_rate": track[ARRIVED],
+            "collisions": track[COLLISIONS],
+            "time_to_goal_s": track[TIME_TO_GOAL],
+            "min_clearance_cm": 100.0 * track[MIN_CLEARANCE],
+            "stopped": float(stopped),
+        }
         return info, metrics
 
 

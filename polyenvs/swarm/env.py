@@ -465,11 +465,19 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
         """Per-robot info: true pose, contacts, goal distance, the AP-lite diagnostics the paper plots, reward
         terms, the task's keys and the robot's episode metrics (a nested ``episode_metrics`` dict, or with
         ``flat_info`` the keys ``episode_<metric>``). Built from per-step columns (fresh arrays; rows are views of
-        them)."""
+        them; for a swarm of one, :meth:`SwarmBatch.robot_row`)."""
+        index = list(index)
+        one = self.batch.robot_row(0) if index == [0] and self.n_robots == 1 else None
+        if one is not None:
+            info, metrics = one
+            if self.flat_info:
+                info.update({f"episode_{name}": value for name, value in metrics.items()})
+            else:
+                info["episode_metrics"] = metrics
+            return {self.possible_agents[0]: info}
         info, metrics = self.batch.robot_columns(fresh=False)
         columns = [value.tolist() if value.ndim == 1 else list(value) for value in info.values()]
         metric_columns = [value.tolist() for value in metrics.values()]
-        index = list(index)
         if len(index) != self.n_robots:  # a subset: select the rows of every column first
             columns = [[column[i] for i in index] for column in columns]
             metric_columns = [[column[i] for i in index] for column in metric_columns]
