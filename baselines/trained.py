@@ -39,6 +39,7 @@ from polyenvs.pool import single_threaded_torch
 from polyenvs.registry import bare_id
 
 __all__ = [
+    "LeanActor",
     "TrainedModelError",
     "TrainedPolicy",
     "is_model_path",
@@ -246,6 +247,71 @@ def _normalize_requested(run: dict) -> bool:
     return bool(value)
 
 
+class LeanActor:
+    """Stable-Baselines3's deterministic ``predict`` for an MLP actor-critic policy (PPO's and A2C's
+    ``ActorCriticPolicy``: flat Box observations, a Gaussian, gSDE included, or a categorical action), with the saved
+    observation normalisation, in the same torch and numpy operations on the same dtypes and batch shapes, so the
+    same actions bit for bit, without SB3's per-call work around them (the training-mode switch over every module, a
+    distribution object with its argument checks): about three quarters of an 8,000-step beast episode's time went
+    there. :meth:`for_model` returns None for any other policy, which keeps SB3's own ``predict``.
+    """
+
+    def __init__(self, policy, normalization=None):
+        import torch
+
+        policy.set_training_mode(False)  # what SB3's predict does at every call; these MLPs have no dropout or norm
+        self.policy = policy
+        self.torch = torch
+        self.shape = policy.observation_space.shape
+        self.action_shape = policy.action_space.shape
+        self.box = isinstance(policy.action_space, spaces.Box)
+        self.normalization = None
+        if normalization is not None and normalization.norm_obs:
+            rms = normalization.obs_rms
+            # VecNormalize._normalize_obs computes this divisor afresh at every call, always to the same bits.
+            self.normalization = (rms.mean, np.sqrt(rms.var + normalization.epsilon), normalization.clip_obs)
+
+    @classmethod
+    def for_model(cls, model, normalization=None) -> LeanActor | None:
+        """The lean actor of ``model``, or None where its ``predict`` does more than this class repeats."""
+        from stable_baselines3.common import distributions as dist
+        from stable_baselines3.common.policies import ActorCriticPolicy
+
+        policy = getattr(model, "policy", None)
+        if type(policy) is not ActorCriticPolicy or policy.squash_output:
+            return None  # MaskablePPO's, SAC's, TD3's, DQN's and CNN policies keep SB3's predict
+        flat = isinstance(policy.observation_space, spaces.Box) and len(policy.observation_space.shape) == 1
+        # The mode of each: the mean (gSDE's too, without its tanh bijector), or the most probable category.
+        known = (dist.DiagGaussianDistribution, dist.StateDependentNoiseDistribution, dist.CategoricalDistribution)
+        if not flat or type(policy.action_dist) not in known or getattr(policy.action_dist, "bijector", None):
+            return None
+        if normalization is not None and isinstance(normalization.obs_rms, dict):
+            return None
+        return cls(policy, normalization)
+
+    def __call__(self, observation) -> np.ndarray:
+        """The deterministic action for one observation, or one per row of a batch."""
+        torch = self.torch
+        obs = np.asarray(observation)
+        if self.normalization is not None:  # VecNormalize.normalize_obs
+            mean, std, clip = self.normalization
+            obs = np.clip((obs - mean) / std, -clip, clip).astype(np.float32)
+        single = obs.shape == self.shape
+        if not single and obs.shape[1:] != self.shape:
+            raise ValueError(f"observation of shape {obs.shape}: expected {self.shape} or a batch of them")
+        policy = self.policy
+        with torch.no_grad():  # ActorCriticPolicy.obs_to_tensor, preprocess_obs, get_distribution, then the mode
+            tensor = torch.as_tensor(obs.reshape((-1, *self.shape))).float()
+            head = policy.action_net(policy.mlp_extractor.forward_actor(policy.pi_features_extractor(tensor)))
+            if not self.box:  # torch's Categorical(logits).probs.argmax, as CategoricalDistribution.mode takes it
+                probs = torch.nn.functional.softmax(head - head.logsumexp(dim=-1, keepdim=True), dim=-1)
+                head = torch.argmax(probs, dim=1)
+        actions = head.numpy().reshape((-1, *self.action_shape))
+        if self.box:
+            actions = np.clip(actions, policy.action_space.low, policy.action_space.high)
+        return actions.squeeze(axis=0) if single else actions
+
+
 class TrainedPolicy:
     """A loaded Stable-Baselines3 model behind the hand baselines' ``predict`` interface.
 
@@ -262,10 +328,14 @@ class TrainedPolicy:
         self.observation_space = model.observation_space
         self.action_space = model.action_space
         self.uses_action_masks = algo == "maskable_ppo"
+        #: SB3's deterministic predict without its per-call overhead, where the policy allows it (else None).
+        self.lean = LeanActor.for_model(model, normalization)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True, action_masks=None):
         """``(action, state)`` for one observation or a batch, as SB3's ``predict``; ``action_masks`` (a bool or
         0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others."""
+        if deterministic and self.lean is not None:
+            return self.lean(observation), state
         obs = observation
         if self.normalization is not None:
             obs = self.normalization.normalize_obs(np.asarray(observation))
