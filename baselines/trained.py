@@ -293,12 +293,12 @@ class LeanActor:
         """The deterministic action for one observation, or one per row of a batch."""
         torch = self.torch
         obs = np.asarray(observation)
-        if self.normalization is not None:  # VecNormalize.normalize_obs
-            mean, std, clip = self.normalization
-            obs = np.clip((obs - mean) / std, -clip, clip).astype(np.float32)
         single = obs.shape == self.shape
         if not single and obs.shape[1:] != self.shape:
             raise ValueError(f"observation of shape {obs.shape}: expected {self.shape} or a batch of them")
+        if self.normalization is not None:  # VecNormalize.normalize_obs
+            mean, std, clip = self.normalization
+            obs = np.clip((obs - mean) / std, -clip, clip).astype(np.float32)
         policy = self.policy
         with torch.no_grad():  # ActorCriticPolicy.obs_to_tensor, preprocess_obs, get_distribution, then the mode
             tensor = torch.as_tensor(obs.reshape((-1, *self.shape))).float()
