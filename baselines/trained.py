@@ -265,6 +265,7 @@ class LeanActor:
         self.shape = policy.observation_space.shape
         self.action_shape = policy.action_space.shape
         self.box = isinstance(policy.action_space, spaces.Box)
+        self.n_actions = None if self.box else int(policy.action_space.n)
         self.normalization = None
         if normalization is not None and normalization.norm_obs:
             rms = normalization.obs_rms
@@ -277,20 +278,30 @@ class LeanActor:
         from stable_baselines3.common import distributions as dist
         from stable_baselines3.common.policies import ActorCriticPolicy
 
+        kinds = {ActorCriticPolicy: (dist.DiagGaussianDistribution, dist.StateDependentNoiseDistribution,
+                                     dist.CategoricalDistribution)}  # fmt: skip
+        try:
+            from sb3_contrib.common.maskable.distributions import MaskableCategoricalDistribution
+            from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+
+            kinds[MaskableActorCriticPolicy] = (MaskableCategoricalDistribution,)
+        except ImportError:  # sb3-contrib is optional
+            pass
         policy = getattr(model, "policy", None)
-        if type(policy) is not ActorCriticPolicy or policy.squash_output:
-            return None  # MaskablePPO's, SAC's, TD3's, DQN's and CNN policies keep SB3's predict
+        if type(policy) not in kinds or policy.squash_output:
+            return None  # SAC's, TD3's, DQN's, recurrent and CNN policies keep SB3's predict
         flat = isinstance(policy.observation_space, spaces.Box) and len(policy.observation_space.shape) == 1
         # The mode of each: the mean (gSDE's too, without its tanh bijector), or the most probable category.
-        known = (dist.DiagGaussianDistribution, dist.StateDependentNoiseDistribution, dist.CategoricalDistribution)
+        known = kinds[type(policy)]
         if not flat or type(policy.action_dist) not in known or getattr(policy.action_dist, "bijector", None):
             return None
         if normalization is not None and isinstance(normalization.obs_rms, dict):
             return None
         return cls(policy, normalization)
 
-    def __call__(self, observation) -> np.ndarray:
-        """The deterministic action for one observation, or one per row of a batch."""
+    def __call__(self, observation, action_masks=None) -> np.ndarray:
+        """The deterministic action for one observation, or one per row of a batch; ``action_masks`` (bool, one row
+        per observation) as MaskablePPO's predict takes them."""
         torch = self.torch
         obs = np.asarray(observation)
         single = obs.shape == self.shape
@@ -303,13 +314,24 @@ class LeanActor:
         with torch.no_grad():  # ActorCriticPolicy.obs_to_tensor, preprocess_obs, get_distribution, then the mode
             tensor = torch.as_tensor(obs.reshape((-1, *self.shape))).float()
             head = policy.action_net(policy.mlp_extractor.forward_actor(policy.pi_features_extractor(tensor)))
-            if not self.box:  # torch's Categorical(logits).probs.argmax, as CategoricalDistribution.mode takes it
-                probs = torch.nn.functional.softmax(head - head.logsumexp(dim=-1, keepdim=True), dim=-1)
-                head = torch.argmax(probs, dim=1)
+            if not self.box:
+                head = self._mode(head, action_masks)
         actions = head.numpy().reshape((-1, *self.action_shape))
         if self.box:
             actions = np.clip(actions, policy.action_space.low, policy.action_space.high)
         return actions.squeeze(axis=0) if single else actions
+
+    def _mode(self, logits, action_masks):
+        """The most probable category as torch's ``Categorical(logits).probs.argmax`` takes it, with the mask
+        applied as sb3-contrib's ``MaskableCategorical.apply_masking`` does (masked logits -1e8, normalised again)."""
+        torch = self.torch
+        logits = logits.view(-1, self.n_actions)
+        logits = logits - logits.logsumexp(dim=-1, keepdim=True)
+        if action_masks is not None:
+            masks = torch.as_tensor(action_masks, dtype=torch.bool).reshape(logits.shape)
+            logits = torch.where(masks, logits, torch.tensor(-1e8, dtype=logits.dtype))
+            logits = logits - logits.logsumexp(dim=-1, keepdim=True)
+        return torch.argmax(torch.nn.functional.softmax(logits, dim=-1), dim=1)
 
 
 class TrainedPolicy:
@@ -334,14 +356,14 @@ class TrainedPolicy:
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True, action_masks=None):
         """``(action, state)`` for one observation or a batch, as SB3's ``predict``; ``action_masks`` (a bool or
         0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others."""
-        if deterministic and self.lean is not None:
-            return self.lean(observation), state
-        obs = observation
-        if self.normalization is not None:
-            obs = self.normalization.normalize_obs(np.asarray(observation))
         kwargs = {}
         if self.uses_action_masks and action_masks is not None:
             kwargs["action_masks"] = np.asarray(action_masks).astype(bool)
+        if deterministic and self.lean is not None:
+            return self.lean(observation, **kwargs), state
+        obs = observation
+        if self.normalization is not None:
+            obs = self.normalization.normalize_obs(np.asarray(observation))
         return self.model.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic, **kwargs)
 
     def describe(self) -> dict:

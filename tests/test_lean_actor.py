@@ -1,7 +1,8 @@
 """The lean inference path of a trained policy (``baselines.trained.LeanActor``) acts exactly as Stable-Baselines3's
 deterministic ``predict``: the same actions bit for bit, dtype and shape, on the committed agents of every kind it
-takes (gSDE with observation normalisation on the beasts, a categorical action on Buckybot, a Box on the cart, a
-batch of robots on the swarm), along their own trajectories; and a policy it does not repeat keeps SB3's predict.
+takes (gSDE with observation normalisation on the beasts, a categorical action on Buckybot, MaskablePPO's masked
+one, a Box on the cart, a batch of robots on the swarm), along their own trajectories; and a policy it does not
+repeat keeps SB3's predict.
 """
 
 from __future__ import annotations
@@ -22,11 +23,11 @@ AGENTS = Path(__file__).resolve().parents[1] / "benchmarks" / "agents"
 STEPS = 200
 
 
-def sb3_predict(agent, observation):
+def sb3_predict(agent, observation, masks=None):
     """The action SB3's own predict gives (the wrapper's path without the lean actor)."""
     lean, agent.lean = agent.lean, None
     try:
-        return agent.predict(observation, deterministic=True)[0]
+        return agent.predict(observation, deterministic=True, action_masks=masks)[0]
     finally:
         agent.lean = lean
 
@@ -37,23 +38,25 @@ def assert_same(lean_action, sb3_action):
 
 
 def observations(env, agent, steps):
-    """The observations (one robot batch per cycle, for a swarm) met acting with the lean actor from seed 1000."""
+    """The observations (one robot batch per cycle, for a swarm) and action masks (for MaskablePPO) met acting
+    with the lean actor from seed 1000."""
     if is_parallel(env):
         obs, _ = env.reset(seed=1000)
         for _ in range(steps):
             if not env.agents:
                 return
             batch = np.stack([obs[a] for a in env.agents])
-            yield batch
+            yield batch, None
             actions = agent.lean(batch)
             obs, *_ = env.step({a: actions[i] for i, a in enumerate(env.agents)})
         return
-    obs, _ = env.reset(seed=1000)
+    obs, info = env.reset(seed=1000)
     for _ in range(steps):
-        yield obs
-        obs, _, terminated, truncated, _ = env.step(agent.lean(obs))
+        masks = info["action_mask"].astype(bool) if agent.uses_action_masks else None
+        yield obs, masks
+        obs, _, terminated, truncated, info = env.step(agent.lean(obs, masks))
         if terminated or truncated:
-            obs, _ = env.reset()
+            obs, info = env.reset()
 
 
 @pytest.mark.parametrize(
@@ -61,6 +64,7 @@ def observations(env, agent, steps):
     [
         ("polyenvs/BeastRoll-v0", "polyenvs__BeastRoll-v0/ppo/seed0"),
         ("polyenvs/BuckybotWallFollow-v0", "polyenvs__BuckybotWallFollow-v0/ppo/seed0"),
+        ("polyenvs/BuckybotExplore-v0", "polyenvs__BuckybotExplore-v0/maskable_ppo/seed0"),
         ("polyenvs/BumperCartExplore-v0", "polyenvs__BumperCartExplore-v0/ppo/seed0"),
         ("polyenvs.swarm.formation_v0", "polyenvs.swarm.formation_v0/ppo/seed0"),
     ],
@@ -73,8 +77,8 @@ def test_lean_actor_gives_sb3_predicts_actions_bit_for_bit(env_id, agent_dir):
     try:
         agent = make_agent(str(AGENTS / agent_dir), env_id, env)
         assert agent.lean is not None
-        for obs in observations(env, agent, STEPS):
-            assert_same(agent.lean(obs), sb3_predict(agent, obs))
+        for obs, masks in observations(env, agent, STEPS):
+            assert_same(agent.lean(obs, masks), sb3_predict(agent, obs, masks))
     finally:
         env.close()
 
@@ -93,13 +97,11 @@ def test_a_batch_of_one_stays_a_batch_and_a_bad_shape_is_refused():
         env.close()
 
 
-def test_a_maskable_policy_keeps_sb3s_predict():
-    env = make_env("polyenvs/BuckybotWallFollow-v0")
+def test_a_policy_it_does_not_repeat_keeps_sb3s_predict():
+    from stable_baselines3 import SAC
+
+    env = make_env("polyenvs/BumperCartExplore-v0")
     try:
-        agent = make_agent(
-            str(AGENTS / "polyenvs__BuckybotWallFollow-v0/maskable_ppo/seed0"), "polyenvs/BuckybotWallFollow-v0", env
-        )
-        assert agent.lean is None
-        assert LeanActor.for_model(agent.model) is None
+        assert LeanActor.for_model(SAC("MlpPolicy", env, seed=0, device="cpu")) is None
     finally:
         env.close()
