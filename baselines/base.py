@@ -46,8 +46,10 @@ class Policy:
         if memory is None or memory.shape != (n, self.memory_size):
             memory = np.tile(self.initial_memory(), (n, 1))
         if episode_start is not None:
-            restart = np.broadcast_to(np.asarray(episode_start, dtype=bool), (n,))
-            memory[restart] = self.initial_memory()
+            restart = np.asarray(episode_start, dtype=bool)
+            # Most steps start nothing: no mask to broadcast and apply (a shape that cannot broadcast still raises).
+            if restart.any() or restart.shape not in ((), (1,), (n,)):
+                memory[np.broadcast_to(restart, (n,))] = self.initial_memory()
         actions = np.array([self.act(batch[i], memory[i]) for i in range(n)])
         return (actions[0] if single else actions), memory
 
