@@ -59,7 +59,7 @@ def make_policy(
         from baselines.trained import is_model_path, load_trained_policy
 
         if is_model_path(name):
-            return load_trained_policy(name, env_id, observation_space, action_space, **kwargs)
+            return load_trained_policy(name, env_id, observation_space, action_space, seed=seed, **kwargs)
     if name == "paper":
         paper = paper_policy(env_id)
         if paper is None:

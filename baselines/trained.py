@@ -6,7 +6,13 @@ A trained model is named by a path: a training directory or a ``.zip``. A traini
 - ``model.zip``: the model, ``model.save(...)`` of Stable-Baselines3 or sb3-contrib;
 - ``vecnormalize.pkl`` (optional): the ``VecNormalize`` statistics the model was trained with;
 - ``run.json``: ``{"env_id", "algo", "seed", "timesteps", "requested_timesteps", "n_envs", "env_kwargs",
-  "hyperparams", "command", "versions", "git_commit", "wall_clock_s", "completed"}``.
+  "hyperparams", "command", "versions", "git_commit", "wall_clock_s", "completed"}``, and ``"residual"``
+  (``{"baseline", "scale", "observe_base"}``) for a residual agent.
+
+A residual agent (``polyenvs train --residual``, :mod:`baselines.residual`) learned a correction of a hand baseline:
+its model sees the observation with the base action appended and outputs the correction. Loaded, it rebuilds the
+baseline from run.json and composes the two inside :meth:`TrainedPolicy.predict`, its ``state`` the baseline's
+memory, so it acts on the environment as registered, wherever a model does.
 
 For a bare ``.zip``, a ``run.json`` beside it is used when there is one, and the normalisation statistics are looked
 for beside it (``vecnormalize.pkl``) and where RL Zoo keeps them (``<name>/vecnormalize.pkl`` for ``<name>.zip``);
@@ -35,6 +41,7 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines.algorithms import ALGOS
+from baselines.residual import ResidualComposer, ResidualSpec, make_composer
 from polyenvs.pool import single_threaded_torch
 from polyenvs.registry import bare_id
 
@@ -341,22 +348,36 @@ class TrainedPolicy:
     Use :func:`load_trained_policy` to build one; it checks the model against the environment.
     """
 
-    def __init__(self, model, algo: str, path: str, normalization=None, run: dict | None = None, checksum=None):
+    def __init__(
+        self, model, algo: str, path: str, normalization=None, run: dict | None = None, checksum=None,
+        residual: ResidualComposer | None = None,
+    ):  # fmt: skip
         self.model = model
         self.algo = algo
         self.path = str(path)
         self.normalization = normalization
         self.run = dict(run or {})
         self.checksum = checksum
-        self.observation_space = model.observation_space
-        self.action_space = model.action_space
+        #: The baseline a residual agent corrects (None for a plain model).
+        self.residual = residual
+        self.observation_space = model.observation_space if residual is None else residual.env_observation_space
+        self.action_space = model.action_space if residual is None else residual.env_action_space
         self.uses_action_masks = algo == "maskable_ppo"
         #: SB3's deterministic predict without its per-call overhead, where the policy allows it (else None).
         self.lean = LeanActor.for_model(model, normalization)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True, action_masks=None):
         """``(action, state)`` for one observation or a batch, as SB3's ``predict``; ``action_masks`` (a bool or
-        0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others."""
+        0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others. A residual
+        agent's ``state`` is its baseline's memory."""
+        if self.residual is not None:
+            base_action, state = self.residual.base_action(observation, state, episode_start)
+            correction, _ = self._model_predict(self.residual.observe(observation, base_action), None, None,
+                                                deterministic, action_masks)  # fmt: skip
+            return self.residual.combine(base_action, correction), state
+        return self._model_predict(observation, state, episode_start, deterministic, action_masks)
+
+    def _model_predict(self, observation, state, episode_start, deterministic, action_masks):
         kwargs = {}
         if self.uses_action_masks and action_masks is not None:
             kwargs["action_masks"] = np.asarray(action_masks).astype(bool)
@@ -380,6 +401,8 @@ class TrainedPolicy:
         }
         if self.uses_action_masks:
             description["action_masks"] = True
+        if self.residual is not None:
+            description["residual"] = self.residual.describe()
         if self.run.get("completed") is False:
             description["completed"] = False
             description["requested_timesteps"] = self.run.get("requested_timesteps")
@@ -388,11 +411,28 @@ class TrainedPolicy:
         return description
 
 
+def _residual_of(path, run: dict, run_file, env_id: str, observation_space, action_space, seed):
+    """The composer of a residual agent's run.json (None for a plain model), its baseline rebuilt."""
+    if "residual" not in run:
+        return None
+    try:
+        spec = ResidualSpec.from_json(run["residual"])
+        return make_composer(spec, env_id, observation_space, action_space, seed=seed)
+    except ValueError as exc:
+        raise TrainedModelError(f"{path}: {run_file}: bad residual entry ({exc})") from None
+
+
 def load_trained_policy(
-    path: str | os.PathLike, env_id: str, observation_space: spaces.Space, action_space: spaces.Space, **kwargs
+    path: str | os.PathLike,
+    env_id: str,
+    observation_space: spaces.Space,
+    action_space: spaces.Space,
+    seed: int | None = None,
+    **kwargs,
 ) -> TrainedPolicy:
     """Load the model at ``path`` (a training directory or a ``.zip``) for ``env_id`` and check it fits.
 
+    ``seed`` seeds a residual agent's baseline where it is stochastic (as :func:`baselines.make_policy` seeds it).
     Raises :class:`TrainedModelError` (one line) for a missing path, a corrupt model, a run.json for another
     environment id, normalisation statistics of another shape, or spaces that do not match the environment's.
     """
@@ -405,6 +445,9 @@ def load_trained_policy(
         raise TrainedModelError(f"{path}: trained on {trained_on} ({run_file}), not {env_id}")
     if normalize_file is None and _normalize_requested(run):
         raise TrainedModelError(f"{path}: {run_file} says it trained with normalize, but there is no {NORMALIZE_FILE}")
+    residual = _residual_of(path, run, run_file, env_id, observation_space, action_space, seed)
+    if residual is not None:  # the model sees and does what the residual wrapper gave it
+        observation_space, action_space = residual.observation_space, residual.action_space
     model, algo = _load_model(model_file, run.get("algo"))
     for what, theirs, ours in (
         ("observations", model.observation_space, observation_space),
@@ -415,4 +458,5 @@ def load_trained_policy(
                 f"{path}: the model's {what} are {_space_text(theirs)}, but {env_id} has {_space_text(ours)}"
             )
     normalization = _load_normalization(normalize_file, observation_space) if normalize_file is not None else None
-    return TrainedPolicy(model, algo, path, normalization, run, model_checksum(model_file, normalize_file))
+    checksum = model_checksum(model_file, normalize_file)
+    return TrainedPolicy(model, algo, path, normalization, run, checksum, residual)

@@ -15,7 +15,7 @@ import argparse
 import sys
 
 from polyenvs import __version__
-from polyenvs.commands import evaluate, leaderboard, localize, record, sweep, train
+from polyenvs.commands import collect, evaluate, leaderboard, localize, record, sweep, train
 from polyenvs.commands import list as list_command
 from polyenvs.commands.flags import CliError
 from polyenvs.errors import InputError
@@ -23,7 +23,7 @@ from polyenvs.errors import InputError
 __all__ = ["build_parser", "main"]
 
 #: The subcommands, in the order ``polyenvs --help`` lists them (each imports nothing heavy until it runs).
-COMMANDS = (train, sweep, localize, list_command, evaluate, leaderboard, record)
+COMMANDS = (train, sweep, localize, list_command, evaluate, leaderboard, record, collect)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -178,11 +178,34 @@ def _seed_number(path: Path) -> int:
     return int(match.group(1))
 
 
+#: A residual agent's directory, ``<algo>_residual_<baseline>`` (where ``polyenvs train --residual`` writes).
+_RESIDUAL_DIR = re.compile(r"(?P<algo>[a-z0-9_]+?)_residual_(?P<baseline>.+)")
+
+
+def _algo_dir(path: Path, algos) -> tuple[str, str | None]:
+    """``(algorithm, the baseline a residual agent corrects or None)`` an agents directory's name says."""
+    if path.name in algos:
+        return path.name, None
+    match = _RESIDUAL_DIR.fullmatch(path.name)
+    if match is None or match["algo"] not in algos:
+        raise InputError(
+            f"{path}: unknown algorithm directory; known: {', '.join(algos)} (or <algo>_residual_<baseline>)"
+        )
+    return match["algo"], match["baseline"]
+
+
+def _residual_baseline(run: dict) -> str | None:
+    residual = run.get("residual")
+    return residual.get("baseline") if isinstance(residual, dict) else None
+
+
 def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
-    """The committed agents of ``env_id``: every ``<agents_dir>/<env>/<algo>/seed<N>/``, by algorithm then seed.
+    """The committed agents of ``env_id``: every ``<agents_dir>/<env>/<algo>/seed<N>/``, by algorithm then seed;
+    a residual agent's ``<algo>`` directory is ``<algo>_residual_<baseline>``, its own row.
 
     Each must hold a ``model.zip`` and a ``run.json`` that agrees with where it sits (environment, algorithm,
-    seed); anything else raises :class:`InputError` naming the directory. Files (a README) are ignored.
+    seed, the baseline a residual agent corrects); anything else raises :class:`InputError` naming the directory.
+    Files (a README) are ignored.
     """
     if agents_dir is None:
         return []
@@ -195,10 +218,9 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     agents = []
     order = {name: i for i, name in enumerate(ALGOS)}  # ppo, dqn, maskable_ppo, sac, td3
     algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
-    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(p.name, len(order)), p.name)):
-        algo = algo_dir.name
-        if algo not in ALGOS:
-            raise InputError(f"{algo_dir}: unknown algorithm directory; known: {', '.join(ALGOS)}")
+    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(_algo_dir(p, ALGOS)[0]), p.name)):
+        algo, baseline = _algo_dir(algo_dir, ALGOS)
+        label = algo_dir.name
         seed_dirs = [p for p in algo_dir.iterdir() if p.is_dir() and not p.name.startswith(".")]
         for seed_dir in sorted(seed_dirs, key=lambda p: (_seed_number(p), p.name)):
             seed = _seed_number(seed_dir)
@@ -213,10 +235,11 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
                 ("env_id", bare_id(str(run.get("env_id", ""))), env_id),
                 ("algo", run.get("algo"), algo),
                 ("seed", run.get("seed"), seed),
+                ("residual baseline", _residual_baseline(run), baseline),
             ):
                 if found != expected:
                     raise InputError(f"{run_file}: {what} is {found!r}, but the directory says {expected!r}")
-            agents.append(Agent(env_id, algo, str(seed_dir), algo, f"agent__{algo}__seed{seed}", seed, run))
+            agents.append(Agent(env_id, algo, str(seed_dir), label, f"agent__{label}__seed{seed}", seed, run))
     return agents
 
 
@@ -345,6 +368,7 @@ class _Evaluation:
     name: str  # how progress lines name it
     path: Path
     layouts: str
+    episodes: int
     agent: Agent | None = None
     doc: dict | None = None
 
@@ -367,9 +391,15 @@ def layouts_kwargs(layouts: str) -> dict:
     return {} if layouts == "default" else {"layouts": layouts}
 
 
+def protocol_episodes(env_id: str) -> int:
+    """Episodes per policy in the protocol for ``env_id``: its score's own count, else :data:`PROTOCOL_EPISODES`."""
+    score = entry(env_id).score
+    return score.episodes if score is not None and score.episodes is not None else PROTOCOL_EPISODES
+
+
 def run_leaderboard(
     env_ids: list[str],
-    episodes: int,
+    episodes: int | None,
     *,
     results_dir: Path,
     redo: bool = False,
@@ -381,7 +411,8 @@ def run_leaderboard(
     workers: int = 1,
 ) -> list[dict]:
     """Evaluate ``random``, every hand baseline and every trained agent on each environment, on the default layouts
-    and (where the environment takes ``layouts=``) the held-out ones; returns the documents.
+    and (where the environment takes ``layouts=``) the held-out ones; returns the documents. ``episodes`` per
+    policy, or ``None`` for the protocol's count of each environment (:func:`protocol_episodes`).
 
     Agents are the committed ones under ``agents_dir`` (see :func:`find_agents`) plus ``extra_agents`` (paths whose
     run.json names one of ``env_ids``); every agent that needs evaluating is loaded and checked against its
@@ -402,10 +433,10 @@ def run_leaderboard(
     plan = _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents)
     todo = [item for item in plan if item.doc is None]
     if on_plan is not None:
-        on_plan(episodes * len(todo))
+        on_plan(sum(item.episodes for item in todo))
 
     def finish(item: _Evaluation, doc: dict, seconds: float) -> None:
-        doc["n_episodes"] = episodes
+        doc["n_episodes"] = item.episodes
         if item.agent is not None:
             doc["agent"] = item.agent.meta()
         doc.update(provenance())
@@ -413,17 +444,18 @@ def run_leaderboard(
         item.doc = doc
         done = sum(i.doc is not None for i in todo)
         progress(
-            f"{item.title}: {episodes} episode{'s' if episodes != 1 else ''} in {seconds:.1f} s ({done}/{len(todo)})"
+            f"{item.title}: {item.episodes} episode{'s' if item.episodes != 1 else ''} in {seconds:.1f} s "
+            f"({done}/{len(todo)})"
         )
 
     if workers > 1 and len(todo) > 1:
-        _evaluate_in_pool(todo, episodes, workers, finish, on_episode)
+        _evaluate_in_pool(todo, workers, finish, on_episode)
     else:
         for item in todo:
             started = time.monotonic()
             kwargs = layouts_kwargs(item.layouts)
             with old_versions_quietly():
-                doc = evaluate(item.env_id, item.policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
+                doc = evaluate(item.env_id, item.policy, episodes=item.episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
                                on_episode=on_episode)  # fmt: skip
             finish(item, doc, time.monotonic() - started)
     for item in plan:
@@ -438,6 +470,7 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
     envs: dict = {}
     try:
         for env_id in env_ids:
+            count = episodes if episodes is not None else protocol_episodes(env_id)
             entries: list[tuple[str, str, Agent | None]] = [(p, p, None) for p in leaderboard_policies(env_id)]
             entries += [(a.path, a.key, a) for a in agents[env_id]]
             for policy, key, agent in entries:
@@ -449,11 +482,10 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
                         f"{agent.run.get('requested_timesteps')} requested timesteps (interrupted); included as it is"
                     )
                 for layout in LAYOUTS:  # every row takes layouts= (tests/test_layouts.py)
-                    item = _Evaluation(
-                        env_id, policy, name, result_path(results_dir, env_id, key, layout), layout, agent
-                    )
+                    path = result_path(results_dir, env_id, key, layout)
+                    item = _Evaluation(env_id, policy, name, path, layout, count, agent)
                     if not redo:
-                        item.doc, why = load_result(item.path, env_id, policy, episodes, sha256=sha, layouts=layout)
+                        item.doc, why = load_result(path, env_id, policy, count, sha256=sha, layouts=layout)
                         if item.doc is not None:
                             progress(f"{item.title}: done before ({item.path})")
                         elif why is not None:
@@ -482,13 +514,13 @@ def step_budget(env_id: str) -> int:
     return row.max_cycles if isinstance(row, ParallelEnvEntry) else row.max_episode_steps
 
 
-def _evaluate_in_pool(todo: list[_Evaluation], episodes: int, workers: int, finish, on_episode) -> None:
+def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode) -> None:
     from polyenvs.pool import run_local
 
-    jobs = [(i, item.env_id, item.policy, episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
-    # Longest first, so that the workers finish together instead of one running an 8,000-step evaluation alone at
-    # the end; the order changes no result (each evaluation is seeded on its own).
-    jobs.sort(key=lambda job: -step_budget(job[1]))
+    jobs = [(i, item.env_id, item.policy, item.episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
+    # Longest first (steps an episode may take, times episodes), so that the workers finish together instead of one
+    # running an 8,000-step evaluation alone at the end; the order changes no result (each is seeded on its own).
+    jobs.sort(key=lambda job: -step_budget(job[1]) * job[3])
 
     def on_result(job, result) -> None:
         doc, seconds = result
@@ -769,6 +801,17 @@ def _details_table(env_id: str, rows: list[dict]) -> list[str]:
     return [*lines, "", "</details>"]
 
 
+def _episode_counts(documents: list[dict]) -> str:
+    """How many episodes each policy ran: the usual count, then the environments that ran another."""
+    per_env: dict[str, set[int]] = {}
+    for doc in documents:
+        per_env.setdefault(doc["env_id"], set()).add(int(doc["n_episodes"]))
+    counts = [n for ns in per_env.values() for n in ns]
+    usual = max(set(counts), key=counts.count) if counts else 0
+    others = [f"{'/'.join(map(str, sorted(ns)))} on {env_id}" for env_id, ns in per_env.items() if ns != {usual}]
+    return f"{usual}" + (f" ({'; '.join(others)})" if others else "")
+
+
 def leaderboard_markdown(
     documents: list[dict],
     quick: bool | None = None,
@@ -785,10 +828,7 @@ def leaderboard_markdown(
     counts = sorted({int(d["n_episodes"]) for d in documents})
     if quick is None:
         quick = any(n < PROTOCOL_EPISODES for n in counts)
-    if len(counts) <= 1:
-        each = f"Each policy (each training seed of a trained agent): {counts[0] if counts else 0} evaluation episodes"
-    else:
-        each = f"Each policy (each training seed of a trained agent): evaluation episodes differ ({', '.join(map(str, counts))})"
+    each = f"Each policy (each training seed of a trained agent): {_episode_counts(documents)} evaluation episodes"
     lines = [
         "# polyenvs leaderboard",
         "",

@@ -34,6 +34,7 @@ from pettingzoo import ParallelEnv
 from polyenvs.registry import ParallelEnvEntry, bare_id, entry
 
 __all__ = [
+    "SharedPolicy",
     "UnknownEnvironment",
     "agent_spaces",
     "env_kind",
@@ -155,7 +156,7 @@ def run_episode(env, agent, seed: int) -> dict[str, Any]:
     return {"seed": seed, "return": total, "length": length, "metrics": metrics}
 
 
-class _SharedPolicy:
+class SharedPolicy:
     """One policy acting for every robot of a parallel environment: the live robots' observations as one batch,
     with each robot's recurrent state (hand baselines' memory) kept in its own row across steps."""
 
@@ -188,7 +189,7 @@ class _SharedPolicy:
 
 def _run_parallel_episode(env: ParallelEnv, agent, seed: int) -> dict[str, Any]:
     observations, infos = env.reset(seed=seed)
-    shared = _SharedPolicy(env, agent)
+    shared = SharedPolicy(env, agent)
     returns = dict.fromkeys(env.possible_agents, 0.0)
     robot_metrics: list[dict] = []
     length = 0
@@ -216,7 +217,7 @@ def episode_frames(env, agent, seed: int, max_steps: int, every: int = 1) -> lis
     need not draw them all), and the last."""
     if is_parallel(env):
         observations, infos = env.reset(seed=seed)
-        shared = _SharedPolicy(env, agent)
+        shared = SharedPolicy(env, agent)
         frames = [env.render()]
         for step in range(1, max_steps + 1):
             if not env.agents:

@@ -7,10 +7,16 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401
+from polyenvs.buckybot.env import ground_truth_parts
 from polyenvs.buckybot.floor_plans import BUILTIN_PLANS
 from polyenvs.buckybot.sensors import RANGE_MAX_CM
 
 IDS = ["polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0", "polyenvs/BuckybotGoal-v0"]
+
+
+def truth(info: dict) -> dict:
+    """The named parts of ``info["ground_truth"]``."""
+    return ground_truth_parts(info["ground_truth"])
 
 
 @pytest.mark.parametrize("plan", [*BUILTIN_PLANS, "random"])
@@ -19,20 +25,21 @@ def test_seeded_starts_are_clear_of_walls(plan):
     starts = set()
     for seed in range(25):
         _, info = env.reset(seed=seed)
-        assert info["wall_distance_cm"] > 13.0 + 9.1
+        assert truth(info)["wall_distance_cm"] > 13.0 + 9.1
         assert info["action_mask"].all()
-        starts.add(tuple(np.round(info["pose"][:2], 3)))
+        starts.add(tuple(np.round(truth(info)["pose"][:2], 3)))
     assert len(starts) == 25  # the initial state is randomised
 
 
 def test_reset_options_place_the_robot():
     env = gym.make(IDS[0])
     _, info = env.reset(seed=0, options={"pose": (100.0, 150.0, 30.0), "face": 7})
-    np.testing.assert_allclose(info["pose"], [100.0, 150.0, 30.0])
-    np.testing.assert_allclose(info["dead_reckoned_pose"], [100.0, 150.0, 30.0])
+    np.testing.assert_allclose(truth(info)["pose"], [100.0, 150.0, 30.0])
+    np.testing.assert_allclose(truth(info)["dead_reckoned_pose"], [100.0, 150.0, 30.0])
     assert info["face"] == 7
-    np.testing.assert_allclose(info["tip_directions_deg"], [30.0, 150.0, 270.0])
-    assert len(info["actuators"]) == 3 and set(info["actuators"]) <= set("ABCDEFGHIJKL")
+    np.testing.assert_allclose(truth(info)["tip_directions_deg"], [30.0, 150.0, 270.0])
+    actuators = env.unwrapped.frame_labels()["actuators"]
+    assert len(actuators) == 3 and set(actuators) <= set("ABCDEFGHIJKL")
 
 
 @pytest.mark.parametrize(
@@ -60,7 +67,7 @@ def test_blocked_tip_stays_put_and_is_flagged():
     assert info["action_mask"].tolist() == [1, 0, 1]
     obs, reward, _, _, info = env.step(1)
     assert info["blocked"] and info["reward_blocked"] == -1.0
-    np.testing.assert_allclose(info["pose"], [20.0, 150.0, 60.0])
+    np.testing.assert_allclose(truth(info)["pose"], [20.0, 150.0, 60.0])
     assert info["face"] == 1
     assert obs[18] == 1.0  # tip_failed
     assert info["episode_metrics"]["blocked_tips"] == 1
@@ -73,12 +80,14 @@ def test_a_tip_moves_one_lattice_step_and_turns_the_frame():
     _, info = env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0), "face": 1})
     _, _, _, _, info = env.step(1)
     np.testing.assert_allclose(
-        info["pose"][:2], [200.0 + 9.129 * np.cos(np.radians(120)), 150.0 + 9.129 * np.sin(np.radians(120))], atol=1e-3
+        truth(info)["pose"][:2],
+        [200.0 + 9.129 * np.cos(np.radians(120)), 150.0 + 9.129 * np.sin(np.radians(120))],
+        atol=1e-3,
     )
-    assert info["heading_deg"] == pytest.approx(300.0)  # 120° + 180°: direction 0 now points back
+    assert truth(info)["pose"][2] == pytest.approx(300.0)  # 120° + 180°: direction 0 now points back
     assert info["face"] != 1
     _, _, _, _, info = env.step(0)  # back where it came from, on the same face
-    np.testing.assert_allclose(info["pose"][:2], [200.0, 150.0], atol=1e-9)
+    np.testing.assert_allclose(truth(info)["pose"][:2], [200.0, 150.0], atol=1e-9)
     assert info["face"] == 1
 
 
@@ -130,7 +139,7 @@ def test_user_floor_plan():
     walls = [(0, 0, 300, 0), (300, 0, 300, 200), (300, 200, 0, 200), (0, 200, 0, 0), (140, 80, 160, 80)]
     env = gym.make(IDS[0], floor_plan=walls)
     _, info = env.reset(seed=0)
-    assert info["wall_distance_cm"] > 22
+    assert truth(info)["wall_distance_cm"] > 22
 
 
 def test_random_rooms_follow_the_seed():
@@ -151,7 +160,7 @@ def test_dead_reckoning_drifts_with_noise_and_not_without():
             env.reset(seed=seed, options={"pose": (200.0, 150.0, 0.0)})
             for a in [1, 0] * 40:  # 80 tips back and forth across the middle of the room
                 *_, info = env.step(a)
-            out.append(np.hypot(*(info["pose"][:2] - info["dead_reckoned_pose"][:2])))
+            out.append(np.hypot(*(truth(info)["pose"][:2] - truth(info)["dead_reckoned_pose"][:2])))
         return np.array(out)
 
     assert (gaps(0.0) < 1e-9).all()
@@ -199,18 +208,23 @@ def test_info_maps_the_face_frame_to_the_world():
     _, info = env.reset(seed=3)
     for _ in range(40):
         face = info["face"] - 1
-        heading = np.radians(info["heading_deg"])
+        heading = np.radians(truth(info)["pose"][2])
         edge0 = int(env.unwrapped.sim.edge0[0])
         body = geo.body_rotation(face, edge0, heading)
-        normals = geo.FACE_NORMALS_HOME[np.array(info["sensor_faces"]) - 1] @ body.T
+        normals = geo.FACE_NORMALS_HOME[np.array(env.unwrapped.frame_labels()["sensor_faces"]) - 1] @ body.T
         np.testing.assert_allclose(np.degrees(np.arcsin(normals[:, 2])), 19.47, atol=0.01)
         world_az = np.degrees(np.arctan2(normals[:, 1], normals[:, 0]))
         expected = np.degrees(heading + geo.SENSOR_AZIMUTHS_RAD)
         np.testing.assert_allclose((world_az - expected + 180) % 360 - 180, 0.0, atol=1e-6)
         # The actuator of each action is the corner opposite that tip direction.
-        corners = geo.ACTUATOR_AXES_HOME[[geo.ACTUATOR_LETTERS.index(c) for c in info["actuators"]]] @ body.T
+        corners = (
+            geo.ACTUATOR_AXES_HOME[[geo.ACTUATOR_LETTERS.index(c) for c in env.unwrapped.frame_labels()["actuators"]]]
+            @ body.T
+        )
         corner_az = np.degrees(np.arctan2(corners[:, 1], corners[:, 0]))
-        np.testing.assert_allclose((corner_az - info["tip_directions_deg"] - 180 + 180) % 360 - 180, 0.0, atol=1e-6)
+        np.testing.assert_allclose(
+            (corner_az - truth(info)["tip_directions_deg"] - 180 + 180) % 360 - 180, 0.0, atol=1e-6
+        )
         *_, info = env.step(env.action_space.sample())
 
 
@@ -226,3 +240,51 @@ def test_human_render_mode_opens_a_window(monkeypatch):
     assert surface is not None and surface.get_size()[0] == 480
     env.close()
     assert pygame.display.get_surface() is None
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_info_holds_the_documented_entries(env_id):
+    """One step's info: the ground truth as one array laid out as ``ground_truth_structure`` says, the face, the
+    mask, the reward terms and the metrics; the vector env gives the same entries for every row."""
+    env = gym.make(env_id)
+    _, info = env.reset(seed=4)
+    *_, info = env.step(1)
+    core = env.unwrapped
+    task = {"goal"} if "Goal" in env_id else set()
+    reward_keys = {f"reward_{name}" for name in core.reward_names}
+    assert set(info) == {"ground_truth", "face", "blocked", "action_mask", "episode_metrics"} | reward_keys | task
+    parts = truth(info)
+    assert info["ground_truth"].shape == (16,) and set(parts) == set(core.ground_truth_structure)
+    state = core.sim.state[0]
+    np.testing.assert_array_equal(parts["pose"][:2], core.position)
+    np.testing.assert_allclose(parts["pose"][2], np.degrees(state[2]))
+    np.testing.assert_allclose(parts["tip_directions_deg"], (parts["pose"][2] + [0.0, 120.0, 240.0]) % 360.0)
+    assert parts["wall_distance_cm"] == pytest.approx(core.floor_plan.clearance(core.position))
+    assert info["face"] == int(state[3]) + 1
+    assert set(info["episode_metrics"]) == set(core.all_metric_names)
+
+    vector = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    _, vector_info = vector.reset(seed=4)
+    _, _, _, _, vector_info = vector.step(np.ones(3, dtype=np.int64))
+    assert {key for key in vector_info if not key.startswith("_")} == set(info)
+    assert vector_info["ground_truth"].shape == (3, 16)
+    np.testing.assert_array_equal(vector_info["ground_truth"][0], info["ground_truth"])
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_a_pickled_env_reports_its_own_steps(env_id):
+    """A copy (pickle, deepcopy) rebuilds what it reads its kernel and info through from its own arrays."""
+    import copy
+    import pickle
+
+    env = gym.make(env_id)
+    env.reset(seed=4)
+    clones = [pickle.loads(pickle.dumps(env)), copy.deepcopy(env)]
+    for action in [1, 2, 2, 0, 1, 1]:
+        obs, reward, _, _, info = env.step(action)
+        for clone in clones:
+            clone_obs, clone_reward, _, _, clone_info = clone.step(action)
+            np.testing.assert_array_equal(clone_obs, obs)
+            assert clone_reward == reward and clone_info["episode_metrics"] == info["episode_metrics"]
+            np.testing.assert_array_equal(clone_info["ground_truth"], info["ground_truth"])
+            np.testing.assert_array_equal(clone_info["action_mask"], info["action_mask"])

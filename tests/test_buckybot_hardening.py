@@ -13,11 +13,16 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401
-from polyenvs.buckybot.env import PARAMETER_RANGES, BuckybotAction
+from polyenvs.buckybot.env import PARAMETER_RANGES, BuckybotAction, ground_truth_parts
 from polyenvs.buckybot.floor_plans import BUILTIN_PLANS
 
 IDS = ["polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0", "polyenvs/BuckybotGoal-v0"]
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def truth(info: dict) -> dict:
+    """The named parts of ``info["ground_truth"]``."""
+    return ground_truth_parts(info["ground_truth"])
 
 
 def snapshot(env) -> dict:
@@ -163,13 +168,15 @@ def test_no_accepted_parameters_let_the_robot_through_a_wall():
         plan = plans[trial % len(plans)]
         env = gym.make(IDS[0], floor_plan=plan, max_episode_steps=None, **kwargs).unwrapped
         obs, info = env.reset(seed=trial)
-        path = [info["pose"][:2]]
+        path = [truth(info)["pose"][:2]]
         for _ in range(1500):
-            action = int(rng.integers(3)) if rng.random() < 0.7 else int(np.argmin(info["true_range_cm"][[0, 2, 4]]))
+            action = (
+                int(rng.integers(3)) if rng.random() < 0.7 else int(np.argmin(truth(info)["true_range_cm"][[0, 2, 4]]))
+            )
             obs, reward, _, _, info = env.step(action)
             assert np.isfinite(reward) and np.isfinite(obs).all()
-            assert info["wall_distance_cm"] > 0.0
-            path.append(info["pose"][:2])
+            assert truth(info)["wall_distance_cm"] > 0.0
+            path.append(truth(info)["pose"][:2])
         segments = env.plan.segments
         assert _crossings(np.array(path), segments) == 0, (plan, kwargs)
         assert env.plan.in_main_region(path[-1]), (plan, kwargs)
@@ -312,9 +319,9 @@ def test_actions_are_an_int_enum_and_play_has_keys(monkeypatch):
     env = gym.make(IDS[0], noise_scale=0.0)
     env.reset(seed=0, options={"pose": (200.0, 150.0, 0.0), "face": 1})
     *_, info = env.step(BuckybotAction.FORWARD_LEFT)
-    assert info["pose"][1] < 150.0  # 240° in the frame: down and to the left
+    assert truth(info)["pose"][1] < 150.0  # 240° in the frame: down and to the left
     *_, info = env.step(BuckybotAction.BACK)
-    np.testing.assert_allclose(info["pose"][:2], [200.0, 150.0], atol=1e-9)
+    np.testing.assert_allclose(truth(info)["pose"][:2], [200.0, 150.0], atol=1e-9)
     keys = env.unwrapped.get_keys_to_action()
     assert sorted(keys.values()) == [0, 1, 2] and all(isinstance(k, tuple) for k in keys)
 

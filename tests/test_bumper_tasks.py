@@ -183,6 +183,26 @@ def test_the_greedy_split_keeps_its_belief_in_its_state():
         GreedySplit(env.observation_space, env.action_space, particles=10)
 
 
+def test_the_headroom_cheats_plan_on_the_environments_belief_and_the_true_pose():
+    """benchmarks.localize_headroom's diagnostics read what no policy sees: the environment's particles, and with
+    ``truth`` the true pose as half their mass; whatever particles the policy itself holds."""
+    from benchmarks.localize_headroom import CANDIDATES, EnvBeliefSplit
+    from polyenvs.bumper import cart as C
+
+    env = gym.make(LOCALIZE)
+    env.reset(seed=0)
+    env.step(np.array([0.5], dtype=np.float32))
+    spaces = (env.observation_space, env.action_space)
+    honest = GreedySplit(*spaces, candidates=CANDIDATES)
+    believed = env.unwrapped._particles[0]
+    own = np.zeros((200, 3))  # the policy's own belief: ignored
+    assert np.array_equal(EnvBeliefSplit(*spaces, env).split_informations(own), honest.split_informations(believed))
+    row = env.unwrapped.state[0]
+    truth = np.tile([row[C.X], row[C.Y], row[C.HEADING]], (len(believed) // 2, 1))
+    expected = honest.split_informations(np.concatenate([believed, truth]))
+    assert np.array_equal(EnvBeliefSplit(*spaces, env, truth=True).split_informations(own), expected)
+
+
 # ------------------------------------------------------------------------------------------------ Explore-v1
 
 

@@ -27,20 +27,7 @@ def tables() -> dict[str, dict]:
     return leaderboard_tables(docs)
 
 
-#: Rows known not to pass yet (issue 16 stays open on them); strict, so the mark must go when a row passes.
-KNOWN_GAPS = {
-    "polyenvs/BumperCartLocalize-v0": "greedy_split 8.23 [7.19, 9.46] cycles against random 10.2 [8.35, 12.5] on the "
-    "leaderboard's seeds 1000-1049 (apart on seeds 0-29): the upper anchor needs to be stronger",
-}
-
-
-def _marked(row):
-    if row.id in KNOWN_GAPS:
-        return pytest.param(row, id=row.id, marks=pytest.mark.xfail(strict=True, reason=KNOWN_GAPS[row.id]))
-    return pytest.param(row, id=row.id)
-
-
-@pytest.mark.parametrize("row", [_marked(row) for row in REGISTRY])
+@pytest.mark.parametrize("row", REGISTRY, ids=lambda row: row.id)
 def test_the_paper_beats_random_on_the_task_score(tables, row):
     if row.superseded_by is not None:  # ranked on its successor, which must itself be a row that is not superseded
         successor = {r.id: r for r in REGISTRY}.get(row.superseded_by)

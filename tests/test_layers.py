@@ -29,11 +29,13 @@ FLOORS: dict[str, int] = {
     "baselines": BASELINES,
     "polyenvs.bumper.localizers": BASELINES,
     "polyenvs.localization": BASELINES,  # the estimator protocol and table
+    "polyenvs.wrappers": BASELINES,  # the residual wrapper runs a hand baseline
     "polyenvs.rollout": EVALUATION,
     "polyenvs.evaluation": EVALUATION,
     "polyenvs.statistics": EVALUATION,
     "polyenvs.leaderboard": EVALUATION,
     "polyenvs.charts": EVALUATION,
+    "polyenvs.datasets": EVALUATION,
     "polyenvs.localization.runner": EVALUATION,
     "polyenvs.localization.report": EVALUATION,
     "polyenvs.training": TRAINING,

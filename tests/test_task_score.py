@@ -3,6 +3,7 @@ normalises and charts by (default and held-out layouts), evaluated one by one or
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -125,6 +126,48 @@ def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeyp
     calls.clear()
     assert main(args) == 0 and calls == []  # both layouts' files are reused
     assert "done before" in capsys.readouterr().err
+
+
+def test_a_row_whose_score_needs_more_episodes_runs_them_by_default(tmp_path, monkeypatch):
+    """``Score.episodes`` is the protocol's count for its row: the default run evaluates that many (and reuses no
+    result with fewer); ``--episodes`` and ``--quick`` still override it."""
+    counts = []
+
+    def fake_evaluate(env_id, policy, episodes, seed, env_kwargs=None, on_episode=None):
+        counts.append(episodes)
+        held_out = (env_kwargs or {}).get("layouts") == "test"
+        return _doc(env_id, policy, [float(policy != "random")] * episodes, "success", "test" if held_out else "default",
+                    steps_to_goal=[30] * episodes)  # fmt: skip
+
+    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", fake_evaluate)
+    monkeypatch.setattr(polyenvs.leaderboard, "PROTOCOL_EPISODES", 2)  # the protocol's 50, made fast
+    real_entry = polyenvs.leaderboard.entry
+    score = Score("success", "max", ceiling=1.0, tie_break="steps_to_goal", episodes=60)
+    monkeypatch.setattr(
+        polyenvs.leaderboard, "entry", lambda env_id: dataclasses.replace(real_entry(env_id), score=score)
+    )
+    (tmp_path / "agents").mkdir()
+    args = ["leaderboard", "--only", "Goal", "--jobs", "1", "--agents-dir", str(tmp_path / "agents"),
+            "--results-dir", str(tmp_path / "results"), "--output", str(tmp_path / "LB.md")]  # fmt: skip
+    assert main(args) == 0 and counts == [60] * 4
+    assert "60 evaluation episodes" in (tmp_path / "LB.md").read_text()
+    counts.clear()
+    assert main([*args, "--episodes", "3"]) == 0 and counts == [3] * 4
+
+
+def test_a_score_refuses_fewer_episodes_than_the_protocol():
+    with pytest.raises(ValueError, match="episodes"):
+        Score("success", episodes=10)
+
+
+def test_the_committed_reference_holds_each_rows_protocol_count():
+    from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
+
+    root = Path(__file__).resolve().parents[1]
+    rows = {row.id: polyenvs.leaderboard.protocol_episodes(row.id) for row in REGISTRY}
+    for path in sorted((root / REFERENCE_RESULTS_DIR).glob("*.json")):
+        doc = json.loads(path.read_text())
+        assert doc["n_episodes"] == rows[doc["env_id"]], f"{path.name}: {doc['n_episodes']} episodes"
 
 
 def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):

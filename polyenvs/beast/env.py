@@ -6,9 +6,10 @@ termination, running metrics). Everything else lives here:
 
 - the model is generated from the constructor's parameters (:mod:`polyenvs.beast.model`) and loaded through a
   temporary file, so nothing is shipped that cannot be regenerated;
-- a step checks the action (raising ``ValueError`` before anything changes), writes the controls, runs one
-  ``mj_step(model, data, nstep=frame_skip)`` and builds the observation in one compiled call
-  (:mod:`polyenvs.beast.sensors`);
+- a step checks the action (raising ``ValueError`` before anything changes), writes the controls and runs the
+  10 ms sensor tick (``mj_step(model, data, nstep=frame_skip)``, then the observation in one compiled call,
+  :mod:`polyenvs.beast.sensors`, and the task's bookkeeping) once per tick of the control period
+  (``control_timestep``: the action is held, the ticks' rewards summed);
 - a diverged simulation (non-finite or huge state) never reaches the user: the episode is truncated with
   ``info["sim_unstable"] = True``, the last finite observation and a zero reward;
 - ``info`` always holds the named reward terms (``reward_<name>``, summing to the reward), ``sim_unstable`` and the
@@ -62,12 +63,18 @@ _DEBOUNCE_SOURCE = (
     "ours: firmware debounce of a mechanical foot switch, which bounces for milliseconds (Ganssle, A Guide to "
     "Debouncing, tested 18 switches); 30 ms is 3 readings at the 10 ms tick"
 )
+#: Why the control period is a multiple of the 10 ms tick and at most 100 ms.
+_CONTROL_SOURCE = (
+    "ours: the period an action is held, a whole number of 10 ms sensor ticks (the encoders, switches, stance and "
+    "tumble counts keep the tick); 20-100 ms makes a seconds-long tumble tens of decisions (issue 17)"
+)
 
 
 @dataclasses.dataclass(frozen=True)
 class SensorParams:
-    """The sensor model's, the servos' and the reward's parameters (constructor keywords of every beast id); the
-    defaults are the -v0 ids', ideal servos and switches (:class:`RobotContactParams` has the robot's)."""
+    """The sensor model's, the servos', the reward's parameters and the control period (constructor keywords of
+    every beast id); the defaults are the -v0 ids', ideal servos and switches (:class:`RobotContactParams` has the
+    robot's). ``control_timestep`` must also be a whole multiple of :data:`~polyenvs.beast.model.CONTROL_DT`."""
 
     backlash_deg: float = parameter(0.5, 0.0, 5.0, "deg", "ours: encoder dead band")
     tilt_threshold_deg: float = parameter(10.0, 0.0, 45.0, "deg", "ours: tilt-switch threshold below horizontal")
@@ -76,9 +83,20 @@ class SensorParams:
     )
     servo_deadband_deg: float = parameter(0.0, 0.0, 5.0, "deg", "v0: an ideal servo; " + _DEADBAND_SOURCE)
     switch_debounce_ms: float = parameter(0.0, 0.0, 200.0, "ms", "v0: ideal switches; " + _DEBOUNCE_SOURCE)
+    control_timestep: float = parameter(CONTROL_DT, CONTROL_DT, 0.1, "s", _CONTROL_SOURCE)
 
     def __post_init__(self):
         check_parameters(self)
+        if not math.isclose(self.ticks_per_step * CONTROL_DT, self.control_timestep, rel_tol=1e-9):
+            raise ValueError(
+                f"control_timestep must be a whole multiple of the {CONTROL_DT * 1000:g} ms tick, "
+                f"got {show(self.control_timestep)}"
+            )
+
+    @property
+    def ticks_per_step(self) -> int:
+        """10 ms ticks per step: how long an action is held."""
+        return round(self.control_timestep / CONTROL_DT)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -224,6 +242,7 @@ class BeastEnv(MujocoEnv):
         ctrl_cost_weight: float = SensorParams.ctrl_cost_weight,
         servo_deadband_deg: float = SensorParams.servo_deadband_deg,
         switch_debounce_ms: float = SensorParams.switch_debounce_ms,
+        control_timestep: float = SensorParams.control_timestep,
         physics: dict | None = None,
         layouts: str = "default",
         render_mode: str | None = None,
@@ -234,11 +253,14 @@ class BeastEnv(MujocoEnv):
         check_choice("polyhedron", polyhedron, K.POLYHEDRA)
         self.privileged = check_bool("privileged", privileged)
         sensing = SensorParams(
-            backlash_deg, tilt_threshold_deg, ctrl_cost_weight, servo_deadband_deg, switch_debounce_ms
+            backlash_deg, tilt_threshold_deg, ctrl_cost_weight, servo_deadband_deg, switch_debounce_ms, control_timestep
         )
         self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
         self.servo_deadband_deg, self.switch_debounce_ms = sensing.servo_deadband_deg, sensing.switch_debounce_ms
+        self.control_timestep, self.ticks_per_step = sensing.control_timestep, sensing.ticks_per_step
+        # One frame per step: MujocoEnv checks render_fps against dt.
+        self.metadata = {**self.metadata, "render_fps": round(1 / self.control_timestep)}
         physics = _check_physics(physics)
         self.layouts = _check_layouts(layouts, physics)
         _check_rendering(render_mode, self.metadata["render_modes"], width, height)
@@ -360,7 +382,7 @@ class BeastEnv(MujocoEnv):
     # --- Gymnasium API ------------------------------------------------------------------------------------------
     @property
     def dt(self) -> float:
-        return CONTROL_DT
+        return self.control_timestep
 
     def action_to_control(self, action) -> np.ndarray:
         """The actuator controls an action in [-1, 1] asks for: joint targets (rad) or torques (N m)."""
@@ -381,6 +403,27 @@ class BeastEnv(MujocoEnv):
         bad = S.actuate(a, self._joints, self._ctrl)
         if bad:
             raise ValueError(f"action[{bad - 1}] = {show(a[bad - 1])} is outside [-1, 1]")
+        # The controls are written once: actuating again with the same action writes the same ones (the dead band
+        # keeps a target already within it), so the action is held exactly as a 10 ms agent repeating it holds it.
+        terms, terminated = self._tick()
+        for _ in range(self.ticks_per_step - 1):
+            if terms is None or terminated:
+                break
+            more, terminated = self._tick()
+            terms = None if more is None else tuple(t + m for t, m in zip(terms, more, strict=True))
+        if terms is None:
+            info = dict.fromkeys(self._reward_keys, 0.0)
+            info["sim_unstable"] = True
+            info["episode_metrics"] = dict(self._metrics)
+            return self._obs.copy(), 0.0, False, True, info
+        info = dict(zip(self._reward_keys, terms, strict=True))
+        info["sim_unstable"] = False
+        info["episode_metrics"] = dict(self._metrics)
+        return self._obs.copy(), sum(terms), terminated, False, info
+
+    def _tick(self) -> tuple[tuple[float, ...] | None, bool]:
+        """One 10 ms tick under the controls written: (the task's reward terms, terminated), or (None, False) once
+        the simulation has diverged (a zero reward for the whole step, however many ticks went well before)."""
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         self._elapsed += 1
         if self._unstable or S.sense(
@@ -388,15 +431,8 @@ class BeastEnv(MujocoEnv):
             self._misc, self._obs,
         ):  # fmt: skip
             self._unstable = True
-            info = dict.fromkeys(self._reward_keys, 0.0)
-            info["sim_unstable"] = True
-            info["episode_metrics"] = dict(self._metrics)
-            return self._obs.copy(), 0.0, False, True, info
-        terms, terminated = self._task_step(*self._misc[S.SUMMARY].tolist())
-        info = dict(zip(self._reward_keys, terms, strict=True))
-        info["sim_unstable"] = False
-        info["episode_metrics"] = dict(self._metrics)
-        return self._obs.copy(), sum(terms), terminated, False, info
+            return None, False
+        return self._task_step(*self._misc[S.SUMMARY].tolist())
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         options = self._check_options(options)

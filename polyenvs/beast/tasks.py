@@ -50,6 +50,15 @@ _SHARED = """
     ``disabled_limbs`` are locked where they start (a failed worm drive does not backdrive) and ignore the action.
     An action outside [-1, 1], non-finite or of the wrong shape raises ``ValueError`` and changes nothing.
 
+    ## Control period
+    An action is held for ``control_timestep`` seconds: 10 ms by default (the sensor tick), up to 100 ms in whole
+    ticks. A step runs that many ticks (the sensors, switches, stance and tumble counts keep the 10 ms tick), sums
+    their rewards and reward terms, and ends early on the tick the task terminates; the observation is the last
+    tick's. So an episode over the same simulated time returns what a 10 ms agent repeating each action would. The
+    registered ``max_episode_steps`` counts 10 ms steps: for the same simulated time pass ``max_episode_steps =
+    registered x 0.01 / control_timestep`` to ``gym.make`` (BeastRoll: 8000 steps at 10 ms, 1600 at 50 ms). The
+    paper's gaits (``baselines.beast``) count their clock in 10 ms steps: they run at the default period only.
+
     ## Observation Space
     ``Box(float32)``: the robot's own sensors, concatenated (``env.unwrapped.observation_structure`` maps each name
     to its slice):

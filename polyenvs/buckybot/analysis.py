@@ -7,8 +7,8 @@ the path, and a straight-ish walk spreads about 35 cm; the paper's pair comes ba
 
 Figure 8 replays the actuator sequence without noise to place the sensed obstacles and shows the result beside
 the true positions. :func:`figure8_maps` runs the explorer baseline in BuckybotExplore-v0 and builds both
-occupancy grids from what the environment publishes (the observation, ``info["pose"]`` and
-``info["dead_reckoned_pose"]``); :func:`render_figure8` draws them side by side. The policy is passed in (an
+occupancy grids from what the environment publishes (the observation, the ``pose`` and ``dead_reckoned_pose``
+parts of ``info["ground_truth"]``); :func:`render_figure8` draws them side by side. The policy is passed in (an
 environment package imports no policy); the command that runs the paper's explorer is on top, in benchmarks::
 
     python -m benchmarks.buckybot_analysis figure8 --output docs/buckybot_figure8.png
@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from polyenvs.buckybot.env import ground_truth_parts
 from polyenvs.buckybot.floor_plans import make_floor_plan
 from polyenvs.buckybot.mapping import OccupancyGrid, placement_error
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_QUANTUM_CM
@@ -196,6 +197,12 @@ def wall_cells(grid: OccupancyGrid, plan: FloorPlan) -> np.ndarray:
     return mask
 
 
+def _poses(info: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The true and the dead-reckoned pose of one step's ``info``."""
+    parts = ground_truth_parts(info["ground_truth"])
+    return parts["pose"], parts["dead_reckoned_pose"]
+
+
 def figure8_maps(
     agent,
     seed: int = 0,
@@ -209,7 +216,7 @@ def figure8_maps(
     """Run one seeded exploration episode and build the true-pose and the dead-reckoned occupancy grids.
 
     Only the environment's public outputs are used: each step's observation (decoded with the environment's
-    ``observation_structure``), ``info["pose"]`` and ``info["dead_reckoned_pose"]``.
+    ``observation_structure``), the ``pose`` and ``dead_reckoned_pose`` parts of ``info["ground_truth"]``.
 
     Args:
         agent: the policy that explores (``predict`` as Stable-Baselines3's; the paper's is
@@ -249,8 +256,8 @@ def figure8_maps(
     decoded = [decode_observation(o, structure) for o, _ in records]
     readings, too_close, no_return = (np.array(column) for column in zip(*decoded, strict=True))
     true_poses, dr_poses = (
-        np.array([[*i[key][:2], np.radians(i[key][2])] for _, i in records], dtype=np.float64)
-        for key in ("pose", "dead_reckoned_pose")
+        np.array([[*pose[:2], np.radians(pose[2])] for pose in poses], dtype=np.float64)
+        for poses in zip(*(_poses(info) for _, info in records), strict=True)
     )
     steps = np.hypot(*np.diff(true_poses[:, :2], axis=0).T)
     distance = np.concatenate([[0.0], np.cumsum(steps)])

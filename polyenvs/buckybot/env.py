@@ -49,13 +49,21 @@ from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
+from polyenvs.core.jit import compiled_for
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
 from polyenvs.core.window import check_window_scale
 
-__all__ = ["BuckybotAction", "BuckybotEnv", "SENSOR_OBSERVATION_STRUCTURE", "PathTrail"]
+__all__ = [
+    "GROUND_TRUTH_STRUCTURE",
+    "SENSOR_OBSERVATION_STRUCTURE",
+    "BuckybotAction",
+    "BuckybotEnv",
+    "PathTrail",
+    "ground_truth_parts",
+]
 
 
 class BuckybotAction(enum.IntEnum):
@@ -75,6 +83,20 @@ class BuckybotAction(enum.IntEnum):
 
 #: Layout of the sensor part of every Buckybot observation: name -> (start, stop) indices (the simulator's).
 SENSOR_OBSERVATION_STRUCTURE = S.SENSOR_OBSERVATION_STRUCTURE
+#: Layout of ``info["ground_truth"]``: name -> (start, stop) indices (the simulator's ``GROUND_TRUTH``).
+GROUND_TRUTH_STRUCTURE = S.GROUND_TRUTH_STRUCTURE
+
+
+def ground_truth_parts(ground_truth: np.ndarray) -> dict[str, np.ndarray]:
+    """Named views of ``info["ground_truth"]``, one robot's ``(16,)`` or a vector env's ``(num_envs, 16)``:
+    ``pose`` and ``dead_reckoned_pose`` (x cm, y cm, heading of frame direction 0 in degrees),
+    ``tip_directions_deg``, ``true_range_cm`` and ``wall_distance_cm`` (one value per robot)."""
+    return {
+        name: ground_truth[..., start] if stop == start + 1 else ground_truth[..., start:stop]
+        for name, (start, stop) in GROUND_TRUTH_STRUCTURE.items()
+    }
+
+
 #: Actuator letters each action extends, by (face, edge at frame direction 0).
 _ACTUATOR_NAMES = [
     ["".join(geo.ACTUATOR_LETTERS[geo.FACE_CORNER_ACTUATOR[f, (e0 + j) % 3]] for j in range(3)) for e0 in range(3)]
@@ -172,25 +194,14 @@ class _RowReset:
     reseeded: bool
 
 
-def _object_table(rows: list[list]) -> np.ndarray:
-    table = np.empty((len(rows), len(rows[0])), dtype=object)
-    for i, row in enumerate(rows):
-        for j, value in enumerate(row):
-            table[i, j] = value
-    return table
-
-
-_ACTUATOR_TABLE = _object_table(_ACTUATOR_NAMES)
-_SENSOR_FACE_TABLE = _object_table(_SENSOR_FACES)
-
-
 #: The Version History every Buckybot task shares (:class:`~polyenvs.core.parameters.SharedVersionHistory`).
 VERSION_HISTORY = """* v0: initial version (2026-11-22). Changed in place before any release, each time with the reference
   leaderboard regenerated: per-row random streams (2026-11-30) and the resets' draws from one uniform call each
   (start cell and point, heading, face, goal cell; 2026-11-30) give other episodes for the same seed. Added since
   without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both autoreset modes
   2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=`` (held-out training and
-  test layouts, 2026-12-02)."""
+  test layouts, 2026-12-02). ``info`` holds the ground truth as one array, ``info["ground_truth"]``, instead of an
+  entry per part, and the actuator and sensor-face labels moved to ``env.frame_labels()`` (2026-12-02)."""
 
 
 class BuckybotEnv(SharedVersionHistory, RowsEnv):
@@ -257,6 +268,8 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         high = np.concatenate([np.ones(S.N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.observation_structure = self.observation_parts()
+        #: The parts of ``info["ground_truth"]``: name -> (start, stop).
+        self.ground_truth_structure = GROUND_TRUTH_STRUCTURE
 
         # Plan slots: one plan shared by every row, or (random rooms in a vector env) one per row.
         self._n_slots = 1 if self.floor_plan is not None else n
@@ -307,6 +320,14 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         one of its arrays)."""
         self._kernel_arrays = self._task_arrays()
         self._pack_kernel(self.sim.kernel_arrays(self._observations), self._kernel_arrays)
+
+    _packed_names = (*RowsEnv._packed_names, "_compiled_step", "_row0_views")
+
+    def _pack_kernel(self, sim: tuple, task: tuple) -> None:
+        super()._pack_kernel(sim, task)
+        # Every step passes these two: their machine code is called without numba's per-call typing.
+        self._compiled_step = compiled_for(self._step_kernel, self._actions, self._kernel)
+        self._row0_views = self._info_views(0)  # made once: a single env's info reads them at every step
 
     def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         """Fill the task's tables for ``plan`` in plan slot ``slot``."""
@@ -369,6 +390,13 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
     def action_masks(self) -> np.ndarray:
         """Tips that would not hit a wall (true geometry), for sb3-contrib's MaskablePPO."""
         return self.sim.state[0, S.ALLOWED : S.ALLOWED + 3] > 0.5
+
+    def frame_labels(self, row: int = 0) -> dict[str, Any]:
+        """What robot ``row``'s motion frame is on the body: ``actuators``, the actuator letter each action extends
+        (a string of three letters A-L, in action order), and ``sensor_faces``, the faces (1-20) carrying the six
+        observed range finders, in observation order."""
+        face, edge0 = int(self.sim.state[row, S.FACE]), int(self.sim.state[row, S.EDGE0])
+        return {"actuators": _ACTUATOR_NAMES[face][edge0], "sensor_faces": _SENSOR_FACES[face][edge0]}
 
     def get_keys_to_action(self) -> dict[tuple[int, ...], int]:
         """Keys for ``gymnasium.utils.play``: s = back, d = forward right, a = forward left."""
@@ -448,7 +476,8 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
     def _advance(self, actions: np.ndarray) -> None:
         """Step every row whose action is >= 0 (rows with -1 were just reset: they neither move nor score)."""
         self.sim.streams.refill()
-        self._step_kernel(actions, self._kernel)
+        step = self._compiled_step if actions is self._actions else self._step_kernel
+        step(actions, self._kernel)
 
     def _option_pose(self, plan: FloorPlan, pose) -> tuple[np.ndarray, float]:
         try:
@@ -482,52 +511,34 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
                 return plan
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 
-    def _get_info(self, row: int) -> dict[str, Any]:
+    def _info_views(self, row: int) -> tuple[np.ndarray, ...]:
+        """Row ``row``'s state, its action mask, its ground-truth block and its ``_out`` row, as views."""
         state = self.sim.state[row]
-        face, edge0 = int(state[S.FACE]), int(state[S.EDGE0])
-        truth = state[S.INFO_START : S.INFO_STOP].copy()  # one fresh array; the entries below are views of it
-        out = self._out[row].tolist()
-        k = len(self._reward_keys)
+        return state, state[S.ALLOWED : S.ALLOWED + 3], state[S.INFO_START : S.INFO_STOP], self._out[row]
+
+    def _get_info(self, row: int) -> dict[str, Any]:
+        # Few entries, two fresh arrays: building a dict of a dozen fresh arrays cost half a CartPole step.
+        state, mask, truth, scores = self._row0_views if row == 0 else self._info_views(row)
+        out = scores.tolist()
         info = {
-            "action_mask": state[S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
-            "face": face + 1,
-            "heading_deg": float(truth[2]),
-            "tip_directions_deg": truth[S.TIP_DIRECTIONS - S.INFO_START : S.TIP_DIRECTIONS - S.INFO_START + 3],
-            "actuators": _ACTUATOR_NAMES[face][edge0],
-            "sensor_faces": _SENSOR_FACES[face][edge0],
-            "pose": truth[0:3],
-            "dead_reckoned_pose": truth[3:6],
-            "true_range_cm": truth[S.TRUE_RANGE - S.INFO_START : S.TRUE_RANGE - S.INFO_START + 6],
-            "wall_distance_cm": float(truth[-1]),
+            "action_mask": mask.astype(np.int8),
+            "ground_truth": truth.copy(),
+            "face": int(state[S.FACE]) + 1,
             "blocked": bool(state[S.BLOCKED]),
         }
         info.update(zip(self._reward_keys, out, strict=False))  # stops at the last reward term
-        info["episode_metrics"] = dict(zip(self._metric_names, out[k:], strict=False))  # ... the last metric
+        info["episode_metrics"] = dict(zip(self._metric_names, out[len(self._reward_keys) :], strict=False))
         return info
 
     def _vector_info(self) -> dict[str, Any]:
-        """:meth:`_get_info` for every row, in Gymnasium's vector convention: array entries are views of two fresh
-        arrays (the ground-truth block and the reward/metric block)."""
+        """:meth:`_get_info` for every row, in Gymnasium's vector convention: the reward terms and metrics are views
+        of one fresh array."""
         state = self.sim.state
-        truth = state[:, S.INFO_START : S.INFO_STOP].copy()
         scores = self._out[:, : self._reward_column].copy()
-        face, edge0 = state[:, S.FACE].astype(np.intp), state[:, S.EDGE0].astype(np.intp)
-
-        def block(column: int, width: int = 0) -> np.ndarray:
-            start = column - S.INFO_START
-            return truth[:, start] if width == 0 else truth[:, start : start + width]
-
         values: dict[str, Any] = {
             "action_mask": state[:, S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
-            "face": face + 1,
-            "heading_deg": block(S.POSE_INFO + 2),
-            "tip_directions_deg": block(S.TIP_DIRECTIONS, 3),
-            "actuators": _ACTUATOR_TABLE[face, edge0],
-            "sensor_faces": _SENSOR_FACE_TABLE[face, edge0],
-            "pose": block(S.POSE_INFO, 3),
-            "dead_reckoned_pose": block(S.DR_POSE_INFO, 3),
-            "true_range_cm": block(S.TRUE_RANGE, 6),
-            "wall_distance_cm": block(S.WALL_DISTANCE),
+            "ground_truth": state[:, S.INFO_START : S.INFO_STOP].copy(),
+            "face": state[:, S.FACE].astype(np.int64) + 1,
             "blocked": state[:, S.BLOCKED] > 0.5,
         }
         k = len(self._reward_keys)

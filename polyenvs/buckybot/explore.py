@@ -119,7 +119,7 @@ class BuckybotExploreEnv(BuckybotEnv):
     ## Description
     The Buckybot of :class:`~polyenvs.buckybot.wall_follow.BuckybotWallFollowEnv` (Buckybot paper) is dropped in
     an unknown plan. Every valid beam frees the cells it crosses; the paper's mapping experiment (Figure 8) is
-    reproduced by ``info``: the true and the dead-reckoned pose (the robot replays the mean tip model on its own
+    reproduced by ``info["ground_truth"]``: the true and the dead-reckoned pose (the robot replays the mean tip model on its own
     actuator sequence), and ``map_error_cm``, how far the obstacle points placed from dead reckoning lie from the
     same points placed from the true pose. Baseline: ``baselines.buckybot.WallFollowExplorer``.
 

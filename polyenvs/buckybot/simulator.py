@@ -48,6 +48,7 @@ from polyenvs.core.streams import RowStreams
 
 __all__ = [
     "BASE_METRICS",
+    "GROUND_TRUTH_STRUCTURE",
     "NORMALS_PER_STEP",
     "SENSOR_OBSERVATION_STRUCTURE",
     "SIM_ARRAYS",
@@ -81,14 +82,20 @@ BLOCKED, STEPS, BLOCKED_TIPS, OSCILLATIONS, LAST_TIP_MOVED = 32, 33, 34, 35, 36
 # Cosine and sine of HEADING (from the last sense) and DR_HEADING (turned by the fixed mean turn of each tip),
 # kept so that a tip needs no trigonometry of its own.
 HEADING_COS, HEADING_SIN, DR_COS, DR_SIN = 37, 38, 39, 40
-# The ground truth ``info`` publishes, in the units it publishes, contiguous so one copy serves every key.
-POSE_INFO = 41  # 3: x, y (cm), heading of frame direction 0 (deg)
-DR_POSE_INFO = 44  # 3: the dead-reckoned pose, the same way
-TIP_DIRECTIONS = 47  # 3: world azimuths (deg) of the three actions
-TRUE_RANGE = 50  # 6: slant range along each upper beam to the first wall (inf if none)
-WALL_DISTANCE = 56  # distance from the centre to the nearest wall
-INFO_START, INFO_STOP = POSE_INFO, WALL_DISTANCE + 1
-STATE_COLUMNS = 57
+#: The ground truth ``info["ground_truth"]`` publishes, in the units it publishes: name -> size. ``pose`` and
+#: ``dead_reckoned_pose`` are x, y (cm) and the heading of frame direction 0 (deg); ``tip_directions_deg`` the world
+#: azimuths of the three actions; ``true_range_cm`` the slant range along each upper beam to the first wall (inf if
+#: none); ``wall_distance_cm`` the distance from the centre to the nearest wall. The state keeps them contiguous, in
+#: this order, so one copy of the block is the whole entry.
+GROUND_TRUTH = {"pose": 3, "dead_reckoned_pose": 3, "tip_directions_deg": 3, "true_range_cm": 6, "wall_distance_cm": 1}
+#: The same as name -> (start, stop) indices of ``info["ground_truth"]``.
+GROUND_TRUTH_STRUCTURE = spans(GROUND_TRUTH)
+INFO_START = 41
+POSE_INFO, DR_POSE_INFO, TIP_DIRECTIONS, TRUE_RANGE, WALL_DISTANCE = (
+    INFO_START + GROUND_TRUTH_STRUCTURE[name][0] for name in GROUND_TRUTH
+)
+INFO_STOP = INFO_START + GROUND_TRUTH_STRUCTURE["wall_distance_cm"][1]
+STATE_COLUMNS = INFO_STOP
 
 # Entries of ``BuckybotSimulator.params``.
 P_FORWARD, P_FORWARD_SD, P_LATERAL, P_LATERAL_SD, P_TURN_SD, P_BODY_RADIUS, P_RANGE_NOISE = range(7)

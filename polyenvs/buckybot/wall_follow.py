@@ -158,12 +158,20 @@ class BuckybotWallFollowEnv(BuckybotEnv):
 
     Readings follow the paper's eq. 6, ``d + (0.013 d + 0.448) w`` cm, rounded to 2.54 cm.
 
-    Ground truth stays out of the observation and goes into ``info`` (in reset and step alike): ``pose`` and
-    ``dead_reckoned_pose`` (x cm, y cm, heading of frame direction 0 in degrees), ``face`` (1-20),
-    ``tip_directions_deg`` (world azimuths of the three actions), ``actuators`` (the actuator letter each action
-    extends), ``sensor_faces`` (the faces carrying the six observed sensors), ``true_range_cm``,
-    ``wall_distance_cm``, ``blocked``, ``action_mask`` (int8, tips that would not hit a wall; also
-    ``env.action_masks()`` for MaskablePPO), the ``reward_*`` terms and ``episode_metrics``.
+    Ground truth stays out of the observation and goes into ``info`` (in reset and step alike):
+
+    | key | meaning |
+    |-----|---------|
+    | ground_truth | one float64 array of 16: ``pose`` (0-2) and ``dead_reckoned_pose`` (3-5), each x cm, y cm and the heading of frame direction 0 in degrees; ``tip_directions_deg`` (6-8), the world azimuths of the three actions; ``true_range_cm`` (9-14), the slant range along each observed beam to the first wall (inf if none); ``wall_distance_cm`` (15), from the centre to the nearest wall. ``env.unwrapped.ground_truth_structure`` names the parts, :func:`~polyenvs.buckybot.env.ground_truth_parts` splits them |
+    | face | the resting face, 1-20 |
+    | blocked | whether the last tip was blocked |
+    | action_mask | int8, tips that would not hit a wall (also ``env.action_masks()`` for MaskablePPO) |
+    | reward_progress, reward_distance, reward_blocked | the reward's terms |
+    | episode_metrics | the episode's metrics so far (see Episode End) |
+
+    ``env.unwrapped.frame_labels()`` gives what the frame is on the body: the actuator letter each action extends
+    and the faces carrying the six observed sensors. (Before 2026-12-02 each part of the ground truth and those
+    labels were entries of their own: building a dozen fresh arrays per step cost half a CartPole step.)
 
     ## Rewards
     The paper's per-step cost ``(d - d*)² - 2 x_s · Δs`` (its eq. 5 weighs distance error against progress; the

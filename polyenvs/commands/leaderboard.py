@@ -34,7 +34,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
     )
     p.add_argument(
-        "--episodes", default=None, help=f"episodes per policy, 1 to {MAX_EPISODES} (default 50, 5 with --quick)"
+        "--episodes",
+        default=None,
+        help=f"episodes per policy, 1 to {MAX_EPISODES} (default: the protocol's, 50 or as the row's score says; 5 with --quick)",
     )
     p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
     p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
@@ -77,7 +79,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 class _Plan:
     """What ``polyenvs leaderboard`` evaluates and writes, from its checked flags."""
 
-    episodes: int
+    episodes: int | None  # None: the protocol's count of each environment
     results_dir: Path
     output: Path
     agents_dir: Path | None
@@ -96,18 +98,17 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _episodes(args: argparse.Namespace) -> int:
-    """--episodes (or --quick's 5, else the protocol's), and --update-reference's refusals of the other flags."""
-    from polyenvs.leaderboard import PROTOCOL_EPISODES
-
+def _episodes(args: argparse.Namespace) -> int | None:
+    """--episodes (or --quick's 5, else None: the protocol's count of each environment), and --update-reference's
+    refusals of the other flags."""
     episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
-    if episodes is None:
-        episodes = 5 if args.quick else PROTOCOL_EPISODES
+    if episodes is None and args.quick:
+        episodes = 5
     if args.update_reference:
-        if args.quick or episodes != PROTOCOL_EPISODES:
+        if episodes is not None:
             raise CliError(
-                f"--update-reference writes the committed reference results, which use {PROTOCOL_EPISODES} "
-                "episodes: do not combine it with --quick or --episodes"
+                "--update-reference writes the committed reference results, which use the protocol's episodes: "
+                "do not combine it with --quick or --episodes"
             )
         if args.results_dir is not None or args.output is not None:
             raise CliError(

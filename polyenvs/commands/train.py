@@ -1,7 +1,8 @@
 """The ``polyenvs train`` subcommand.
 
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
-[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress]``
+[--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress] [--residual NAME
+[--residual-scale S] [--residual-log-std L]] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]``
 
 Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
 command line prints as one line (exit 2).
@@ -14,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs.commands.flags import add_progress_flag, int_flag, is_terminal, parse_json_object
+from polyenvs.commands.flags import add_progress_flag, float_flag, int_flag, is_terminal, parse_json_object
 from polyenvs.errors import InputError
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.registry import bare_id
@@ -79,9 +80,91 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help=f"save the model every this many timesteps, so that a killed run can --resume; 0: only at the end "
         f"and on Ctrl-C (default {DEFAULT_CHECKPOINT_EVERY})",
     )
+    add_bc_flags(p)
     add_progress_flag(p)
+    _add_residual_flags(p)
     p.set_defaults(func=run)
     return p
+
+
+def add_bc_flags(parser) -> None:
+    """``--bc-from``, ``--bc-epochs``, ``--bc-log-std``: behaviour cloning before training (:mod:`polyenvs.training.bc`)."""
+    from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS
+
+    parser.add_argument(
+        "--bc-from",
+        default=None,
+        metavar="DATASET",
+        help="pretrain the policy on the demonstrations in DATASET (a directory polyenvs collect wrote, of this id) "
+        "before training: VecNormalize statistics from them, the actions' log-likelihood, the value head on their "
+        "returns (ppo, maskable_ppo)",
+    )
+    parser.add_argument(
+        "--bc-epochs",
+        default=None,
+        help=f"passes over the demonstrations, 1 to {MAX_BC_EPOCHS} (default {DEFAULT_BC_EPOCHS}; needs --bc-from)",
+    )
+    parser.add_argument(
+        "--bc-log-std",
+        default=None,
+        help="Box actions: the Gaussian's log standard deviation after cloning, -20 to 2 (PPO's exploration from "
+        "there; default: what the fit learned; needs --bc-from)",
+    )
+
+
+def behaviour_cloning(args: argparse.Namespace):
+    """The :class:`~polyenvs.training.bc.BehaviourCloning` the flags ask for, its dataset read; or None."""
+    from polyenvs.training.bc import BC_ALGOS, DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
+
+    epochs = int_flag("--bc-epochs", args.bc_epochs, 1, MAX_BC_EPOCHS)
+    log_std = float_flag("--bc-log-std", args.bc_log_std, -20.0, 2.0)
+    if args.bc_from is None:
+        for flag, value in (("--bc-epochs", epochs), ("--bc-log-std", log_std)):
+            if value is not None:
+                raise InputError(f"{flag} needs --bc-from (the demonstrations to clone)")
+        return None
+    if args.residual is not None:  # a residual agent observes the base action too: not the demonstrations' space
+        raise InputError("--bc-from and --residual exclude each other: clone a plain policy, or learn a residual")
+    if args.algo not in BC_ALGOS:
+        raise InputError(f"--bc-from pretrains an actor-critic policy: --algo must be one of {', '.join(BC_ALGOS)}")
+    bc = BehaviourCloning(Path(args.bc_from), epochs or DEFAULT_BC_EPOCHS, log_std=log_std, flag="--bc-from")
+    bc.demonstrations()
+    return bc
+
+
+def _add_residual_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--residual",
+        default=None,
+        metavar="NAME",
+        help="train a residual agent: a correction of this hand baseline's actions (paper, or a name polyenvs list "
+        "gives the id), started at the baseline; Box actions, Gymnasium ids",
+    )
+    p.add_argument("--residual-scale", default=None, help="the correction is S x the agent's action, 0 < S <= 2 "
+                   "(default 0.5)")  # fmt: skip
+    p.add_argument(
+        "--residual-log-std",
+        default=None,
+        help="the residual agent's starting log standard deviation, -10 to 1 (default: the config's)",
+    )
+
+
+def _residual_flags(args: argparse.Namespace):
+    """``(ResidualSpec or None, log_std or None)`` of the residual flags; InputError for a bad one."""
+    from baselines.residual import MAX_SCALE, ResidualSpec
+    from polyenvs.training.residual import MAX_LOG_STD, MIN_LOG_STD
+
+    scale = float_flag("--residual-scale", args.residual_scale, 0.0, MAX_SCALE)
+    log_std = float_flag("--residual-log-std", args.residual_log_std, MIN_LOG_STD, MAX_LOG_STD)
+    if args.residual is None:
+        if scale is not None or log_std is not None:
+            raise InputError("--residual-scale and --residual-log-std need --residual NAME")
+        return None, None
+    if scale == 0:
+        raise InputError("--residual-scale must be > 0, got 0")
+    if not args.residual:
+        raise InputError("--residual needs a baseline's name, got ''")
+    return ResidualSpec(args.residual, 0.5 if scale is None else scale), log_std
 
 
 def run(args: argparse.Namespace) -> int:
@@ -94,17 +177,28 @@ def run(args: argparse.Namespace) -> int:
     n_envs = int_flag("--n-envs", args.n_envs, 1, MAX_N_ENVS)
     checkpoint_every = int_flag("--checkpoint-every", args.checkpoint_every, 0, MAX_TIMESTEPS)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
+    residual, residual_log_std = _residual_flags(args)
     resume, overwrite = getattr(args, "resume", False), getattr(args, "overwrite", False)
-    out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, args.algo, seed)
+    algo_dir = args.algo if residual is None else f"{args.algo}_residual_{residual.baseline}"
+    out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, algo_dir, seed)
     progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
+    pretrain = behaviour_cloning(args)
 
-    from polyenvs.training.train import TrainingInterrupted, check_out_dir, interrupted_note, read_run, train
+    from polyenvs.training.train import (
+        TrainingInterrupted,
+        check_out_dir,
+        check_same_residual,
+        interrupted_note,
+        read_run,
+        train,
+    )
 
     try:
         action = check_out_dir(out_dir, args.env_id, args.algo, seed, resume=resume, overwrite=overwrite)
     except InputError as exc:  # name the flags, as the command line spells them
         raise InputError(str(exc).replace("resume and overwrite", "--resume and --overwrite")) from None
     if action == "finished":
+        check_same_residual(out_dir, residual)
         print(f"{out_dir} already holds a finished run of {args.env_id} {args.algo} seed {seed}: nothing to do")
         return 0
     if action in ("resume", "restart"):
@@ -124,6 +218,9 @@ def run(args: argparse.Namespace) -> int:
             resume=resume,
             overwrite=overwrite,
             checkpoint_every=checkpoint_every,
+            pretrain=pretrain,
+            residual=residual,
+            residual_log_std=residual_log_std,
         )
     except TrainingInterrupted as stop:
         print(

@@ -19,11 +19,16 @@ numba 0.68), so a single env's step over 16 arrays would pay 0.3-0.5 µs more th
 0.3 µs whatever it holds, so a step dispatches faster than with positional arrays. Build it once and again only when
 one of its arrays is replaced; it is not picklable (an environment rebuilds it, see
 :class:`polyenvs.core.rows.RowsEnv`).
+
+Dispatch. Calling a compiled function through numba's dispatcher types every argument first; a StructRef has no
+fast path there (numba asks Python for its type), which cost about 40% of a single Buckybot step's kernel call.
+:func:`compiled_for` returns the machine code for one set of argument types (``Dispatcher.compile``: from the cache
+when it holds it), which a caller that always passes arrays of those types can call directly.
 """
 
 from __future__ import annotations
 
-__all__ = ["HAVE_NUMBA", "KernelArgs", "njit"]
+__all__ = ["HAVE_NUMBA", "KernelArgs", "compiled_for", "njit"]
 
 try:
     from numba import njit
@@ -37,6 +42,20 @@ except ImportError:  # pragma: no cover - numba is a dependency; this keeps a br
         if args and callable(args[0]):
             return args[0]
         return lambda function: function
+
+
+def compiled_for(function, *args):
+    """``function`` (an ``njit`` function) compiled for the numba types of ``args``, callable without the per-call
+    type dispatch; ``function`` itself when nothing is compiled.
+
+    The result does not check its arguments: call it only with arguments of the types of ``args`` (the same arrays,
+    say), and get it again after replacing one of them with an array of another type.
+    """
+    if DISABLE_JIT:
+        return function
+    from numba import typeof
+
+    return function.compile(tuple(typeof(arg) for arg in args))
 
 
 if not DISABLE_JIT:

@@ -145,9 +145,13 @@ class RowsEnv(gym.Env):
         self._kernel_parts = (sim, task)
         self._kernel = KernelArgs(sim, self._out, task)
 
+    #: Attributes :meth:`_pack_kernel` builds from ``_kernel_parts``: compiled-code objects, never pickled.
+    _packed_names: tuple[str, ...] = ("_kernel",)
+
     def __getstate__(self):
         state = self.__dict__.copy()
-        state.pop("_kernel", None)  # compiled-code memory: rebuilt from its parts, which pickle with the env
+        for name in self._packed_names:  # compiled-code memory: rebuilt from its parts, which pickle with the env
+            state.pop(name, None)
         return state
 
     def __setstate__(self, state):

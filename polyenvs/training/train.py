@@ -45,6 +45,7 @@ __all__ = [
     "RUN_FILE",
     "TrainingInterrupted",
     "check_out_dir",
+    "check_same_residual",
     "finished_run",
     "interrupted_note",
     "read_run",
@@ -247,17 +248,17 @@ def _clear_run(out_dir: Path) -> None:
 
 
 #: Settings of a run that must not change when it resumes (the hyperparameters are compared apart).
-_RESUME_KEYS = ("n_envs", "env_kwargs")
+_RESUME_KEYS = ("n_envs", "env_kwargs", "residual", "residual_log_std")
 
 
 def _check_resumable(out_dir: Path, previous: dict[str, Any], run: dict[str, Any]) -> None:
     """The resumed run trains as the interrupted one did: same n_envs, env_kwargs and hyperparameters."""
     run = json.loads(json.dumps(run))  # as run.json holds it: tuples as lists
     for key in _RESUME_KEYS:
-        if previous.get(key) != run[key]:
+        if previous.get(key) != run.get(key):
             raise InputError(
                 f"cannot resume {out_dir}: it trained with {key}={previous.get(key)!r}, this run asks for "
-                f"{run[key]!r}; --overwrite to train it again from the start"
+                f"{run.get(key)!r}; --overwrite to train it again from the start"
             )
     old = {k: v for k, v in (previous.get("hyperparams") or {}).items() if k not in ("n_timesteps", "n_envs")}
     new = {k: v for k, v in run["hyperparams"].items() if k not in ("n_timesteps", "n_envs")}
@@ -337,6 +338,9 @@ def train(
     resume: bool = False,
     overwrite: bool = False,
     checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
+    pretrain: Any = None,
+    residual=None,
+    residual_log_std: float | None = None,
 ) -> Path:
     """Train ``algo`` on ``env_id`` and write ``out_dir``; return ``out_dir``.
 
@@ -366,6 +370,11 @@ def train(
         overwrite: replace any run in ``out_dir`` (finished or not, of any job): train again from the start.
         checkpoint_every: save the model (and run.json's timesteps) every this many timesteps; 0: only at the
             end and on Ctrl-C.
+        pretrain: a :class:`polyenvs.training.bc.BehaviourCloning` to fit a new model to demonstrations before it
+            learns (a resumed run keeps its model); run.json records it under ``"bc"``.
+        residual: a :class:`baselines.residual.ResidualSpec`: train a correction of that hand baseline
+            (:mod:`polyenvs.training.residual`), recorded in run.json's ``residual``.
+        residual_log_std: a residual agent's starting log standard deviation (default: the config's).
 
     Raises:
         InputError: before any environment is built, for anything the caller got wrong.
@@ -378,12 +387,14 @@ def train(
             env_id=env_id, algo=algo, config=config, timesteps=timesteps, seed=seed, n_envs=n_envs,
             env_kwargs=env_kwargs, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
             command=command, vec_env=vec_env, device=device, verbose=verbose, callbacks=callbacks, resume=resume,
-            overwrite=overwrite, checkpoint_every=checkpoint_every,
+            overwrite=overwrite, checkpoint_every=checkpoint_every, pretrain=pretrain, residual=residual,
+            residual_log_std=residual_log_std,
         )
     )  # fmt: skip
     out_dir = request.out_dir
     action = check_out_dir(out_dir, request.env_id, algo, request.seed, resume=resume, overwrite=overwrite)
     if action == "finished":
+        check_same_residual(out_dir, request.residual)
         return out_dir
     job = _plan(request, action)
     model, interrupted = _build_and_train(job)
@@ -414,6 +425,9 @@ class _Request:
     resume: bool
     overwrite: bool
     checkpoint_every: int
+    pretrain: Any = None
+    residual: Any = None
+    residual_log_std: float | None = None
 
 
 @dataclass
@@ -451,6 +465,7 @@ def _check_request(request: _Request) -> _Request:
     env_kwargs = dict(env_kwargs or {})
     if request.vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {request.vec_env!r}")
+    _check_residual_request(request.residual, request.residual_log_std)
     return replace(
         request,
         env_id=env_id,
@@ -461,6 +476,26 @@ def _check_request(request: _Request) -> _Request:
         env_kwargs=env_kwargs,
         out_dir=Path(request.out_dir),
     )
+
+
+def check_same_residual(out_dir: Path, residual) -> None:
+    """A finished run counts as this job's only if it corrects the same baseline (or none, as this one)."""
+    wanted = residual.to_json() if residual is not None else None
+    done = (read_run(out_dir) or {}).get("residual")
+    if done != wanted:
+        raise InputError(
+            f"output directory {out_dir} holds a finished run with residual {done!r}, not {wanted!r}; choose another "
+            "--out, or --overwrite to replace it"
+        )
+
+
+def _check_residual_request(residual, log_std) -> None:
+    from baselines.residual import ResidualSpec
+
+    if residual is not None and not isinstance(residual, ResidualSpec):
+        raise InputError(f"residual must be a baselines.residual.ResidualSpec, got {residual!r}")
+    if residual is None and log_std is not None:
+        raise InputError("residual_log_std needs residual")
 
 
 def _plan(request: _Request, action: str) -> _Job:
@@ -482,6 +517,8 @@ def _plan(request: _Request, action: str) -> _Job:
         check_action_space(algo, env_id, target.action_space)
     _check_extras(request.progress_bar, request.tensorboard)
     wrappers = cfg.wrapper_callables()
+    if request.residual is not None:  # innermost: it needs the env's own spaces and id
+        wrappers = [_residual_wrapper(request, target), *wrappers]
     n_envs = request.n_envs if request.n_envs is not None else cfg.n_envs
     requested = request.timesteps if request.timesteps is not None else cfg.n_timesteps
     if request.vec_env == "native" and wrappers:
@@ -506,7 +543,15 @@ def _plan(request: _Request, action: str) -> _Job:
         "wall_clock_s": 0.0,
         "completed": False,
     }
+    if request.residual is not None:
+        run.update(residual=request.residual.to_json(), residual_log_std=request.residual_log_std)
+    if request.pretrain is not None:  # the dataset checked against the environment, before any training
+        if request.residual is not None:
+            raise InputError("pretrain and residual exclude each other: clone a plain policy, or learn a residual")
+        run["bc"] = request.pretrain.check(algo, target, cfg.frame_stack)
     previous = read_run(out_dir) if action == "resume" else None
+    if previous is not None and "bc" in previous:  # a resumed run goes on from the model it cloned then
+        run["bc"] = previous["bc"]
     if previous is not None:
         _check_resumable(out_dir, previous, run)
         if cfg.normalize and not (out_dir / VECNORMALIZE_FILE).is_file():
@@ -515,6 +560,14 @@ def _plan(request: _Request, action: str) -> _Job:
                 "--overwrite to train it again from the start"
             )
     return _Job(request=request, cfg=cfg, wrappers=wrappers, run=run, previous=previous, target=target)
+
+
+def _residual_wrapper(request: _Request, target):
+    """The residual wrapper of ``request`` for ``target``, checked (InputError)."""
+    from polyenvs.training.residual import check_residual, residual_wrapper
+
+    check_residual(request.residual, target, request.vec_env, request.residual_log_std)
+    return residual_wrapper(request.residual, target.env_id)
 
 
 def _build_and_train(job: _Job) -> tuple[Any, bool]:
@@ -534,6 +587,8 @@ def _build_and_train(job: _Job) -> tuple[Any, bool]:
         run["vec_env"] = type(_innermost(venv)).__name__
         venv = _wrap_vec_env(job, venv)
         model = _load_model(job, venv) if job.previous is not None else _new_model(job, venv)
+        if job.previous is None and request.pretrain is not None:
+            run["bc"].update(request.pretrain.pretrain(model))
         interrupted = _learn_and_save(job, model)
     finally:
         venv.close()
@@ -592,7 +647,7 @@ def _new_model(job: _Job, venv):
     request, cfg = job.request, job.cfg
     cls = algo_class(request.algo)
     try:
-        return cls(
+        model = cls(
             cfg.policy, venv, seed=request.seed, device=request.device, verbose=request.verbose,
             tensorboard_log=_tensorboard_log(request), **cfg.hyperparams,
         )  # fmt: skip
@@ -601,6 +656,11 @@ def _new_model(job: _Job, venv):
         raise InputError(
             f"{cfg.path}: {request.env_id}: {cls.__name__} rejected the hyperparameters: {message}"
         ) from exc
+    if request.residual is not None:
+        from polyenvs.training.residual import start_at_the_base
+
+        start_at_the_base(model, request.residual_log_std)
+    return model
 
 
 def _learn_and_save(job: _Job, model) -> bool:

@@ -1,0 +1,124 @@
+"""Residual policies: a hand baseline's action plus a learned correction (Silver et al. 2018; Johannink et al. 2019).
+
+``action = clip(base + scale x residual, low, high)``, where ``base`` is the baseline's action for the same
+observation and ``residual`` in ``[-1, 1]`` per dimension is what an agent learns. Two places compose it the same
+way, through :class:`ResidualComposer`:
+
+- while training, the Gymnasium wrapper :class:`polyenvs.wrappers.ResidualPolicy` runs the baseline inside the
+  environment, so the agent's action is the residual;
+- while evaluating, a trained residual agent (a training directory whose ``run.json`` has a ``residual`` entry,
+  :mod:`baselines.trained`) runs the baseline inside the policy, so it acts on the environment as registered.
+
+The combined action keeps the base action's dtype: with a zero residual it is the base action bit for bit
+(``base + 0.0 == base``), so the untrained agent reproduces the baseline's episodes exactly; casting a float64 base
+to float32 first would not. The baseline's memory (its ``state``, Stable-Baselines3's ``predict`` convention) is
+the caller's to carry between steps and to restart with ``episode_start`` (:mod:`baselines.base`).
+
+By default the agent also observes the base action (appended to the observation, in the observation's dtype): the
+correction a baseline needs depends on what it is about to do, which its memory hides from the observation alone
+(the feasibility study's residuals learned with it, ``../shared/spec/learning.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from baselines import available_policies, make_policy
+from polyenvs.core.validation import check_bool, check_in_range
+
+__all__ = ["MAX_SCALE", "ResidualComposer", "ResidualSpec", "make_composer"]
+
+#: The largest scale: a residual of +-1 then moves an action across the whole [-1, 1] range from either end.
+MAX_SCALE = 2.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ResidualSpec:
+    """What a residual agent corrects: ``baseline`` (a hand baseline's name, or ``"paper"``), ``scale`` (in
+    ``(0, 2]``: the correction is ``scale x residual``) and ``observe_base`` (the agent sees the base action)."""
+
+    baseline: str = "paper"
+    scale: float = 0.5
+    observe_base: bool = True
+
+    def __post_init__(self):
+        if not isinstance(self.baseline, str) or not self.baseline:
+            raise ValueError(f"baseline must be a baseline's name, got {self.baseline!r}")
+        object.__setattr__(self, "scale", check_in_range("scale", self.scale, 0.0, MAX_SCALE, low_open=True))
+        object.__setattr__(self, "observe_base", check_bool("observe_base", self.observe_base))
+
+    def to_json(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_json(cls, document) -> ResidualSpec:
+        """The spec a run.json's ``residual`` entry records; ``ValueError`` for anything else."""
+        if not isinstance(document, dict) or set(document) - {f.name for f in dataclasses.fields(cls)}:
+            raise ValueError(f"residual must be an object of baseline, scale and observe_base, got {document!r}")
+        return cls(**document)
+
+
+class ResidualComposer:
+    """The baseline of a residual agent and the arithmetic around it.
+
+    Args:
+        spec: the baseline, the scale and whether the agent observes the base action.
+        base: the baseline's policy (``predict`` with a ``state``, :mod:`baselines.base`).
+        observation_space, action_space: the environment's (one robot's, for a PettingZoo swarm).
+    """
+
+    def __init__(self, spec: ResidualSpec, base, observation_space: spaces.Box, action_space: spaces.Box):
+        self.spec, self.base = spec, base
+        self.env_observation_space, self.env_action_space = observation_space, action_space
+        #: The agent's actions: a correction in [-1, 1] per dimension, before ``scale``.
+        self.action_space = spaces.Box(-1.0, 1.0, action_space.shape, np.float32)
+        self.observation_space = self._agent_observation_space() if spec.observe_base else observation_space
+
+    def _agent_observation_space(self) -> spaces.Box:
+        obs, act = self.env_observation_space, self.env_action_space
+        low = np.concatenate([obs.low.ravel(), act.low.astype(obs.dtype).ravel()])
+        high = np.concatenate([obs.high.ravel(), act.high.astype(obs.dtype).ravel()])
+        return spaces.Box(low, high, dtype=obs.dtype)
+
+    def base_action(self, observation, state, episode_start) -> tuple[np.ndarray, Any]:
+        """``(the baseline's action, its new state)``; ``episode_start`` restarts its memory where true."""
+        action, state = self.base.predict(observation, state=state, episode_start=episode_start, deterministic=True)
+        return np.asarray(action), state
+
+    def observe(self, observation, base_action: np.ndarray) -> np.ndarray:
+        """What the agent sees: the observation, with the base action appended when ``observe_base``."""
+        if not self.spec.observe_base:
+            return observation
+        observation = np.asarray(observation)
+        return np.concatenate([observation, base_action.astype(observation.dtype, copy=False)], axis=-1)
+
+    def combine(self, base_action: np.ndarray, residual) -> np.ndarray:
+        """``clip(base + scale x residual, low, high)`` in the base action's dtype (a zero residual: the base)."""
+        base = np.asarray(base_action)
+        correction = self.spec.scale * np.asarray(residual, dtype=base.dtype)
+        combined = np.clip(base + correction, self.env_action_space.low, self.env_action_space.high)
+        return combined.astype(base.dtype, copy=False)
+
+    def describe(self) -> dict[str, Any]:
+        return {**self.spec.to_json(), "base": self.base.describe()}
+
+
+def make_composer(
+    spec: ResidualSpec, env_id: str, observation_space, action_space, seed: int | None = None
+) -> ResidualComposer:
+    """The composer of ``spec`` for ``env_id``: ``ValueError`` naming the parameter for an action space that is not
+    a Box (``env``) or a ``baseline`` that is not one of the id's hand baselines (random and trained models are not
+    bases: a residual corrects a fixed, known controller). ``seed`` seeds a stochastic baseline."""
+    if not isinstance(action_space, spaces.Box) or not isinstance(observation_space, spaces.Box):
+        kinds = " and ".join(f"Box{s.shape}" if isinstance(s, spaces.Box) else str(s)
+                             for s in (observation_space, action_space))  # fmt: skip
+        raise ValueError(f"env: a residual policy needs Box observations and actions, {env_id} has {kinds}")
+    choices = [name for name in available_policies(env_id) if name != "random"]
+    if spec.baseline not in choices:
+        raise ValueError(f"baseline {spec.baseline!r} is not a hand baseline of {env_id}; choose from {choices}")
+    base = make_policy(spec.baseline, env_id, observation_space, action_space, seed=seed)
+    return ResidualComposer(spec, base, observation_space, action_space)

@@ -1,0 +1,95 @@
+"""Gymnasium wrappers over the polyenvs environments that need the baselines (so on the baselines' floor).
+
+:class:`ResidualPolicy` turns an environment with Box actions into the environment of a residual agent: its action is
+a correction of a hand baseline's action (:mod:`baselines.residual`). It works from a plain script::
+
+    env = polyenvs.wrappers.ResidualPolicy(gym.make("polyenvs/APLiteCorridor-v0"), baseline="paper", scale=0.5)
+
+and ``polyenvs train ID --residual paper`` trains on it (a ``DummyVecEnv`` of wrapped ``gym.make`` envs: each
+sub-environment wraps its own env and its own baseline, so each carries its own memory).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.error import ResetNeeded
+
+from baselines.residual import ResidualSpec, make_composer
+from polyenvs.core.validation import real_array, show
+
+__all__ = ["ResidualPolicy"]
+
+_START, _GOING = np.array([True]), np.array([False])
+
+
+class ResidualPolicy(gym.Wrapper):
+    """The environment of a residual agent: its action is ``residual``, the environment's is
+    ``clip(base + scale x residual, low, high)``, ``base`` the baseline's action for the current observation.
+
+    ## Action Space
+    ``Box(-1, 1, env's action shape, float32)``: the correction before ``scale``. A zero action is the baseline's
+    action, bit for bit (the combined action keeps the base action's dtype). An action outside [-1, 1], non-finite
+    or of the wrong shape raises ``ValueError`` and changes nothing.
+
+    ## Observation Space
+    The environment's observation with the base action appended (``observe_base=True``, the default), in the
+    observation's dtype and with the action space's bounds; the environment's observation alone otherwise.
+
+    ## Baseline memory
+    The baseline runs inside the wrapper on every observation, its ``state`` carried from step to step and restarted
+    (``episode_start=True``) on the observation a reset returns; it runs on an episode's last observation too (to
+    append its action), which a stochastic baseline's generator counts. A reset with a seed also reseeds a baseline
+    that has a ``seed`` method (the cart's random bounce), so the same seed gives the same episode.
+
+    ## Arguments
+    | argument | default | meaning |
+    | --- | --- | --- |
+    | env | - | a polyenvs environment with Box observations and actions (``gym.make(id)``) |
+    | baseline | "paper" | a hand baseline of the id (``polyenvs list``); "paper" is the id's paper algorithm |
+    | scale | 0.5 | the correction is ``scale x residual``, in (0, 2] |
+    | observe_base | True | append the base action to the observation |
+    | env_id | None | the id (default ``env.spec.id``, which ``gym.make`` sets) |
+    | seed | 0 | seeds a stochastic baseline until a reset gives a seed |
+
+    Every argument is checked at construction (``ValueError`` naming it).
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        baseline: str = "paper",
+        scale: float = 0.5,
+        observe_base: bool = True,
+        env_id: str | None = None,
+        seed: int | None = 0,
+    ):
+        spec = ResidualSpec(baseline, scale, observe_base)
+        env_id = env_id if env_id is not None else getattr(env.spec, "id", None)
+        if not isinstance(env_id, str):
+            raise ValueError(f"env_id: {show(env)} has no spec id (not made by gym.make); pass env_id")
+        composer = make_composer(spec, env_id, env.observation_space, env.action_space, seed=seed)
+        super().__init__(env)
+        self.composer = composer
+        self.action_space = composer.action_space
+        self.observation_space = composer.observation_space
+        self._base_action: np.ndarray | None = None
+        self._state = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        reseed = getattr(self.composer.base, "seed", None)
+        if seed is not None and callable(reseed):
+            reseed(seed)
+        self._base_action, self._state = self.composer.base_action(obs, self._state, _START)
+        return self.composer.observe(obs, self._base_action), info
+
+    def step(self, action):
+        if self._base_action is None:
+            raise ResetNeeded("call reset() before step()")
+        residual = real_array("action", action)
+        if residual.shape != self.action_space.shape or not np.all(np.abs(residual) <= 1.0):
+            raise ValueError(f"action must be {self.action_space.shape} numbers in [-1, 1], got {show(action)}")
+        obs, reward, terminated, truncated, info = self.env.step(self.composer.combine(self._base_action, residual))
+        self._base_action, self._state = self.composer.base_action(obs, self._state, _GOING)
+        return self.composer.observe(obs, self._base_action), reward, terminated, truncated, info
