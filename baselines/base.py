@@ -46,8 +46,10 @@ class Policy:
         if memory is None or memory.shape != (n, self.memory_size):
             memory = np.tile(self.initial_memory(), (n, 1))
         if episode_start is not None:
-            restart = np.broadcast_to(np.asarray(episode_start, dtype=bool), (n,))
-            memory[restart] = self.initial_memory()
+            restart = np.asarray(episode_start, dtype=bool)
+            # Most steps start nothing: no mask to broadcast and apply (a shape that cannot broadcast still raises).
+            if restart.any() or restart.shape not in ((), (1,), (n,)):
+                memory[np.broadcast_to(restart, (n,))] = self.initial_memory()
         actions = np.array([self.act(batch[i], memory[i]) for i in range(n)])
         return (actions[0] if single else actions), memory
 
@@ -59,9 +61,25 @@ class RandomPolicy(Policy):
         # A private copy, so seeding it leaves the environment's own action space alone.
         super().__init__(observation_space, copy.deepcopy(action_space))
         self.action_space.seed(seed)
+        self._bounds = _bounded_float_box(self.action_space)
 
     def describe(self):
         return {"name": "random"}
 
     def act(self, observation, memory):
-        return self.action_space.sample()
+        if self._bounds is None:
+            return self.action_space.sample()
+        # Box.sample's draw for a bounded float box without its per-call masks: a uniform over the flattened
+        # bounds, cast to the box's dtype; the same generator calls, so the same actions bit for bit.
+        low, high = self._bounds
+        space = self.action_space
+        return space.np_random.uniform(low=low, high=high, size=low.shape).reshape(space.shape).astype(space.dtype)
+
+
+def _bounded_float_box(space: spaces.Space) -> tuple[np.ndarray, np.ndarray] | None:
+    """The flattened bounds ``Box.sample`` draws a bounded float box's uniform between, or None for any other space
+    (sampled by the space itself). Its normal and exponential draws for unbounded coordinates are then empty and take
+    nothing from the generator (``tests/test_baselines.py`` checks the draws against ``Box.sample``)."""
+    if not isinstance(space, spaces.Box) or space.dtype.kind != "f" or not space.is_bounded("both"):
+        return None
+    return space.low.ravel().copy(), space.high.ravel().copy()

@@ -41,7 +41,7 @@ import numpy as np
 from polyenvs.errors import InputError
 from polyenvs.evaluation import evaluate
 from polyenvs.files import write_json_atomic, write_text_atomic
-from polyenvs.registry import bare_id, entry, slug
+from polyenvs.registry import ParallelEnvEntry, bare_id, entry, slug
 from polyenvs.statistics import iqm_with_stratified_ci, mean_with_stratified_ci
 
 __all__ = [
@@ -68,6 +68,7 @@ __all__ = [
     "provenance",
     "result_path",
     "run_leaderboard",
+    "step_budget",
     "stored_results",
     "write_leaderboard",
 ]
@@ -506,10 +507,20 @@ def _evaluate_one(job: tuple[int, str, str, int, dict]) -> tuple[dict, float]:
     return doc, time.monotonic() - started
 
 
+def step_budget(env_id: str) -> int:
+    """The most steps (cycles, for a parallel environment) an episode of ``env_id`` can take: its registry row's
+    limit, the measure of an evaluation's length the pool orders by."""
+    row = entry(env_id)
+    return row.max_cycles if isinstance(row, ParallelEnvEntry) else row.max_episode_steps
+
+
 def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode) -> None:
     from polyenvs.pool import run_local
 
     jobs = [(i, item.env_id, item.policy, item.episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
+    # Longest first (steps an episode may take, times episodes), so that the workers finish together instead of one
+    # running an 8,000-step evaluation alone at the end; the order changes no result (each is seeded on its own).
+    jobs.sort(key=lambda job: -step_budget(job[1]) * job[3])
 
     def on_result(job, result) -> None:
         doc, seconds = result

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -109,3 +111,29 @@ def test_unknown_policies_and_parameters_are_clear_errors():
         evaluate(WALL, "paper", episodes=1, policy_kwargs={"nonsense": 1})
     with pytest.raises(ValueError, match="unknown environment"):
         evaluate("polyenvs/Missing-v0", "paper", episodes=1)
+
+
+@pytest.mark.parametrize(
+    "space",
+    [
+        gym.spaces.Box(-1.0, 1.0, (12,), np.float32),  # a beast's
+        gym.spaces.Box(np.array([-3.0, 0.5, -1e-3], np.float32), np.array([2.0, 7.0, 1e-3], np.float32)),
+        gym.spaces.Box(-2.0, 5.0, (3, 4), np.float64),
+        gym.spaces.Box(np.array([-1.0, -np.inf], np.float32), np.array([1.0, 1.0], np.float32)),  # Box.sample's
+        gym.spaces.Discrete(5),  # the space's own sample
+    ],
+)
+def test_random_policy_draws_box_samples_bit_for_bit(space):
+    """RandomPolicy's shortcut for a bounded float box gives Box.sample's actions, draw for draw, and leaves the
+    generator where Box.sample leaves it."""
+    from baselines.base import RandomPolicy
+
+    policy = RandomPolicy(gym.spaces.Box(-1, 1, (2,)), space, seed=1000)
+    reference = copy.deepcopy(space)
+    reference.seed(1000)
+    for _ in range(500):
+        action, _ = policy.predict(np.zeros(2, np.float32))
+        expected = reference.sample()
+        assert np.asarray(action).dtype == np.asarray(expected).dtype and np.shape(action) == np.shape(expected)
+        assert np.array_equal(action, expected)
+    assert policy.action_space.np_random.bit_generator.state == reference.np_random.bit_generator.state

@@ -427,3 +427,19 @@ def test_environments_whose_packages_are_missing_are_left_out_before_any_evaluat
     beasts = ", ".join(e.id for e in REGISTRY if e.extra == "mujoco")
     assert_one_line_error(code, err, f"{beasts} need")
     assert 'need packages that are not installed: pip install "polyenvs[mujoco]"' in err
+
+
+def test_the_pool_takes_the_longest_evaluations_first(tmp_path, monkeypatch):
+    """Longest first (by the row's step limit), so two workers finish together: the 300-step Goal evaluations go
+    after the 500-step WallFollow ones although the plan lists Goal first."""
+    import polyenvs.pool
+
+    submitted = []
+
+    def record(work, jobs, workers, on_result, on_error):
+        submitted.extend(job[1] for job in jobs)
+
+    monkeypatch.setattr(polyenvs.pool, "run_local", record)
+    polyenvs.leaderboard.run_leaderboard([GOAL, WALL], 1, results_dir=tmp_path, progress=lambda _: None, workers=2)
+    assert submitted[0] == WALL and submitted[-1] == GOAL
+    assert submitted == sorted(submitted, key=lambda env_id: -polyenvs.leaderboard.step_budget(env_id))

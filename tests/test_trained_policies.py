@@ -232,17 +232,17 @@ def test_rl_zoo_layout_finds_its_statistics(ppo_run, tmp_path):
 
 
 def test_maskable_ppo_gets_the_action_masks(maskable_run, monkeypatch):
-    from sb3_contrib import MaskablePPO
+    from baselines.trained import LeanActor  # MaskablePPO's deterministic predict (tests/test_lean_actor.py)
 
     seen = []
-    real_predict = MaskablePPO.predict
+    real_call = LeanActor.__call__
 
-    def spy(self, observation, state=None, episode_start=None, deterministic=False, action_masks=None):
-        action, state = real_predict(self, observation, state, episode_start, deterministic, action_masks)
+    def spy(self, observation, action_masks=None):
+        action = real_call(self, observation, action_masks)
         seen.append((action_masks, int(action)))
-        return action, state
+        return action
 
-    monkeypatch.setattr(MaskablePPO, "predict", spy)
+    monkeypatch.setattr(LeanActor, "__call__", spy)
     doc = evaluate(WALL, str(maskable_run), episodes=2, seed=11)
     assert doc["policy_description"]["action_masks"] is True
     assert len(seen) == sum(e["length"] for e in doc["episodes"])
