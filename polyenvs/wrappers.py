@@ -36,6 +36,13 @@ class ResidualPolicy(gym.Wrapper):
     The environment's observation with the base action appended (``observe_base=True``, the default), in the
     observation's dtype and with the action space's bounds; the environment's observation alone otherwise.
 
+    ## Holding a correction
+    With ``hold = k`` one step of the wrapper is k steps of the environment with the same correction, the baseline
+    run and recombined on each (its own output is never held: the beasts' gait times its trajectory by its calls),
+    their rewards summed; it stops early where the episode ends. The agent then decides every k control ticks (50
+    ms at k = 5 on a beast) while the environment as registered keeps its own period, and a trained agent loaded
+    for evaluation (:mod:`baselines.trained`) holds its correction the same way, so it acts as it trained.
+
     ## Baseline memory
     The baseline runs inside the wrapper on every observation, its ``state`` carried from step to step and restarted
     (``episode_start=True``) on the observation a reset returns; it runs on an episode's last observation too (to
@@ -50,6 +57,7 @@ class ResidualPolicy(gym.Wrapper):
     | scale | 0.5 | the correction is ``scale x residual``, in (0, 2] |
     | observe_base | True | append the base action to the observation |
     | env_id | None | the id (default ``env.spec.id``, which ``gym.make`` sets) |
+    | hold | 1 | each correction is applied for this many environment steps, 1 to 100 |
     | seed | 0 | seeds a stochastic baseline until a reset gives a seed |
 
     Every argument is checked at construction (``ValueError`` naming it).
@@ -63,8 +71,9 @@ class ResidualPolicy(gym.Wrapper):
         observe_base: bool = True,
         env_id: str | None = None,
         seed: int | None = 0,
+        hold: int = 1,
     ):
-        spec = ResidualSpec(baseline, scale, observe_base)
+        spec = ResidualSpec(baseline, scale, observe_base, hold)
         env_id = env_id if env_id is not None else getattr(env.spec, "id", None)
         if not isinstance(env_id, str):
             raise ValueError(f"env_id: {show(env)} has no spec id (not made by gym.make); pass env_id")
@@ -85,11 +94,18 @@ class ResidualPolicy(gym.Wrapper):
         return self.composer.observe(obs, self._base_action), info
 
     def step(self, action):
+        """``hold`` steps of the environment with this correction (fewer if the episode ends), the baseline
+        recombined on each; their rewards summed, the last step's observation, flags and info."""
         if self._base_action is None:
             raise ResetNeeded("call reset() before step()")
         residual = real_array("action", action)
         if residual.shape != self.action_space.shape or not np.all(np.abs(residual) <= 1.0):
             raise ValueError(f"action must be {self.action_space.shape} numbers in [-1, 1], got {show(action)}")
-        obs, reward, terminated, truncated, info = self.env.step(self.composer.combine(self._base_action, residual))
-        self._base_action, self._state = self.composer.base_action(obs, self._state, _GOING)
-        return self.composer.observe(obs, self._base_action), reward, terminated, truncated, info
+        total = None
+        for _ in range(self.composer.spec.hold):
+            obs, reward, terminated, truncated, info = self.env.step(self.composer.combine(self._base_action, residual))
+            total = reward if total is None else total + reward  # one tick's reward as it is (hold 1: unchanged)
+            self._base_action, self._state = self.composer.base_action(obs, self._state, _GOING)
+            if terminated or truncated:
+                break
+        return self.composer.observe(obs, self._base_action), total, terminated, truncated, info

@@ -50,7 +50,12 @@ def check_residual(spec: ResidualSpec, target, vec_env: str, log_std: float | No
 def residual_wrapper(spec: ResidualSpec, env_id: str):
     """The per-env wrapper (for ``make_vec_env``'s ``wrapper_class``) that makes an env a residual agent's."""
     return functools.partial(
-        ResidualPolicy, baseline=spec.baseline, scale=spec.scale, observe_base=spec.observe_base, env_id=env_id
+        ResidualPolicy,
+        baseline=spec.baseline,
+        scale=spec.scale,
+        observe_base=spec.observe_base,
+        env_id=env_id,
+        hold=spec.hold,
     )
 
 

@@ -476,8 +476,12 @@ def _check_request(request: _Request) -> _Request:
 
 def check_same_residual(out_dir: Path, residual) -> None:
     """A finished run counts as this job's only if it corrects the same baseline (or none, as this one)."""
+    from baselines.residual import ResidualSpec
+
     wanted = residual.to_json() if residual is not None else None
     done = (read_run(out_dir) or {}).get("residual")
+    with contextlib.suppress(ValueError):  # a run recorded before a field existed: that field's default
+        done = ResidualSpec.from_json(done).to_json() if done is not None else None
     if done != wanted:
         raise InputError(
             f"output directory {out_dir} holds a finished run with residual {done!r}, not {wanted!r}; choose another "
