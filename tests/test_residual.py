@@ -208,7 +208,7 @@ def test_train_residual_writes_a_run_that_evaluate_loads(tmp_path, capsys):
         ([CORRIDOR, "--residual-scale", "0.5"], "need --residual NAME"),
         ([CORRIDOR, "--residual", "paper", "--residual-log-std", "5"], "--residual-log-std must be between"),
         (["polyenvs/BuckybotGoal-v0", "--residual", "paper"], "needs Box"),
-        (["polyenvs.swarm.corridor_v0", "--residual", "paper"], "not supported yet"),
+        (["polyenvs.swarm.corridor_v0", "--residual", "paper", "--residual-hold", "5"], "its residual is not held"),
     ],
 )
 def test_bad_residual_flags_are_one_line_before_training(flags, message, tmp_path, capsys, monkeypatch):

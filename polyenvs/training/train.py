@@ -561,7 +561,7 @@ def _residual_wrapper(request: _Request, target):
     from polyenvs.training.residual import check_residual, residual_wrapper
 
     check_residual(request.residual, target, request.vec_env, request.residual_log_std)
-    return residual_wrapper(request.residual, target.env_id)
+    return residual_wrapper(request.residual, target.env_id, target.parallel)
 
 
 def _build_and_train(job: _Job) -> tuple[Any, bool]:
