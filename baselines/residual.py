@@ -14,6 +14,13 @@ The combined action keeps the base action's dtype: with a zero residual it is th
 to float32 first would not. The baseline's memory (its ``state``, Stable-Baselines3's ``predict`` convention) is
 the caller's to carry between steps and to restart with ``episode_start`` (:mod:`baselines.base`).
 
+A residual may be *held*: with ``hold = k`` the agent decides every k control ticks and its correction stays for
+those k ticks, while the baseline runs and is recombined on every tick (holding the baseline's own output would slow
+a trajectory it times by its calls, the beasts' gait, and break the zero-correction match). The wrapper steps the
+environment k times per agent step; a loaded agent, called every tick on the environment as registered, keeps the
+held correction and a tick counter in its ``state`` (:meth:`ResidualComposer.act`) and asks its network only every
+k ticks, so it acts exactly as it did in training.
+
 By default the agent also observes the base action (appended to the observation, in the observation's dtype): the
 correction a baseline needs depends on what it is about to do, which its memory hides from the observation alone
 (the feasibility study's residuals learned with it, ``../shared/spec/learning.md``).
@@ -28,37 +35,43 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines import available_policies, make_policy
-from polyenvs.core.validation import check_bool, check_in_range
+from polyenvs.core.validation import check_bool, check_in_range, check_int
 
-__all__ = ["MAX_SCALE", "ResidualComposer", "ResidualSpec", "make_composer"]
+__all__ = ["MAX_HOLD", "MAX_SCALE", "ResidualComposer", "ResidualSpec", "make_composer"]
 
 #: The largest scale: a residual of +-1 then moves an action across the whole [-1, 1] range from either end.
 MAX_SCALE = 2.0
+#: The longest hold, in control ticks: one decision a second at the beasts' 10 ms.
+MAX_HOLD = 100
 
 
 @dataclasses.dataclass(frozen=True)
 class ResidualSpec:
     """What a residual agent corrects: ``baseline`` (a hand baseline's name, or ``"paper"``), ``scale`` (in
-    ``(0, 2]``: the correction is ``scale x residual``) and ``observe_base`` (the agent sees the base action)."""
+    ``(0, 2]``: the correction is ``scale x residual``), ``observe_base`` (the agent sees the base action) and
+    ``hold`` (the correction is held for this many control ticks, 1 to :data:`MAX_HOLD`)."""
 
     baseline: str = "paper"
     scale: float = 0.5
     observe_base: bool = True
+    hold: int = 1
 
     def __post_init__(self):
         if not isinstance(self.baseline, str) or not self.baseline:
             raise ValueError(f"baseline must be a baseline's name, got {self.baseline!r}")
         object.__setattr__(self, "scale", check_in_range("scale", self.scale, 0.0, MAX_SCALE, low_open=True))
         object.__setattr__(self, "observe_base", check_bool("observe_base", self.observe_base))
+        object.__setattr__(self, "hold", check_int("hold", self.hold, 1, MAX_HOLD))
 
     def to_json(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
     @classmethod
     def from_json(cls, document) -> ResidualSpec:
-        """The spec a run.json's ``residual`` entry records; ``ValueError`` for anything else."""
+        """The spec a run.json's ``residual`` entry records (without ``hold``: 1, as runs before it were);
+        ``ValueError`` for anything else."""
         if not isinstance(document, dict) or set(document) - {f.name for f in dataclasses.fields(cls)}:
-            raise ValueError(f"residual must be an object of baseline, scale and observe_base, got {document!r}")
+            raise ValueError(f"residual must be an object of baseline, scale, observe_base and hold, got {document!r}")
         return cls(**document)
 
 
@@ -102,6 +115,38 @@ class ResidualComposer:
         correction = self.spec.scale * np.asarray(residual, dtype=base.dtype)
         combined = np.clip(base + correction, self.env_action_space.low, self.env_action_space.high)
         return combined.astype(base.dtype, copy=False)
+
+    def act(self, observation, state, episode_start, correct) -> tuple[np.ndarray, np.ndarray]:
+        """``(action, state)`` of a residual agent called every control tick, in ``predict``'s convention (one
+        observation or a batch, ``episode_start`` per row).
+
+        ``correct(agent_observations)`` is the agent's network (a batch of what :meth:`observe` gives -> a batch of
+        corrections); it is asked only for the rows whose hold is over (every ``hold`` ticks since the episode
+        started) and its correction is held in between, while the baseline acts on every tick. A ``state`` row is
+        the baseline's memory, then the held correction, then the ticks since the episode started (float64: the
+        corrections are float32, the counts small integers, both exact)."""
+        obs = np.asarray(observation)
+        single = obs.shape == self.env_observation_space.shape
+        batch = obs[None] if single else obs
+        n = batch.shape[0]
+        memory, held, ticks = self._unpack(state, n)
+        start = np.zeros(n, bool) if episode_start is None else np.broadcast_to(np.asarray(episode_start, bool), (n,))
+        ticks[start] = 0
+        base, memory = self.base_action(batch, memory, start)
+        due = ticks % self.spec.hold == 0
+        if due.any():
+            held[due] = np.asarray(correct(self.observe(batch[due], base[due]))).reshape(int(due.sum()), -1)
+        action = self.combine(base, held.reshape(base.shape))
+        state = np.column_stack([np.asarray(memory, np.float64).reshape(n, -1), held, ticks + 1])
+        return (action[0] if single else action), state
+
+    def _unpack(self, state, n: int) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        """``(baseline memory or None, held corrections, ticks)`` of ``n`` rows of :meth:`act`'s state."""
+        width = int(np.prod(self.action_space.shape))
+        if state is None:
+            return None, np.zeros((n, width)), np.zeros(n)
+        state = np.array(state, dtype=np.float64).reshape(n, -1)
+        return state[:, : -width - 1], state[:, -width - 1 : -1], state[:, -1]
 
     def describe(self) -> dict[str, Any]:
         return {**self.spec.to_json(), "base": self.base.describe()}

@@ -7,7 +7,7 @@ A trained model is named by a path: a training directory or a ``.zip``. A traini
 - ``vecnormalize.pkl`` (optional): the ``VecNormalize`` statistics the model was trained with;
 - ``run.json``: ``{"env_id", "algo", "seed", "timesteps", "requested_timesteps", "n_envs", "env_kwargs",
   "hyperparams", "command", "versions", "git_commit", "wall_clock_s", "completed"}``, and ``"residual"``
-  (``{"baseline", "scale", "observe_base"}``) for a residual agent.
+  (``{"baseline", "scale", "observe_base", "hold"}``) for a residual agent.
 
 A residual agent (``polyenvs train --residual``, :mod:`baselines.residual`) learned a correction of a hand baseline:
 its model sees the observation with the base action appended and outputs the correction. Loaded, it rebuilds the
@@ -29,6 +29,7 @@ when the policy is built: before any episode runs. Stable-Baselines3 is imported
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -369,13 +370,17 @@ class TrainedPolicy:
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True, action_masks=None):
         """``(action, state)`` for one observation or a batch, as SB3's ``predict``; ``action_masks`` (a bool or
         0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others. A residual
-        agent's ``state`` is its baseline's memory."""
+        agent's ``state`` is its baseline's memory, its held correction and its tick count
+        (:meth:`~baselines.residual.ResidualComposer.act`): called every control tick, it asks its network every
+        ``hold`` ticks, as the wrapper it trained in did."""
         if self.residual is not None:
-            base_action, state = self.residual.base_action(observation, state, episode_start)
-            correction, _ = self._model_predict(self.residual.observe(observation, base_action), None, None,
-                                                deterministic, action_masks)  # fmt: skip
-            return self.residual.combine(base_action, correction), state
+            correct = functools.partial(self._correction, deterministic=deterministic)
+            return self.residual.act(observation, state, episode_start, correct)
         return self._model_predict(observation, state, episode_start, deterministic, action_masks)
+
+    def _correction(self, agent_observations, deterministic: bool) -> np.ndarray:
+        """A residual agent's network: its corrections for a batch of what the residual wrapper shows it."""
+        return self._model_predict(agent_observations, None, None, deterministic, None)[0]
 
     def _model_predict(self, observation, state, episode_start, deterministic, action_masks):
         kwargs = {}

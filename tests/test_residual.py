@@ -192,7 +192,7 @@ def test_train_residual_writes_a_run_that_evaluate_loads(tmp_path, capsys):
     code, stdout, stderr = run_main(argv, capsys)
     assert code == 0, stderr
     run = json.loads((out / "run.json").read_text())
-    assert run["residual"] == {"baseline": "paper", "scale": 0.3, "observe_base": True}
+    assert run["residual"] == {"baseline": "paper", "scale": 0.3, "observe_base": True, "hold": 1}
     assert run["residual_log_std"] == -2.0 and run["vec_env"] == "DummyVecEnv" and run["completed"] is True
     code, stdout, stderr = run_main(["evaluate", CORRIDOR, "--policy", str(out), "--episodes", "2", "--json"], capsys)
     assert code == 0, stderr
@@ -208,7 +208,7 @@ def test_train_residual_writes_a_run_that_evaluate_loads(tmp_path, capsys):
         ([CORRIDOR, "--residual-scale", "0.5"], "need --residual NAME"),
         ([CORRIDOR, "--residual", "paper", "--residual-log-std", "5"], "--residual-log-std must be between"),
         (["polyenvs/BuckybotGoal-v0", "--residual", "paper"], "needs Box"),
-        (["polyenvs.swarm.corridor_v0", "--residual", "paper"], "not supported yet"),
+        (["polyenvs.swarm.corridor_v0", "--residual", "paper", "--residual-hold", "5"], "its residual is not held"),
     ],
 )
 def test_bad_residual_flags_are_one_line_before_training(flags, message, tmp_path, capsys, monkeypatch):

@@ -2,7 +2,7 @@
 
 ``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
 [--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress] [--residual NAME
-[--residual-scale S] [--residual-log-std L]] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]``
+[--residual-scale S] [--residual-log-std L] [--residual-hold K]] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]``
 
 Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
 command line prints as one line (exit 2).
@@ -138,7 +138,7 @@ def _add_residual_flags(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="NAME",
         help="train a residual agent: a correction of this hand baseline's actions (paper, or a name polyenvs list "
-        "gives the id), started at the baseline; Box actions, Gymnasium ids",
+        "gives the id), started at the baseline; Box actions (Gymnasium ids and the PettingZoo swarms)",
     )
     p.add_argument("--residual-scale", default=None, help="the correction is S x the agent's action, 0 < S <= 2 "
                    "(default 0.5)")  # fmt: skip
@@ -147,24 +147,32 @@ def _add_residual_flags(p: argparse.ArgumentParser) -> None:
         default=None,
         help="the residual agent's starting log standard deviation, -10 to 1 (default: the config's)",
     )
+    p.add_argument(
+        "--residual-hold",
+        default=None,
+        metavar="K",
+        help="the agent decides every K control ticks and its correction is held for them, the baseline re-run "
+        "every tick (default 1; 5 on a beast: 50 ms decisions)",
+    )
 
 
 def _residual_flags(args: argparse.Namespace):
     """``(ResidualSpec or None, log_std or None)`` of the residual flags; InputError for a bad one."""
-    from baselines.residual import MAX_SCALE, ResidualSpec
+    from baselines.residual import MAX_HOLD, MAX_SCALE, ResidualSpec
     from polyenvs.training.residual import MAX_LOG_STD, MIN_LOG_STD
 
     scale = float_flag("--residual-scale", args.residual_scale, 0.0, MAX_SCALE)
     log_std = float_flag("--residual-log-std", args.residual_log_std, MIN_LOG_STD, MAX_LOG_STD)
+    hold = int_flag("--residual-hold", args.residual_hold, 1, MAX_HOLD)
     if args.residual is None:
-        if scale is not None or log_std is not None:
-            raise InputError("--residual-scale and --residual-log-std need --residual NAME")
+        if scale is not None or log_std is not None or hold is not None:
+            raise InputError("--residual-scale, --residual-log-std and --residual-hold need --residual NAME")
         return None, None
     if scale == 0:
         raise InputError("--residual-scale must be > 0, got 0")
     if not args.residual:
         raise InputError("--residual needs a baseline's name, got ''")
-    return ResidualSpec(args.residual, 0.5 if scale is None else scale), log_std
+    return ResidualSpec(args.residual, 0.5 if scale is None else scale, hold=1 if hold is None else hold), log_std
 
 
 def run(args: argparse.Namespace) -> int:

@@ -2,9 +2,10 @@
 
 The agent trains on :class:`polyenvs.wrappers.ResidualPolicy` around each ``gym.make`` copy of the id, in SB3's
 ``DummyVecEnv`` (a wrapper wraps one env, so never the native vector env, which is every copy at once): each
-sub-environment runs its own baseline with its own memory. The PettingZoo swarms train on their robots through
-:class:`~polyenvs.training.vec_adapter.ParallelVecEnvAdapter`, which takes no wrapper: a residual over a swarm's
-robots is not supported yet (its single-robot ids, ``APLiteCorridor-v0`` and ``APLiteObstacleField-v0``, are).
+sub-environment runs its own baseline with its own memory. The PettingZoo swarms train on their robots (parameter
+sharing, :class:`~polyenvs.training.vec_adapter.ParallelVecEnvAdapter`) with each copy wrapped in
+:class:`polyenvs.wrappers.ParallelResidualPolicy`: one baseline per copy, a memory row per robot. A swarm's
+corrections are not held (``hold`` 1): its robots leave the episode at different steps.
 
 The model starts *at* the baseline: the last layer of its action mean is zeroed, so its deterministic action is a
 zero correction and the untrained agent is the baseline, bit for bit. ``log_std`` sets the exploration noise it
@@ -20,7 +21,7 @@ import numpy as np
 
 from baselines.residual import ResidualSpec, make_composer
 from polyenvs.errors import InputError
-from polyenvs.wrappers import ResidualPolicy
+from polyenvs.wrappers import ParallelResidualPolicy, ResidualPolicy
 
 __all__ = ["MAX_LOG_STD", "MIN_LOG_STD", "check_residual", "residual_wrapper", "start_at_the_base"]
 
@@ -30,11 +31,8 @@ MIN_LOG_STD, MAX_LOG_STD = -10.0, 1.0
 
 def check_residual(spec: ResidualSpec, target, vec_env: str, log_std: float | None) -> None:
     """A residual of ``spec`` can train on ``target`` (an :class:`~polyenvs.evaluation.EnvTarget`); else InputError."""
-    if target.parallel:
-        raise InputError(
-            f"{target.env_id} is a PettingZoo swarm: a residual over its robots is not supported yet (its "
-            "single-robot Gymnasium ids are)"
-        )
+    if target.parallel and spec.hold != 1:
+        raise InputError(f"{target.env_id} is a PettingZoo swarm: its residual is not held (hold 1), got {spec.hold}")
     if vec_env == "native":
         raise InputError("a residual agent trains on wrapped single envs: it needs vec_env='dummy' or 'auto'")
     if log_std is not None and (
@@ -47,10 +45,19 @@ def check_residual(spec: ResidualSpec, target, vec_env: str, log_std: float | No
         raise InputError(str(exc)) from None
 
 
-def residual_wrapper(spec: ResidualSpec, env_id: str):
-    """The per-env wrapper (for ``make_vec_env``'s ``wrapper_class``) that makes an env a residual agent's."""
+def residual_wrapper(spec: ResidualSpec, env_id: str, parallel: bool = False):
+    """The per-env wrapper (for ``make_vec_env``'s ``wrapper_class``, or each copy of a ``parallel`` swarm) that
+    makes an env a residual agent's."""
+    if parallel:
+        kwargs = {"baseline": spec.baseline, "scale": spec.scale, "observe_base": spec.observe_base}
+        return functools.partial(ParallelResidualPolicy, env_id=env_id, **kwargs)
     return functools.partial(
-        ResidualPolicy, baseline=spec.baseline, scale=spec.scale, observe_base=spec.observe_base, env_id=env_id
+        ResidualPolicy,
+        baseline=spec.baseline,
+        scale=spec.scale,
+        observe_base=spec.observe_base,
+        env_id=env_id,
+        hold=spec.hold,
     )
 
 

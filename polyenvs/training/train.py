@@ -480,8 +480,12 @@ def _check_request(request: _Request) -> _Request:
 
 def check_same_residual(out_dir: Path, residual) -> None:
     """A finished run counts as this job's only if it corrects the same baseline (or none, as this one)."""
+    from baselines.residual import ResidualSpec
+
     wanted = residual.to_json() if residual is not None else None
     done = (read_run(out_dir) or {}).get("residual")
+    with contextlib.suppress(ValueError):  # a run recorded before a field existed: that field's default
+        done = ResidualSpec.from_json(done).to_json() if done is not None else None
     if done != wanted:
         raise InputError(
             f"output directory {out_dir} holds a finished run with residual {done!r}, not {wanted!r}; choose another "
@@ -567,7 +571,7 @@ def _residual_wrapper(request: _Request, target):
     from polyenvs.training.residual import check_residual, residual_wrapper
 
     check_residual(request.residual, target, request.vec_env, request.residual_log_std)
-    return residual_wrapper(request.residual, target.env_id)
+    return residual_wrapper(request.residual, target.env_id, target.parallel)
 
 
 def _build_and_train(job: _Job) -> tuple[Any, bool]:

@@ -259,7 +259,8 @@ def make_training_vec_env(
     ``env``: an id or module path with its ``env_kwargs``, or an :class:`~polyenvs.evaluation.EnvTarget` resolved
     already (``polyenvs train`` resolves the name once; ``env_kwargs`` are then the target's). ``vec_env``:
     ``"native"`` (:class:`NativeVecEnvAdapter` under ``VecMonitor``), ``"dummy"`` (SB3's ``make_vec_env``:
-    ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``), or ``"auto"``: native where the id has a
+    ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``; a PettingZoo environment's copies are wrapped
+    by ``wrappers``, which must then be parallel-env wrappers), or ``"auto"``: native where the id has a
     native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and the native env
     is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first
     reset seeds sub-env ``i`` with ``seed + i``. Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
@@ -269,9 +270,9 @@ def make_training_vec_env(
     target = env if isinstance(env, EnvTarget) else resolve_env(env, env_kwargs)
     env_id, env_kwargs = target.env_id, target.env_kwargs
     if target.parallel:
-        if wrappers or vec_env == "native":
-            raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, without wrappers")
-        venv = ParallelVecEnvAdapter([make_env(env_id, env_kwargs) for _ in range(n_envs)])
+        if vec_env == "native":
+            raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, not a native vector env")
+        venv = ParallelVecEnvAdapter([_wrapped(make_env(env_id, env_kwargs), wrappers) for _ in range(n_envs)])
         if seed is not None:
             venv.seed(seed)
         return venv
@@ -307,6 +308,12 @@ def make_training_vec_env(
     if seed is not None:
         venv.seed(seed)
     return venv
+
+
+def _wrapped(env, wrappers: Sequence[Callable]):
+    for wrap in wrappers:
+        env = wrap(env)
+    return env
 
 
 class ParallelVecEnvAdapter(VecEnv):
