@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from polyenvs.core import generators as compiled_draws
 from polyenvs.core.jit import njit
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
@@ -268,6 +269,13 @@ class SwarmBatch:
         self._wheels = np.zeros((rows, 2))
         self._proposal = np.zeros((rows, 3))
         self._blocked = np.zeros(rows, dtype=np.uint8)
+        #: Each environment's generator's C interface (:func:`polyenvs.core.generators.generator_addresses`),
+        #: ``None`` until the first step needs it.
+        self._addresses: np.ndarray | None = None
+
+    def __getstate__(self) -> dict:
+        # The generators' addresses belong to this process's objects: a copy or an unpickled batch finds its own.
+        return {**self.__dict__, "_addresses": None}
 
     def reward_column(self, name: str) -> int:
         """The column of ``rewards`` that holds reward term ``name`` (a task writes its terms there)."""
@@ -287,6 +295,8 @@ class SwarmBatch:
         todo = np.zeros(self.n_rows, dtype=np.uint8)
         for e, g, episode in zip(envs, gens, episodes, strict=True):
             self.generators[e] = g
+            if self._addresses is not None:
+                self._addresses[e] = compiled_draws.generator_addresses([g])[0]
             rows = slice(e * n, (e + 1) * n)
             self._place(e, episode)
             self.drift[rows] = self.terrain_noise * 0.5 * g.standard_normal((n, 2))
@@ -328,18 +338,12 @@ class SwarmBatch:
         others neither draw, move, sense nor score). ``command``: ``(E * N, 2)`` power fractions in [-1, 1]; rows
         of robots out of the episode are ignored. Afterwards ``observations``, ``rewards``, ``terminated`` and the
         metrics are this step's, and robots that terminated have left the episode (``active`` 0)."""
-        normals, floor = self.normals, self.floor
-        by_env = normals.reshape(self.n_envs, self.n_robots, -1), floor.reshape(self.n_envs, self.n_robots, 4)
-        draws = zip(self.generators, *by_env, strict=True)
         if stepping is None:
             live, todo, rows = self.active, self._every_row, None
         else:
             todo = np.repeat(stepping, self.n_robots).astype(np.uint8)
             live, rows = self.active & todo, todo > 0
-            draws = (draw for draw, steps in zip(draws, stepping.tolist(), strict=True) if steps)
-        for g, env_normals, env_floor in draws:  # each environment's own generator, in its own order
-            g.standard_normal(out=env_normals)
-            g.random(out=env_floor)
+        normals, floor = self.normals, self._draw(self._one_step if stepping is None else stepping)
         wheels = self._wheels
         drive(command, live, (normals, self.drift), self.drive_params, (self.powers, wheels))
         before = self.pose.copy()
@@ -354,6 +358,22 @@ class SwarmBatch:
         self.terms.score(live, rows, stepping)
         if self.terminated.any():  # rarely: the mask and its assignment cost more than this test
             self.active[self.terminated > 0] = 0
+
+    def _draw(self, stepping: np.ndarray) -> np.ndarray:
+        """The step's wheel and sensor normals (into ``normals``) and IR floor uniforms (returned) of the
+        environments in ``stepping``, each on its own generator in its own order: one compiled call for the batch
+        (:mod:`polyenvs.core.generators`, bit for bit the generators' own methods), or the methods themselves."""
+        by_env = self.normals.reshape(self.n_envs, self.n_robots, -1), self.floor.reshape(self.n_envs, self.n_robots, 4)
+        if compiled_draws.COMPILED:
+            if self._addresses is None:  # the first step, or after unpickling or a deep copy (new generators)
+                self._addresses = compiled_draws.generator_addresses(self.generators)
+            compiled_draws.normals_then_uniforms(self._addresses, stepping, *by_env)
+            return self.floor
+        for g, env_normals, env_floor, steps in zip(self.generators, *by_env, stepping.tolist(), strict=True):
+            if steps:
+                g.standard_normal(out=env_normals)
+                g.random(out=env_floor)
+        return self.floor
 
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""

@@ -376,12 +376,13 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
         index = [self.agent_name_mapping[a] for a in agents]
         reward = batch.rewards.sum(axis=1).tolist()
         term = (batch.terminated > 0).tolist()
-        observations = {a: obs[i] for a, i in zip(agents, index, strict=True)}
-        rewards = {a: reward[i] for a, i in zip(agents, index, strict=True)}
-        terminations = {a: term[i] for a, i in zip(agents, index, strict=True)}
-        truncations = {a: truncate and not term[i] for a, i in zip(agents, index, strict=True)}
+        pairs = list(zip(agents, index, strict=True))
+        observations = {a: obs[i] for a, i in pairs}
+        rewards = {a: reward[i] for a, i in pairs}
+        terminations = {a: term[i] for a, i in pairs}
+        truncations = {a: truncate and not term[i] for a, i in pairs}
         infos = self._infos(index)
-        self.agents = [] if truncate else [a for a, i in zip(agents, index, strict=True) if not term[i]]
+        self.agents = [] if truncate else [a for a, i in pairs if not term[i]]
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -483,14 +484,16 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
             metric_columns = [[column[i] for i in index] for column in metric_columns]
         keys, metric_keys = tuple(info), tuple(metrics)
         names = self.possible_agents
+        # Every column has a row per index and every row a value per key, by construction: the zips below run
+        # unchecked (``strict=True`` cost about a quarter of building the dictionaries, 40 of them a step at N = 20).
         if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
             keys = (*keys, *(f"episode_{name}" for name in metric_keys))
-            rows = zip(*columns, *metric_columns, strict=True)
-            return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
-        nested = [dict(zip(metric_keys, row, strict=True)) for row in zip(*metric_columns, strict=True)]
+            rows = zip(*columns, *metric_columns, strict=False)
+            return {names[i]: dict(zip(keys, row, strict=False)) for i, row in zip(index, rows, strict=False)}
+        nested = [dict(zip(metric_keys, row, strict=False)) for row in zip(*metric_columns, strict=False)]
         keys = (*keys, "episode_metrics")
-        rows = zip(*columns, nested, strict=True)
-        return {names[i]: dict(zip(keys, row, strict=True)) for i, row in zip(index, rows, strict=True)}
+        rows = zip(*columns, nested, strict=False)
+        return {names[i]: dict(zip(keys, row, strict=False)) for i, row in zip(index, rows, strict=False)}
 
 
 def observation_parts(n_neighbours: int, task_parts: dict | None = None) -> dict[str, tuple[float, ...]]:
