@@ -5,6 +5,7 @@ the command line each flag.
 """
 
 __all__ = [
+    "MAX_BC_EPOCHS",
     "MAX_BUMPS",
     "MAX_EPISODES",
     "MAX_EPISODE_STEPS",
@@ -30,4 +31,5 @@ MAX_FRAMES = 3_000  # frames a recording holds in memory (up to 2 MB each)
 MAX_RUNS = 10_000
 MAX_BUMPS = 1_000
 MAX_PARTICLES = 1_000_000
+MAX_BC_EPOCHS = 100_000  # passes over a demonstration dataset (``polyenvs train --bc-epochs``)
 MAX_EPISODE_STEPS = 1_000_000  # an ``--env-kwargs`` max_episode_steps (what gym.make's TimeLimit takes)

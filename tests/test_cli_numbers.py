@@ -15,10 +15,12 @@ import polyenvs.evaluation
 import polyenvs.localization.runner
 import polyenvs.rollout
 import polyenvs.sweep
+from baselines.residual import MAX_HOLD
 from polyenvs.cli import build_parser
 from polyenvs.commands.flags import int_flag
 from polyenvs.errors import InputError
 from polyenvs.limits import (
+    MAX_BC_EPOCHS,
     MAX_BUMPS,
     MAX_EPISODES,
     MAX_JOBS,
@@ -56,12 +58,17 @@ INT_FLAGS = [
     (["localize"], "--runs", 1, MAX_RUNS),
     (["localize"], "--bumps", 1, MAX_BUMPS),
     (["localize"], "--seed", 0, MAX_SEED),
+    (["collect", GOAL, "--out", "dataset"], "--episodes", 1, MAX_EPISODES),
+    (["collect", GOAL, "--out", "dataset"], "--seed", 0, MAX_SEED),
+    (["train", GOAL, "--algo", "ppo"], "--bc-epochs", 1, MAX_BC_EPOCHS),
+    (["train", GOAL, "--algo", "ppo"], "--residual-hold", 1, MAX_HOLD),
 ]
 #: Flags that take something else than an integer (text, paths, JSON, names, switches; --fps is a number).
 OTHER_FLAGS = {
     "help", "json", "policy", "env_kwargs", "policy_kwargs", "quick", "only", "results_dir", "output", "redo",
     "agents_dir", "update_reference", "fps", "algo", "config", "out", "progress", "resume", "overwrite", "envs",
-    "algos", "config_dir", "backend", "address", "estimator", "map", "env", "estimator_kwargs",
+    "algos", "config_dir", "backend", "address", "estimator", "map", "env", "estimator_kwargs", "bc_from",
+    "bc_log_std", "residual", "residual_scale", "residual_log_std",
 }  # fmt: skip
 
 

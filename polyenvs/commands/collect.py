@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from polyenvs.commands.flags import ProgressBar, add_progress_flag, int_flag, parse_json_object
+from polyenvs.commands.flags import ProgressBar, add_episode_flags, add_progress_flag, episode_flags
 from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
-from polyenvs.limits import MAX_EPISODES, MAX_SEED
 
 __all__ = ["add_parser", "run"]
 
@@ -36,14 +35,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default="paper",
         help="'random', a hand baseline's name, 'paper' (default), or a trained model: a training directory or a .zip",
     )
-    p.add_argument("--episodes", default="10", help=f"number of episodes, 1 to {MAX_EPISODES} (default 10)")
-    p.add_argument(
-        "--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; episodes use seed, seed+1, ... (default 0)"
-    )
+    add_episode_flags(p)
     p.add_argument("--out", required=True, metavar="DIR", help="the directory to write (must not exist or be empty)")
     p.add_argument("--overwrite", action="store_true", help="replace DIR if it exists")
-    p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
-    p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
     add_progress_flag(p)
     p.set_defaults(func=run)
     return p
@@ -52,10 +46,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from polyenvs.datasets import check_out_dir, collect
 
-    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
-    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
-    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
-    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
+    episodes, seed, env_kwargs, policy_kwargs = episode_flags(args)
     out = Path(args.out)
     check_out_dir(out, args.overwrite, "--out")
     bar = ProgressBar("episodes", enabled=args.progress)

@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from polyenvs.commands.flags import ProgressBar, int_flag, parse_json_object
-from polyenvs.limits import MAX_EPISODES, MAX_SEED
+from polyenvs.commands.flags import ProgressBar, add_episode_flags, episode_flags
 
 __all__ = ["add_parser", "describe_policy", "format_value", "run"]
 
@@ -22,12 +21,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="'random', a hand baseline's name, 'paper' (default), or a trained model: a training directory "
         "(model.zip, vecnormalize.pkl, run.json) or a .zip",
     )
-    p.add_argument("--episodes", default="10", help=f"number of episodes, 1 to {MAX_EPISODES} (default 10)")
-    p.add_argument(
-        "--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; episodes use seed, seed+1, ... (default 0)"
-    )
-    p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
-    p.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
+    add_episode_flags(p)
     p.add_argument("--json", action="store_true", help="print one JSON document (progress, if any, goes to stderr)")
     p.set_defaults(func=run)
     return p
@@ -36,10 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from polyenvs.evaluation import evaluate
 
-    episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
-    seed = int_flag("--seed", args.seed, 0, MAX_SEED)
-    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
-    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
+    episodes, seed, env_kwargs, policy_kwargs = episode_flags(args)
     bar = ProgressBar("episodes")
     bar.start(episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
     try:

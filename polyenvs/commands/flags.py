@@ -105,6 +105,31 @@ def float_flag(flag: str, text: str | None, minimum: float, maximum: float) -> f
     return float(number)
 
 
+def add_episode_flags(parser) -> None:
+    """The flags of a command that runs a policy's seeded episodes: ``--episodes``, ``--seed``, ``--env-kwargs`` and
+    ``--policy-kwargs`` (``evaluate``, ``collect``); :func:`episode_flags` checks them."""
+    from polyenvs.limits import MAX_EPISODES, MAX_SEED
+
+    parser.add_argument("--episodes", default="10", help=f"number of episodes, 1 to {MAX_EPISODES} (default 10)")
+    parser.add_argument(
+        "--seed", default="0", help=f"first seed, 0 to {MAX_SEED}; episodes use seed, seed+1, ... (default 0)"
+    )
+    parser.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    parser.add_argument("--policy-kwargs", default="{}", help="JSON object of baseline parameters")
+
+
+def episode_flags(args: argparse.Namespace) -> tuple[int, int, dict, dict]:
+    """``(episodes, seed, env_kwargs, policy_kwargs)`` from the flags :func:`add_episode_flags` added, checked."""
+    from polyenvs.limits import MAX_EPISODES, MAX_SEED
+
+    return (
+        int_flag("--episodes", args.episodes, 1, MAX_EPISODES),
+        int_flag("--seed", args.seed, 0, MAX_SEED),
+        parse_json_object(args.env_kwargs, "--env-kwargs"),
+        parse_json_object(args.policy_kwargs, "--policy-kwargs"),
+    )
+
+
 def add_progress_flag(parser) -> None:
     """``--progress`` / ``--no-progress`` on an ``argparse`` parser (default ``None``: when stderr is a terminal)."""
     parser.add_argument(

@@ -89,7 +89,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def add_bc_flags(parser) -> None:
     """``--bc-from``, ``--bc-epochs``, ``--bc-log-std``: behaviour cloning before training (:mod:`polyenvs.training.bc`)."""
-    from polyenvs.training.bc import DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS
+    from polyenvs.limits import MAX_BC_EPOCHS
+    from polyenvs.training.bc import DEFAULT_BC_EPOCHS
 
     parser.add_argument(
         "--bc-from",
@@ -114,7 +115,8 @@ def add_bc_flags(parser) -> None:
 
 def behaviour_cloning(args: argparse.Namespace):
     """The :class:`~polyenvs.training.bc.BehaviourCloning` the flags ask for, its dataset read; or None."""
-    from polyenvs.training.bc import BC_ALGOS, DEFAULT_BC_EPOCHS, MAX_BC_EPOCHS, BehaviourCloning
+    from polyenvs.limits import MAX_BC_EPOCHS
+    from polyenvs.training.bc import BC_ALGOS, DEFAULT_BC_EPOCHS, BehaviourCloning
 
     epochs = int_flag("--bc-epochs", args.bc_epochs, 1, MAX_BC_EPOCHS)
     log_std = float_flag("--bc-log-std", args.bc_log_std, -20.0, 2.0)

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from polyenvs.errors import InputError, check_count
+from polyenvs.limits import MAX_BC_EPOCHS
 from polyenvs.registry import bare_id
 
 if TYPE_CHECKING:  # the datasets need gymnasium and minari: imported when a dataset is read
@@ -37,7 +38,6 @@ __all__ = ["BC_ALGOS", "DEFAULT_BC_EPOCHS", "BehaviourCloning"]
 BC_ALGOS = ("ppo", "maskable_ppo")
 #: Passes over the demonstrations (learning.md's corridor study: 15 epochs of 200 demonstrations).
 DEFAULT_BC_EPOCHS = 10
-MAX_BC_EPOCHS = 100_000
 
 
 @dataclass
