@@ -108,5 +108,8 @@ def test_libm_functions_equal_the_c_library_element_by_element():
     pairs = zip(y.ravel(), x.ravel(), strict=True)
     assert np.array_equal(libm.arctan2(y, x).ravel(), [math.atan2(a, b) for a, b in pairs])
     assert libm.arcsin(1.0 / 3.0) == math.asin(1.0 / 3.0) and isinstance(libm.sin(0.5), np.float64)
+    # float32 stays float32 (numpy's promotion), through the C library's atan2f; sine and cosine have no such twin.
+    bearing = libm.arctan2(np.float32(0.3), np.float32(-0.5))
+    assert isinstance(bearing, np.float32) and libm.arctan2(np.float32(0.3), 2.0).dtype == np.float32
     with pytest.raises(TypeError, match="float64"):
         libm.cos(np.float32(1.0))
