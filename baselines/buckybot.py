@@ -14,11 +14,12 @@ from polyenvs.buckybot.env import SENSOR_OBSERVATION_STRUCTURE
 from polyenvs.buckybot.geometry import BODY_RADIUS_CM, STEP_LENGTH_CM
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_MIN_CM, horizontal_range, walls_from_readings
 from polyenvs.buckybot.simulator import TIP_ANGLES_RAD
+from polyenvs.core import libm
 from polyenvs.core.validation import check_bool, check_in_range
 
 __all__ = ["GoalSeeker", "WallFollower", "WallFollowExplorer", "decode_readings"]
 
-_TIP_VECTORS = STEP_LENGTH_CM * np.stack([np.cos(TIP_ANGLES_RAD), np.sin(TIP_ANGLES_RAD)], axis=-1)
+_TIP_VECTORS = STEP_LENGTH_CM * np.stack([libm.cos(TIP_ANGLES_RAD), libm.sin(TIP_ANGLES_RAD)], axis=-1)
 #: The two sensors flanking each tip direction (±22.24° about it).
 _FLANKING_SENSORS = np.array([[5, 0], [1, 2], [3, 4]])
 #: The frame turns by 120° j + 180° when tip j succeeds.
@@ -127,9 +128,9 @@ class WallFollower(Policy):
         else:
             i = int(np.nanargmin(distance))
             d, az = distance[i], normal_az[i]
-            if self.clockwise_exception and has_wall and np.cos(az - last_normal) < -0.5:  # > 120° apart
+            if self.clockwise_exception and has_wall and libm.cos(az - last_normal) < -0.5:  # > 120° apart
                 sense = -sense
-            normal = np.array([np.cos(az), np.sin(az)])
+            normal = np.array([libm.cos(az), libm.sin(az)])
             along = sense * np.array([-normal[1], normal[0]])
             target = (d - self.d_star_cm) * normal + self.x_s_cm * along
             cost = np.hypot(*(_TIP_VECTORS - target).T)
@@ -194,8 +195,8 @@ class GoalSeeker(Policy):
         reading, too_close, tip_failed = decode_readings(observation, 0.0)
         lo, _ = SENSOR_OBSERVATION_STRUCTURE["tip_failed"]
         cos_b, sin_b = observation[lo + 1], observation[lo + 2]
-        bearing = np.arctan2(sin_b, cos_b)
-        alignment = np.cos(TIP_ANGLES_RAD - bearing)
+        bearing = libm.arctan2(sin_b, cos_b)
+        alignment = libm.cos(TIP_ANGLES_RAD - bearing)
         reach = horizontal_range(np.where(np.isnan(reading), 2 * RANGE_MAX_CM, reading))[_FLANKING_SENSORS].min(axis=1)
         obstructed = reach < self.clearance_cm
         score = alignment - 10.0 * obstructed

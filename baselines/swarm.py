@@ -40,6 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from baselines.base import Policy
+from polyenvs.core import libm
 from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import structure_for
 from polyenvs.swarm.formation_v0 import OBSERVATION_PARTS as FORMATION_PARTS
@@ -109,7 +110,7 @@ class APLite(Policy):
         mask = np.zeros(4)
         mask[list(self.sensors)] = 1.0
         gain = np.array([K_SIDE, K_MID, K_MID, K_SIDE]) * mask
-        self._cos, self._sin = gain * np.cos(angles), gain * np.sin(angles)
+        self._cos, self._sin = gain * libm.cos(angles), gain * libm.sin(angles)
         self.structure = observation_layout(observation_space.shape[0])
         self.last_stopped = np.zeros(0, dtype=bool)
         self.last_turn = np.zeros(0)
@@ -160,10 +161,10 @@ class APLite(Policy):
         vx = FRICTION * v + STEP * fx / MASS
         vy = STEP * fy / MASS
         v = np.hypot(vx, vy)
-        delta = np.arctan2(STEP * fy / MASS, STEP * fx / MASS)
+        delta = libm.arctan2(STEP * fy / MASS, STEP * fx / MASS)
         delta = np.where(delta == -np.pi, np.pi, delta)
         w = np.where(delta > np.pi / 2, np.pi - delta, np.where(delta < -np.pi / 2, -np.pi - delta, delta))
-        theta_new = np.arctan2(vy, vx)
+        theta_new = libm.arctan2(vy, vx)
         moving = (theta_new >= -np.pi / 2) & (theta_new <= np.pi / 2)
         right = np.trunc(v + v * ALPHA * w)
         left = np.trunc(v - v * ALPHA * w)

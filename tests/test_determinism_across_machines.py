@@ -2,7 +2,13 @@
 AVX2 SIMD for sines and square roots, a GEMM kernel per core type), and these differ in the last bit. An episode
 must not depend on that choice. Each run below forces other kernels in a fresh process (``OPENBLAS_CORETYPE``,
 ``NPY_DISABLE_CPU_FEATURES``), as another machine would pick them, and compares digests of whole rollouts of
-every registry row, a hand baseline and a committed trained agent included, bit for bit."""
+every registry row, a hand baseline and a committed trained agent included, bit for bit.
+
+What this cannot show on a machine without AVX-512: numpy's float64 transcendental ufuncs (``np.arctan2``,
+``np.arcsin``, ``np.power``, ``np.log``, ...) run SVML or AVX-512 kernels only where the CPU has AVX-512, and the
+C library elsewhere, so switching features off here changes nothing. A Buckybot episode through them differed between
+an AVX-512 machine and an AVX2 one; tests/test_libm_only.py refuses them in the families' and baselines' modules,
+which use polyenvs.core.libm (the C library) instead."""
 
 from __future__ import annotations
 

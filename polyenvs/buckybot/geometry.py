@@ -25,6 +25,8 @@ import itertools
 
 import numpy as np
 
+from polyenvs.core import libm
+
 __all__ = [
     "ACTUATOR_AXES_HOME",
     "ACTUATOR_LETTERS",
@@ -97,14 +99,14 @@ def _rotation_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _rot_z(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
+    c, s = libm.cos(angle), libm.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def _ring_order(directions: np.ndarray) -> np.ndarray:
     """Order unit vectors by elevation ring (lowest first), then azimuth in [0, 2 pi)."""
-    elevation = np.round(np.degrees(np.arcsin(np.clip(directions[:, 2], -1, 1))), 6)
-    azimuth = np.round(np.degrees(np.arctan2(directions[:, 1], directions[:, 0])) % 360.0, 6) % 360.0
+    elevation = np.round(np.degrees(libm.arcsin(np.clip(directions[:, 2], -1, 1))), 6)
+    azimuth = np.round(np.degrees(libm.arctan2(directions[:, 1], directions[:, 0])) % 360.0, 6) % 360.0
     return np.lexsort((azimuth, elevation))
 
 
@@ -119,7 +121,7 @@ def _build():
     rest = 0
     rot = _rotation_between(normals[rest], np.array([0.0, 0.0, -1.0]))
     corner = rot @ verts[faces[rest][0]]
-    rot = _rot_z(np.pi - np.arctan2(corner[1], corner[0])) @ rot
+    rot = _rot_z(np.pi - libm.arctan2(corner[1], corner[0])) @ rot
     v_home, n_home = verts @ rot.T, normals @ rot.T
 
     face_order = _ring_order(n_home)  # new index -> old index
@@ -131,7 +133,7 @@ def _build():
 
     # Face 1 (index 0) is the resting face. Re-yaw so the edge opposite its first-lettered corner points along +x.
     first_corner = v_home[faces[0].min()]
-    yaw = _rot_z(np.pi - np.arctan2(first_corner[1], first_corner[0]))
+    yaw = _rot_z(np.pi - libm.arctan2(first_corner[1], first_corner[0]))
     v_home, n_home = v_home @ yaw.T, n_home @ yaw.T
     return v_home, n_home, faces
 
@@ -167,7 +169,7 @@ def _face_corners_ccw() -> np.ndarray:
     corners = np.empty((N_FACES, 3), dtype=int)
     for f in range(N_FACES):
         local = _VERTS_HOME[_FACE_VERTS[f]] @ _FRAMES[f].T
-        azimuth = np.arctan2(local[:, 1], local[:, 0]) % (2 * np.pi)
+        azimuth = libm.arctan2(local[:, 1], local[:, 0]) % (2 * np.pi)
         # Edge e's tip direction is at 120° e; the corner opposite it sits at 120° e + 180°.
         for e in range(3):
             target = (np.radians(120.0 * e) + np.pi) % (2 * np.pi)
@@ -198,7 +200,7 @@ def _neighbours() -> tuple[np.ndarray, np.ndarray]:
 NEIGHBOR, BACK_EDGE = _neighbours()
 
 #: Rotation of the body in one tip: 180° minus the icosahedron's dihedral angle (138.19°), i.e. 41.81°.
-DIHEDRAL_TIP_RAD = float(np.pi - np.arccos(-(5.0**0.5) / 3.0))
+DIHEDRAL_TIP_RAD = float(np.pi - libm.arccos(-(5.0**0.5) / 3.0))
 
 
 def upper_sensor_faces() -> tuple[np.ndarray, np.ndarray]:
@@ -212,7 +214,7 @@ def upper_sensor_faces() -> tuple[np.ndarray, np.ndarray]:
     for f in range(N_FACES):
         local = FACE_NORMALS_HOME @ _FRAMES[f].T
         upper = np.flatnonzero(np.abs(local[:, 2] - 1.0 / 3.0) < 1e-9)
-        az = np.arctan2(local[upper, 1], local[upper, 0]) % (2 * np.pi)
+        az = libm.arctan2(local[upper, 1], local[upper, 0]) % (2 * np.pi)
         order = np.argsort(az)
         faces[f] = upper[order]
         azimuths = az[order] if azimuths is None else azimuths
@@ -223,11 +225,11 @@ def upper_sensor_faces() -> tuple[np.ndarray, np.ndarray]:
 
 _UPPER_FACES, SENSOR_AZIMUTHS_RAD = upper_sensor_faces()
 #: Elevation of the six upper range finders, asin(1/3) = 19.47° (Buckybot paper, "Geometry and Sensing").
-SENSOR_ELEVATION_RAD = float(np.arcsin(1.0 / 3.0))
+SENSOR_ELEVATION_RAD = float(libm.arcsin(1.0 / 3.0))
 #: Horizontal distance of a sensor (hexagon centre) from the body's vertical axis: 11.95 cos(19.47°) = 11.27 cm.
-SENSOR_HORIZONTAL_OFFSET_CM = HEXAGON_INRADIUS_CM * np.cos(SENSOR_ELEVATION_RAD)
+SENSOR_HORIZONTAL_OFFSET_CM = HEXAGON_INRADIUS_CM * libm.cos(SENSOR_ELEVATION_RAD)
 #: Height of an upper sensor above the floor: 11.95 + 11.95 sin(19.47°) = 15.93 cm.
-SENSOR_HEIGHT_CM = HEXAGON_INRADIUS_CM * (1.0 + np.sin(SENSOR_ELEVATION_RAD))
+SENSOR_HEIGHT_CM = HEXAGON_INRADIUS_CM * (1.0 + libm.sin(SENSOR_ELEVATION_RAD))
 
 
 def body_rotation(face: int, edge0: int, heading: float) -> np.ndarray:

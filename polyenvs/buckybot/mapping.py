@@ -24,11 +24,12 @@ from polyenvs.buckybot.geometry import (
     SENSOR_HORIZONTAL_OFFSET_CM,
 )
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, horizontal_range
+from polyenvs.core import libm
 from polyenvs.core.jit import njit
 
 __all__ = ["OccupancyGrid", "known_bits", "mark_beams", "obstacle_points", "placement_error", "placement_gaps"]
 
-_COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
+_COS_ELEVATION = float(libm.cos(SENSOR_ELEVATION_RAD))
 _MAX_BEAM_CM = RANGE_MAX_CM * _COS_ELEVATION  # horizontal reach of a beam from its sensor
 
 
@@ -42,7 +43,7 @@ def obstacle_points(position: np.ndarray, heading: float, reading: np.ndarray) -
     """
     az = heading + SENSOR_AZIMUTHS_RAD
     r = horizontal_range(np.asarray(reading, dtype=np.float64))
-    return np.asarray(position, dtype=np.float64) + r[:, None] * np.stack([np.cos(az), np.sin(az)], axis=-1)
+    return np.asarray(position, dtype=np.float64) + r[:, None] * np.stack([libm.cos(az), libm.sin(az)], axis=-1)
 
 
 def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]:
@@ -59,7 +60,7 @@ def placement_error(true_pose, dead_reckoned_pose, reading) -> tuple[float, int]
 
 
 # Module-level arrays are frozen into the compiled code.
-_SENSOR_COS, _SENSOR_SIN = np.cos(SENSOR_AZIMUTHS_RAD), np.sin(SENSOR_AZIMUTHS_RAD)
+_SENSOR_COS, _SENSOR_SIN = libm.cos(SENSOR_AZIMUTHS_RAD), libm.sin(SENSOR_AZIMUTHS_RAD)
 
 
 @njit(cache=True)

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from polyenvs.buckybot.geometry import HEXAGON_INRADIUS_CM, SENSOR_AZIMUTHS_RAD, SENSOR_ELEVATION_RAD
+from polyenvs.core import libm
 from polyenvs.core.jit import njit
 
 __all__ = [
@@ -39,7 +40,7 @@ RANGE_QUANTUM_CM = 2.54
 NOISE_SLOPE = 0.013
 NOISE_OFFSET_CM = 0.448
 
-_COS_ELEVATION = float(np.cos(SENSOR_ELEVATION_RAD))
+_COS_ELEVATION = float(libm.cos(SENSOR_ELEVATION_RAD))
 _PER_QUANTUM = 1.0 / RANGE_QUANTUM_CM
 _INCHES_AT_MAX = float(round(RANGE_MAX_CM / RANGE_QUANTUM_CM))  # 72: a reading of n inches observes as n / 72
 #: Azimuth separation from sensor i to sensor i+1 (cyclic): alternately 75.52° and 44.48°.
@@ -125,11 +126,11 @@ def wall_from_pair(x: np.ndarray, y: np.ndarray, phi: np.ndarray) -> tuple[np.nd
         ``(d, delta)``: the wall's perpendicular distance from the robot's centre (Heron: d = 2A/z) and the
         azimuth of its normal relative to the beams' bisector, positive towards the second beam.
     """
-    z = np.sqrt(x * x + y * y - 2.0 * x * y * np.cos(phi))  # law of cosines
+    z = np.sqrt(x * x + y * y - 2.0 * x * y * libm.cos(phi))  # law of cosines
     s = 0.5 * (x + y + z)
     area = np.sqrt(np.maximum(s * (s - x) * (s - y) * (s - z), 0.0))  # Heron
     d = 2.0 * area / z
-    delta = np.arctan2((x - y) * np.cos(0.5 * phi), (x + y) * np.sin(0.5 * phi))
+    delta = libm.arctan2((x - y) * libm.cos(0.5 * phi), (x + y) * libm.sin(0.5 * phi))
     return d, delta
 
 

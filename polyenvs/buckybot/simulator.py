@@ -33,6 +33,7 @@ import numpy as np
 
 from polyenvs.buckybot import geometry as geo
 from polyenvs.buckybot.sensors import measure_one
+from polyenvs.core import libm
 from polyenvs.core.columns import indices, spans
 from polyenvs.core.geometry2d import (
     SegmentTable,
@@ -62,12 +63,12 @@ TIP_ANGLES_RAD = np.radians([0.0, 120.0, 240.0])
 #: Standard normals a robot consumes per step: 3 for the tip (forward, lateral, heading), 6 for the sensors.
 NORMALS_PER_STEP = 9
 _TWO_PI = 2.0 * np.pi
-_COS_ELEVATION = float(np.cos(geo.SENSOR_ELEVATION_RAD))
+_COS_ELEVATION = float(libm.cos(geo.SENSOR_ELEVATION_RAD))
 _SENSOR_OFFSET = float(geo.SENSOR_HORIZONTAL_OFFSET_CM)
-_BEAM_COS = np.cos(geo.SENSOR_AZIMUTHS_RAD)
-_BEAM_SIN = np.sin(geo.SENSOR_AZIMUTHS_RAD)
-_TIP_COS = np.cos(TIP_ANGLES_RAD)
-_TIP_SIN = np.sin(TIP_ANGLES_RAD)
+_BEAM_COS = libm.cos(geo.SENSOR_AZIMUTHS_RAD)
+_BEAM_SIN = libm.sin(geo.SENSOR_AZIMUTHS_RAD)
+_TIP_COS = libm.cos(TIP_ANGLES_RAD)
+_TIP_SIN = libm.sin(TIP_ANGLES_RAD)
 _NEIGHBOR = np.ascontiguousarray(geo.NEIGHBOR, dtype=np.int64)
 _BACK_EDGE = np.ascontiguousarray(geo.BACK_EDGE, dtype=np.int64)
 
@@ -194,7 +195,7 @@ def pack_params(tip_model: TipModel, range_noise_scale: float, body_radius_cm: f
     params[P_MEAN_OFFSETS : P_MEAN_OFFSETS + 6] = tip_model.mean_offsets().ravel()
     turn = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
     params[P_FRAME_TURN : P_FRAME_TURN + 3] = turn
-    params[P_TURN_COS : P_TURN_COS + 3], params[P_TURN_SIN : P_TURN_SIN + 3] = np.cos(turn), np.sin(turn)
+    params[P_TURN_COS : P_TURN_COS + 3], params[P_TURN_SIN : P_TURN_SIN + 3] = libm.cos(turn), libm.sin(turn)
     params[P_STEP_REACH] = float(np.hypot(*tip_model.mean_offsets()[0]))
     return params
 
@@ -266,7 +267,7 @@ class BuckybotSimulator:
         state[index, EDGE0] = 0
         state[index, HEADING] = np.mod(heading, _TWO_PI)
         state[index, DR_HEADING] = state[index, HEADING]
-        state[index, DR_COS], state[index, DR_SIN] = np.cos(state[index, HEADING]), np.sin(state[index, HEADING])
+        state[index, DR_COS], state[index, DR_SIN] = libm.cos(state[index, HEADING]), libm.sin(state[index, HEADING])
         state[index, BLOCKED : LAST_TIP_MOVED + 1] = 0.0
 
     # --- dynamics with explicit draws (analysis and tests) ----------------------------------------------------

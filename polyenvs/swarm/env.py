@@ -23,6 +23,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import OrderEnforcingWrapper
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from polyenvs.core import libm
 from polyenvs.core.layouts import LayoutSplit, check_layouts
 from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.validation import (
@@ -431,7 +432,7 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
     def state(self) -> np.ndarray:
         """Global state: per robot x, y (m), cos and sin of the heading, and 1 while it is in the episode."""
         h = self.pose[:, 2]
-        rows = np.column_stack([self.pose[:, :2], np.cos(h), np.sin(h), self.active]).astype(np.float32)
+        rows = np.column_stack([self.pose[:, :2], libm.cos(h), libm.sin(h), self.active]).astype(np.float32)
         return rows.reshape(-1)
 
     def render(self):

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from polyenvs.core import libm
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.validation import check_int
 
@@ -33,7 +34,7 @@ def hex_lattice(n: int, spacing: float) -> np.ndarray:
     i, j = np.meshgrid(np.arange(-rings, rings + 1), np.arange(-rings, rings + 1), indexing="ij")
     points = np.column_stack([(i + 0.5 * j).ravel(), (j * math.sqrt(3) / 2).ravel()]) * spacing
     radius = np.round(np.hypot(points[:, 0], points[:, 1]) / spacing, 6)
-    angle = np.round(np.mod(np.arctan2(points[:, 1], points[:, 0]), 2 * np.pi), 6)
+    angle = np.round(np.mod(libm.arctan2(points[:, 1], points[:, 0]), 2 * np.pi), 6)
     order = np.lexsort((angle, radius))
     return points[order[:n]]
 
