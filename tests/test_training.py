@@ -187,6 +187,12 @@ def test_resume_continues_the_saved_model_and_its_statistics(tmp_path):
         statistics = pickle.load(fh)
     # The statistics went on from the saved ones: one observation per env and step (and reset) since the start.
     assert abs(statistics.obs_rms.count - run["timesteps"]) <= 8
+    # The learning curve goes on from the interrupted run's rows: no gap, no repeat, the task metrics beside the return.
+    curve = json.loads((out / "curve.json").read_text())
+    steps = curve["timesteps"]
+    assert steps == sorted(set(steps)) and steps[0] <= 600 < steps[-1] <= run["timesteps"]
+    assert len(curve["return"]) == len(steps) and "perimeter_fraction" in curve["metrics"]
+    assert all(len(values) == len(steps) for values in curve["metrics"].values())
 
 
 def test_native_and_dummy_training_give_the_same_model(tmp_path):

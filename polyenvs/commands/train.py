@@ -41,8 +41,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="train an agent with Stable-Baselines3 (needs polyenvs[train])",
         description="Train an agent with Stable-Baselines3 / sb3-contrib on hyperparameters from an RL Zoo-format "
         "config, on the id's native vector env where it has one. Writes DIR/model.zip, DIR/vecnormalize.pkl (when "
-        "the config normalises), DIR/run.json (config, seed, command, versions, git commit) and TensorBoard logs "
-        "in DIR/tb. The model is saved every --checkpoint-every timesteps and on Ctrl-C (run.json: completed false); "
+        "the config normalises), DIR/run.json (config, seed, command, versions, git commit), the learning curve "
+        "in DIR/curve.json and TensorBoard logs in DIR/tb. The model is saved every --checkpoint-every timesteps and on Ctrl-C (run.json: completed false); "
         "--resume continues such a run, --overwrite trains it again. A DIR that holds a finished run of the same "
         "id, algorithm and seed is left as it is (unless --overwrite).",
     )

@@ -1,4 +1,5 @@
-"""Callbacks for training: the task metrics of finished episodes, logged like SB3's episode return; checkpoints."""
+"""Callbacks for training: the task metrics of finished episodes, logged like SB3's episode return; the learning
+curve; checkpoints."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from collections import deque
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-__all__ = ["CheckpointCallback", "EpisodeMetricsCallback"]
+__all__ = ["CheckpointCallback", "EpisodeMetricsCallback", "LearningCurveCallback", "curve_document"]
 
 
 class CheckpointCallback(BaseCallback):
@@ -70,3 +71,55 @@ class EpisodeMetricsCallback(BaseCallback):
     def _on_rollout_end(self) -> None:
         for name, value in self.means().items():
             self.logger.record(f"{self.prefix}/{name}", value)
+
+
+class LearningCurveCallback(BaseCallback):
+    """Write the learning curve to ``path`` at the end of a rollout (the first, then one at least ``every``
+    timesteps after the last written: an off-policy algorithm's rollout can be one step): the timesteps, the mean
+    return of SB3's episode window (``rollout/ep_rew_mean``) and the task metrics' window means of ``metrics``.
+
+    The file (``curve.json``: ``{"timesteps": [...], "return": [...], "metrics": {name: [...]}}``, ``None`` where no
+    episode had finished yet) is rewritten atomically each time; ``resume_from`` is what an interrupted run wrote,
+    cut to the timesteps its saved model reached, so a resumed run's curve continues without a gap or a repeat.
+    """
+
+    def __init__(self, metrics: EpisodeMetricsCallback, path, resume_from: dict | None = None, every: int = 1000):
+        super().__init__()
+        self.metrics, self.path, self.every = metrics, path, every
+        self.rows: list[dict] = _curve_rows(resume_from) if resume_from else []
+
+    def _on_training_start(self) -> None:
+        self.rows = [row for row in self.rows if row["timesteps"] <= self.num_timesteps]
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        from polyenvs.files import write_json_atomic
+
+        if self.rows and self.num_timesteps - self.rows[-1]["timesteps"] < self.every:
+            return
+        episodes = self.model.ep_info_buffer
+        mean_return = float(np.mean([info["r"] for info in episodes])) if episodes else None
+        self.rows.append({"timesteps": int(self.num_timesteps), "return": mean_return, **self.metrics.means()})
+        write_json_atomic(self.path, curve_document(self.rows))
+
+
+def curve_document(rows: list[dict]) -> dict:
+    """The columns of ``curve.json`` from its rows (one per rollout)."""
+    names = sorted({name for row in rows for name in row} - {"timesteps", "return"})
+    return {
+        "timesteps": [row["timesteps"] for row in rows],
+        "return": [row["return"] for row in rows],
+        "metrics": {name: [row.get(name) for row in rows] for name in names},
+    }
+
+
+def _curve_rows(document: dict) -> list[dict]:
+    """The rows of a ``curve.json`` document (the inverse of :func:`curve_document`)."""
+    rows = [{"timesteps": t, "return": r} for t, r in zip(document["timesteps"], document["return"], strict=True)]
+    for name, values in document["metrics"].items():
+        for row, value in zip(rows, values, strict=True):
+            if value is not None:
+                row[name] = value
+    return rows

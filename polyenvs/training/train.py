@@ -57,10 +57,12 @@ RUN_FILE = "run.json"
 MODEL_FILE = "model.zip"
 VECNORMALIZE_FILE = "vecnormalize.pkl"
 TENSORBOARD_DIR = "tb"
+#: The learning curve (polyenvs.training.callbacks.LearningCurveCallback): small, committed with an agent.
+CURVE_FILE = "curve.json"
 #: Held (flock) by the process training into the directory; hidden and gitignored like every temporary file.
 LOCK_FILE = ".training.lock.tmp"
 #: What a run writes: removed when a run is trained again from the start (anything else is left alone).
-_RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR)
+_RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR, CURVE_FILE)
 #: Temporary files of atomic writes (polyenvs.files.temp_path_for) and the lock: not a run's content.
 _TEMPORARY = re.compile(r"\..+\.tmp(\..*)?")
 
@@ -670,7 +672,7 @@ def _new_model(job: _Job, venv):
 def _learn_and_save(job: _Job, model) -> bool:
     """Under the directory's lock: write run.json, train (checkpoints; Ctrl-C caught), save. True if interrupted."""
     from baselines.algorithms import algo_class
-    from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback
+    from polyenvs.training.callbacks import CheckpointCallback, EpisodeMetricsCallback, LearningCurveCallback
 
     request, run, previous = job.request, job.run, job.previous
     out_dir = request.out_dir
@@ -691,6 +693,7 @@ def _learn_and_save(job: _Job, model) -> bool:
 
         # ---- training
         metrics = EpisodeMetricsCallback()
+        curve = LearningCurveCallback(metrics, out_dir / CURVE_FILE, resume_from=_read_curve(out_dir, previous))
         start = time.monotonic()
         checkpoints = (
             [CheckpointCallback(request.checkpoint_every, lambda: _save(model, out_dir, run, trained_before, start))]
@@ -703,7 +706,7 @@ def _learn_and_save(job: _Job, model) -> bool:
             if remaining > 0:
                 model.learn(
                     total_timesteps=remaining,
-                    callback=[metrics, *checkpoints, *request.callbacks],
+                    callback=[metrics, curve, *checkpoints, *request.callbacks],
                     progress_bar=request.progress_bar,
                     tb_log_name=algo_class(request.algo).__name__,
                     reset_num_timesteps=previous is None,
@@ -715,6 +718,16 @@ def _learn_and_save(job: _Job, model) -> bool:
         run.update(episode_metrics=metrics.means())
         _save(model, out_dir, run, trained_before, start, completed=not interrupted)
     return interrupted
+
+
+def _read_curve(out_dir: Path, previous: dict[str, Any] | None) -> dict | None:
+    """The curve an interrupted run wrote, when this run resumes it (None for a fresh run or a missing file)."""
+    if previous is None:
+        return None
+    try:
+        return json.loads((out_dir / CURVE_FILE).read_text())
+    except (OSError, ValueError):
+        return None
 
 
 def _save(model, out_dir: Path, run: dict[str, Any], trained_before: float, start: float, completed=False) -> None:
