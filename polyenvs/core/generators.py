@@ -9,8 +9,7 @@ call (about 35 µs each), so it cannot take a thousand of them.
 Every NumPy bit generator exposes its C interface (``bit_generator.ctypes``): the address of its state and the
 functions ``next_uint64`` and ``next_double``. :func:`generator_addresses` collects them, once, as an ``(E, 3)``
 array; the kernels here call those functions through their addresses and run NumPy's own algorithms on them
-(``random_standard_normal``: the 256-layer ziggurat of ``numpy/random/src/distributions/distributions.c``, with
-numba's copy of NumPy's tables; ``random``: ``next_double``), so every draw, and every generator's state after
+(``random_standard_normal``: :mod:`polyenvs.core.ziggurat`; ``random``: ``next_double``), so every draw, and every generator's state after
 it, is what ``Generator.standard_normal(out=...)`` and ``Generator.random(out=...)`` give (checked in the tests).
 
 Without numba (or with ``NUMBA_DISABLE_JIT``) :data:`COMPILED` is false and callers draw through the generators.
@@ -22,6 +21,7 @@ import ctypes
 
 import numpy as np
 
+from polyenvs.core import ziggurat
 from polyenvs.core.jit import DISABLE_JIT, HAVE_NUMBA, njit
 
 __all__ = ["COMPILED", "STATE", "generator_addresses", "normals_then_uniforms", "random_into", "standard_normal_into"]
@@ -50,7 +50,6 @@ if COMPILED:
     from llvmlite import ir
     from numba.core import cgutils, types
     from numba.extending import intrinsic
-    from numba.np.random._constants import fi_double, ki_double, wi_double, ziggurat_nor_inv_r, ziggurat_nor_r
 
     def _caller(result_type, llvm_result):
         """An intrinsic ``f(function_address, state_address)``: call the C function ``result f(void *state)``."""
@@ -69,8 +68,6 @@ if COMPILED:
     _next_uint64 = _caller(types.uint64, ir.IntType(64))
     _next_double = _caller(types.float64, ir.DoubleType())
 else:  # pragma: no cover - without numba the callers draw through the generators
-    fi_double = ki_double = wi_double = np.zeros(256)
-    ziggurat_nor_inv_r = ziggurat_nor_r = 0.0
 
     def _next_uint64(function, state):
         raise RuntimeError("polyenvs.core.generators needs numba")
@@ -84,25 +81,16 @@ def _standard_normal(address):
     :func:`generator_addresses`)."""
     state, next_uint64, next_double = address[STATE], address[NEXT_UINT64], address[NEXT_DOUBLE]
     while True:
-        r = _next_uint64(next_uint64, state)
-        idx = r & 0xFF
-        r >>= 8
-        sign = r & 0x1
-        rabs = (r >> 1) & 0x000FFFFFFFFFFFFF
-        x = rabs * wi_double[idx]
-        if sign & 0x1:
-            x = -x
-        if rabs < ki_double[idx]:
+        layer, rabs, x, accepted = ziggurat.candidate(_next_uint64(next_uint64, state))
+        if accepted:
             return x
-        if idx == 0:  # the base layer's tail
+        if layer == 0:  # the base layer's tail
             while True:
-                xx = -ziggurat_nor_inv_r * np.log1p(-_next_double(next_double, state))
-                yy = -np.log1p(-_next_double(next_double, state))
-                if yy + yy > xx * xx:
-                    return -(ziggurat_nor_r + xx) if (rabs >> 8) & 0x1 else ziggurat_nor_r + xx
-        elif (fi_double[idx - 1] - fi_double[idx]) * _next_double(next_double, state) + fi_double[idx] < np.exp(
-            -0.5 * x * x
-        ):
+                u1 = _next_double(next_double, state)
+                xx, accepted = ziggurat.tail_try(u1, _next_double(next_double, state))
+                if accepted:
+                    return ziggurat.tail_value(rabs, xx)
+        elif ziggurat.wedge_accepts(layer, x, _next_double(next_double, state)):
             return x
 
 

@@ -18,29 +18,15 @@ Conventions every batched family inherits from here:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from polyenvs.core import ziggurat
 from polyenvs.core.jit import njit
 
 __all__ = ["BLOCK_STEPS", "RowStreams", "standard_normals"]
 
 #: Draw rows per block: the generator call's own cost, amortised over 256 steps, is negligible next to the draws.
 BLOCK_STEPS = 256
-
-try:  # NumPy's ziggurat tables, as numba ships them for its own bit-exact Generator.standard_normal
-    from numba.np.random._constants import fi_double as _FI
-    from numba.np.random._constants import ki_double as _KI
-    from numba.np.random._constants import wi_double as _WI
-    from numba.np.random._constants import ziggurat_nor_inv_r as _INV_R
-    from numba.np.random._constants import ziggurat_nor_r as _R
-except ImportError:  # pragma: no cover - without numba the loop below would be slower than NumPy's own
-    _KI = None
-else:
-    _KI = _KI.astype(np.int64)  # every entry is below 2**52, and the draws are read as signed integers
-_TO_UNIT = 1.0 / 9007199254740992.0  # a raw draw's top 53 bits as a double in [0, 1), as PCG64's next_double
-_TOP53 = (1 << 53) - 1
 
 
 def standard_normals(rng: np.random.Generator, out: np.ndarray) -> None:
@@ -52,7 +38,7 @@ def standard_normals(rng: np.random.Generator, out: np.ndarray) -> None:
     rejected by the ziggurat needs more raw draws than were fetched; each refetch asks for one per normal still
     missing, which never exceeds what they will consume, so the generator ends exactly where NumPy leaves it.
     """
-    if _KI is None or type(rng.bit_generator) is not np.random.PCG64:
+    if not ziggurat.AVAILABLE or type(rng.bit_generator) is not np.random.PCG64:
         rng.standard_normal(out=out)
         return
     flat = out.reshape(-1)
@@ -77,31 +63,23 @@ def _ziggurat(raw, at, out, done):
         while True:
             if p >= m:
                 return done, at
-            r = bits[p]
+            layer, rabs, x, accepted = ziggurat.candidate(bits[p])
             p += 1
-            idx = r & 0xFF
-            rabs = (r >> 9) & 0x000FFFFFFFFFFFFF
-            x = rabs * _WI[idx]
-            if (r >> 8) & 1:
-                x = -x
-            if rabs < _KI[idx]:
+            if accepted:
                 break  # 99.3% of the time
-            if idx == 0:  # the base strip's tail
-                accepted = False
+            if layer == 0:  # the base strip's tail
                 while not accepted:
                     if p + 2 > m:
                         return done, at
-                    xx = -_INV_R * math.log1p(-((bits[p] >> 11) & _TOP53) * _TO_UNIT)
-                    yy = -math.log1p(-((bits[p + 1] >> 11) & _TOP53) * _TO_UNIT)
+                    xx, accepted = ziggurat.tail_try(ziggurat.unit_double(bits[p]), ziggurat.unit_double(bits[p + 1]))
                     p += 2
-                    accepted = yy + yy > xx * xx
-                x = -(_R + xx) if (rabs >> 8) & 1 else _R + xx
+                x = ziggurat.tail_value(rabs, xx)
                 break
             if p >= m:
                 return done, at
-            u = ((bits[p] >> 11) & _TOP53) * _TO_UNIT
+            u = ziggurat.unit_double(bits[p])
             p += 1
-            if (_FI[idx - 1] - _FI[idx]) * u + _FI[idx] < math.exp(-0.5 * x * x):
+            if ziggurat.wedge_accepts(layer, x, u):
                 break
         out[done] = x
         done += 1
