@@ -20,7 +20,13 @@ from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.training.config import jsonable, load_config, parse_python_value  # noqa: E402
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-ALGO_OF_FILE = {"ppo.yml": "ppo", "maskable_ppo.yml": "maskable_ppo", "dqn.yml": "dqn", "sac.yml": "sac"}
+ALGO_OF_FILE = {
+    "ppo.yml": "ppo",
+    "ppo_residual.yml": "ppo",
+    "maskable_ppo.yml": "maskable_ppo",
+    "dqn.yml": "dqn",
+    "sac.yml": "sac",
+}
 WALL = "polyenvs/BuckybotWallFollow-v0"
 
 
