@@ -10,6 +10,10 @@
 
 Both take the tables of :func:`polyenvs.leaderboard.leaderboard_tables` and return a matplotlib ``Figure``;
 :func:`save` writes one as a PNG atomically and closes it.
+
+- :func:`learning_curve_plot`: per environment, the task score of the training episodes against training steps,
+  one colour per trained algorithm (a line per training seed), the paper's and random's evaluated levels as
+  horizontal lines.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 from polyenvs.files import atomic_path
 from polyenvs.statistics import performance_profile
 
-__all__ = ["INSTALL_HINT", "available", "interval_plot", "performance_profile_plot", "save"]
+__all__ = ["INSTALL_HINT", "available", "interval_plot", "learning_curve_plot", "performance_profile_plot", "save"]
 
 INSTALL_HINT = 'pip install "polyenvs[plots]"'
 #: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm (or anchor) blue, other hand
@@ -119,6 +123,27 @@ def performance_profile_plot(tables: dict[str, dict]):
     axes.set_ylim(0, 1.02)
     axes.grid(alpha=0.3)
     axes.legend(frameon=False)
+    axes.spines[["top", "right"]].set_visible(False)
+    return figure
+
+
+def learning_curve_plot(env_id: str, metric: str, curves: dict[str, list[tuple]], levels: dict[str, tuple]):
+    """``curves``: algorithm -> ``(timesteps, values)`` per training seed (the window means of ``metric`` over the
+    training episodes); ``levels``: a hand policy's name -> ``(its evaluated score, its kind)``, drawn across."""
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(7.0, 4.0), layout="constrained")
+    colours = iter(["#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"])
+    for label, seeds in curves.items():
+        colour = next(colours)
+        for i, (steps, values) in enumerate(seeds):
+            axes.plot(steps, values, color=colour, linewidth=1.5, alpha=0.8, label=label if i == 0 else None)
+    for name, (value, kind) in levels.items():
+        axes.axhline(value, color=COLOURS[kind], linestyle="--", linewidth=1.2, label=f"{name} (evaluated)")
+    axes.set_xlabel("training steps")
+    axes.set_ylabel(f"{metric} (mean of the last 100 training episodes)")
+    axes.set_title(f"{env_id}: learning curves, a line per training seed", fontsize=10)
+    axes.grid(alpha=0.3)
+    axes.legend(frameon=False, fontsize=8)
     axes.spines[["top", "right"]].set_visible(False)
     return figure
 
