@@ -33,7 +33,8 @@ def _curves(agents_dir: Path, env_id: str, metric: str) -> dict[str, list[tuple]
         if not path.is_file():
             continue
         document = json.loads(path.read_text())
-        pairs = [(t, v) for t, v in zip(document["timesteps"], document["metrics"].get(metric, [])) if v is not None]
+        values = document["metrics"].get(metric) or [None] * len(document["timesteps"])
+        pairs = [(t, v) for t, v in zip(document["timesteps"], values, strict=True) if v is not None]
         if pairs:
             curves.setdefault(agent.label, []).append(tuple(zip(*pairs, strict=True)))
     return curves
