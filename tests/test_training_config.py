@@ -23,6 +23,7 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 ALGO_OF_FILE = {
     "ppo.yml": "ppo",
     "ppo_residual.yml": "ppo",
+    "ppo_bc.yml": "ppo",
     "maskable_ppo.yml": "maskable_ppo",
     "dqn.yml": "dqn",
     "sac.yml": "sac",
