@@ -178,33 +178,41 @@ def _seed_number(path: Path) -> int:
     return int(match.group(1))
 
 
-#: A residual agent's directory, ``<algo>_residual_<baseline>`` (where ``polyenvs train --residual`` writes).
-_RESIDUAL_DIR = re.compile(r"(?P<algo>[a-z0-9_]+?)_residual_(?P<baseline>.+)")
+#: A directory of agents that start from a hand baseline: ``<algo>_residual_<baseline>`` (a correction of it, where
+#: ``polyenvs train --residual`` writes) or ``<algo>_bc_<baseline>`` (cloned from its demonstrations, ``--bc-from``).
+_DERIVED_DIR = re.compile(r"(?P<algo>[a-z0-9_]+?)_(?P<how>residual|bc)_(?P<baseline>.+)")
 
 
-def _algo_dir(path: Path, algos) -> tuple[str, str | None]:
-    """``(algorithm, the baseline a residual agent corrects or None)`` an agents directory's name says."""
+def _algo_dir(path: Path, algos) -> tuple[str, dict[str, str | None]]:
+    """``(algorithm, {"residual": baseline or None, "bc": baseline or None})`` an agents directory's name says."""
     if path.name in algos:
-        return path.name, None
-    match = _RESIDUAL_DIR.fullmatch(path.name)
+        return path.name, {"residual": None, "bc": None}
+    match = _DERIVED_DIR.fullmatch(path.name)
     if match is None or match["algo"] not in algos:
         raise InputError(
-            f"{path}: unknown algorithm directory; known: {', '.join(algos)} (or <algo>_residual_<baseline>)"
+            f"{path}: unknown algorithm directory; known: {', '.join(algos)} (or <algo>_residual_<baseline>, "
+            "<algo>_bc_<baseline>)"
         )
-    return match["algo"], match["baseline"]
+    return match["algo"], {"residual": None, "bc": None, match["how"]: match["baseline"]}
 
 
-def _residual_baseline(run: dict) -> str | None:
-    residual = run.get("residual")
-    return residual.get("baseline") if isinstance(residual, dict) else None
+def _bases(run: dict) -> dict[str, str | None]:
+    """The baseline a run corrects (``residual``) and the one whose demonstrations it cloned (``bc``), or None."""
+    residual, bc = run.get("residual"), run.get("bc")
+    dataset = bc.get("dataset") if isinstance(bc, dict) else None
+    return {
+        "residual": residual.get("baseline") if isinstance(residual, dict) else None,
+        "bc": dataset.get("policy") if isinstance(dataset, dict) else None,
+    }
 
 
 def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     """The committed agents of ``env_id``: every ``<agents_dir>/<env>/<algo>/seed<N>/``, by algorithm then seed;
-    a residual agent's ``<algo>`` directory is ``<algo>_residual_<baseline>``, its own row.
+    a residual agent's ``<algo>`` directory is ``<algo>_residual_<baseline>``, one cloned from a baseline's
+    demonstrations ``<algo>_bc_<baseline>``, each its own row.
 
     Each must hold a ``model.zip`` and a ``run.json`` that agrees with where it sits (environment, algorithm,
-    seed, the baseline a residual agent corrects); anything else raises :class:`InputError` naming the directory.
+    seed, the baseline a residual agent corrects, the policy of the demonstrations it cloned); anything else raises :class:`InputError` naming the directory.
     Files (a README) are ignored.
     """
     if agents_dir is None:
@@ -219,7 +227,7 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     order = {name: i for i, name in enumerate(ALGOS)}  # ppo, dqn, maskable_ppo, sac, td3
     algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
     for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(_algo_dir(p, ALGOS)[0]), p.name)):
-        algo, baseline = _algo_dir(algo_dir, ALGOS)
+        algo, bases = _algo_dir(algo_dir, ALGOS)
         label = algo_dir.name
         seed_dirs = [p for p in algo_dir.iterdir() if p.is_dir() and not p.name.startswith(".")]
         for seed_dir in sorted(seed_dirs, key=lambda p: (_seed_number(p), p.name)):
@@ -235,7 +243,8 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
                 ("env_id", bare_id(str(run.get("env_id", ""))), env_id),
                 ("algo", run.get("algo"), algo),
                 ("seed", run.get("seed"), seed),
-                ("residual baseline", _residual_baseline(run), baseline),
+                ("residual baseline", _bases(run)["residual"], bases["residual"]),
+                ("demonstrations' policy", _bases(run)["bc"], bases["bc"]),
             ):
                 if found != expected:
                     raise InputError(f"{run_file}: {what} is {found!r}, but the directory says {expected!r}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -13,8 +14,10 @@ pytest.importorskip("minari")
 pytest.importorskip("stable_baselines3")
 
 from polyenvs.datasets import collect  # noqa: E402
+from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.evaluation import evaluate  # noqa: E402
-from polyenvs.leaderboard import load_result, result_path  # noqa: E402
+from polyenvs.leaderboard import find_agents, load_result, result_path  # noqa: E402
+from polyenvs.registry import slug  # noqa: E402
 
 CORRIDOR = "polyenvs/APLiteCorridor-v0"
 #: The corridor's paper algorithm and its committed success rate (50 episodes from seed 1000).
@@ -131,6 +134,19 @@ def test_train_bc_from_then_ppo_is_a_policy_everywhere(demos, tmp_path, capsys):
     from stable_baselines3 import PPO
 
     assert np.allclose(PPO.load(out / "model.zip", device="cpu").policy.log_std.detach().numpy(), -1.7, atol=0.05)
+    # On the leaderboard it is its own row, <algo>_bc_<the demonstrations' policy>, and nowhere else.
+    rows = tmp_path / "agents" / slug(CORRIDOR)
+    shutil.copytree(out, rows / "ppo_bc_paper" / "seed0")
+    (found,) = find_agents(tmp_path / "agents", CORRIDOR)
+    assert (found.algo, found.label, found.key) == ("ppo", "ppo_bc_paper", "agent__ppo_bc_paper__seed0")
+    for elsewhere, message in (
+        ("ppo", "demonstrations' policy is 'paper', but the directory says None"),
+        ("ppo_bc_random", "demonstrations' policy is 'paper', but the directory says 'random'"),
+        ("ppo_residual_paper", "residual baseline is None, but the directory says 'paper'"),
+    ):
+        (rows / sorted(p.name for p in rows.iterdir())[0]).rename(rows / elsewhere)
+        with pytest.raises(InputError, match=message):
+            find_agents(tmp_path / "agents", CORRIDOR)
 
 
 def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
