@@ -1,13 +1,13 @@
 """Bumper cart throughput: cycles per second against CartPole-v1, and localizer updates per second.
 
-Two rows against their targets (``../shared/spec/performance.md``):
+Two rows against their targets (``benchmarks.targets``):
 
 - ``polyenvs/BumperCartExplore-v0`` through ``gym.make``, one step = one cycle (turn, drive to the bump, back up),
-  random turns, resets included: steps/s as a ratio to CartPole-v1 timed in the same rounds (target >= 0.1x; a
-  time-stepped sketch managed 0.001x);
+  random turns, resets included: steps/s as a ratio to CartPole-v1 timed in the same rounds (the id's ``gym.make``
+  row of ``TARGETS``; a time-stepped sketch managed 0.001x of CartPole);
 - the bump-space Monte Carlo localizer at 1,000 particles, one update per logged cycle including its
-  densest-cluster estimate, on seeded logs of the paper's arena (target >= 1,000 updates/s; a plain numpy sketch
-  managed 47, its feasibility model 214).
+  densest-cluster estimate, on seeded logs of the paper's arena (``SCALAR_TARGETS["localizer_updates_per_s"]``; a
+  plain numpy sketch managed 47 updates/s, its feasibility model 214).
 
 ``python -m benchmarks.bumper [--quick]`` prints :func:`section`, the Markdown that ``benchmarks.throughput`` puts in
 ``THROUGHPUT.md``; :func:`measure` is the importable form.
@@ -21,9 +21,10 @@ import time
 import gymnasium as gym
 import numpy as np
 
+from benchmarks import targets
 from benchmarks.harness import Case, Measurement, env_case, measure_rounds, paired_ratio, progress
 
-__all__ = ["ENV_ID", "LocalizerRunner", "main", "measure", "section"]
+__all__ = ["ENV_ID", "LocalizerRunner", "main", "measure", "section", "target_lines"]
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 CARTPOLE = "CartPole-v1"
@@ -115,13 +116,19 @@ def section(quick: bool = False) -> str:
     for row in rows:
         memory = f"{row.peak_memory_mb:.2f}" if row.peak_memory_mb is not None else "-"
         lines.append(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} | {row.us_per_step:.1f} | {memory} |")
+    return "\n".join([*lines, "", *target_lines(ratios)])
+
+
+def target_lines(ratios: dict) -> list[str]:
+    """The two figures of :func:`measure` against their targets, as Markdown list items."""
+    cart_target = targets.target_for(ENV_ID, targets.Kind.MAKE).ratio_to(CARTPOLE).bound
     ratio = ratios["cycles_vs_cartpole"]
-    lines += [
-        "",
-        f"- cart cycles vs CartPole-v1: {ratio:.2f}x (target >= 0.1x)" if ratio is not None else "- no ratio",
-        f"- localizer updates/s at {PARTICLES} particles: {ratios['localizer_updates_per_s']:,.0f} (target >= 1,000)",
+    updates = ratios["localizer_updates_per_s"]
+    localizer_target = targets.SCALAR_TARGETS["localizer_updates_per_s"]
+    return [
+        f"- cart cycles vs CartPole-v1: {ratio:.2f}x {cart_target.note(ratio)}" if ratio is not None else "- no ratio",
+        f"- localizer updates/s at {PARTICLES} particles: {updates:,.0f} {localizer_target.note(updates)}",
     ]
-    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -125,8 +125,8 @@ How the numbers were made:
 - Peak MB: the peak of tracemalloc-traced allocations while building the env, resetting it and taking
   {MEMORY_STEPS_SINGLE} steps ({MEMORY_STEPS_VECTOR} for vector envs), in a separate untimed run after the rounds.
   Memory allocated outside Python's allocator (MuJoCo's, torch's) is not seen.
-- Targets are those of the performance spec; "meets target" checks every ratio and memory budget of the target,
-  and names any that could not be measured in this run.
+- Targets are those of `benchmarks/targets.py` (issue 19's table, with the spec's memory budgets); "meets target"
+  checks every ratio and memory budget of the target, and names any that could not be measured in this run.
 
 Machine: {platform.platform()}, {_cpu_model()}, {os.cpu_count()} CPUs; Python {platform.python_version()};
 {_versions()}.

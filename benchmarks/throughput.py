@@ -6,11 +6,12 @@ MiniGrid, PPO on CartPole), because these shared machines drift by up to 25%. Se
 
 - ``benchmarks.harness``: timing a step loop in interleaved rounds, peak memory, ``Measurement``;
 - ``benchmarks.peers``: the peer environments and their adapters; ``benchmarks.ours``: our registry's ids;
-- ``benchmarks.targets``: the spec's targets as data; ``benchmarks.training``: PPO timesteps/s;
+- ``benchmarks.targets``: every target as data; ``benchmarks.training``: PPO timesteps/s;
 - ``benchmarks.report``: the Markdown tables and the report; this module: :func:`run` and the command line;
 - a family whose targets pair it with peers of its own (the cart's localizer, the swarms against mpe2 and VMAS,
   the beasts against Ant-v5 and raw ``mj_step``) has a module listed in :data:`FAMILY_BENCHMARKS` whose
-  ``section(quick)`` times them in interleaved rounds of its own and returns its Markdown section of the report.
+  ``section(quick)`` times them in interleaved rounds of its own and returns its Markdown section of the report;
+  ``benchmarks.first_step``, listed there too, times the first step of one id per family in fresh processes.
 
 From the repo root::
 
@@ -35,8 +36,9 @@ from benchmarks.training import measure_training
 __all__ = ["FAMILY_BENCHMARKS", "BenchmarkRun", "alternate", "family_sections", "main", "run"]
 
 DEFAULT_OUTPUT = Path(__file__).resolve().parent / "THROUGHPUT.md"
-#: Family benchmarks with peers of their own: modules with ``section(quick: bool) -> str``.
-FAMILY_BENCHMARKS = ("benchmarks.bumper", "benchmarks.swarm", "benchmarks.beast")
+#: Benchmarks with sections of their own (families with peers of their own, the first step in a fresh process):
+#: modules with ``section(quick: bool) -> str``.
+FAMILY_BENCHMARKS = ("benchmarks.bumper", "benchmarks.swarm", "benchmarks.beast", "benchmarks.first_step")
 
 # (seconds per repeat, rounds, PPO timesteps per round)
 _FULL = (2.0, 3, 2048)
