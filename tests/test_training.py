@@ -73,7 +73,7 @@ def test_train_writes_the_run_directory(tmp_path, algo, cls):
         env_kwargs={"floor_plan": "corner", "max_episode_steps": 50}, command="polyenvs train test",
     )  # fmt: skip
     assert result == out
-    assert {p.name for p in out.iterdir()} == {"model.zip", "vecnormalize.pkl", "run.json", "tb"}
+    assert {p.name for p in out.iterdir()} == {"model.zip", "vecnormalize.pkl", "run.json", "curve.json", "tb"}
     assert list((out / "tb").rglob("events.out.tfevents.*"))
     run = _run(out)
     assert RUN_KEYS <= set(run)
