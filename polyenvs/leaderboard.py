@@ -46,6 +46,7 @@ from polyenvs.statistics import iqm_with_stratified_ci, mean_with_stratified_ci
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
+    "agent_verdict",
     "agents_line",
     "default_agents_dirs",
     "environment_section",
@@ -810,6 +811,72 @@ def _details_table(env_id: str, rows: list[dict]) -> list[str]:
     return [*lines, "", "</details>"]
 
 
+def _beats(agent: dict, reference: dict, score, layouts: str) -> bool:
+    """Whether ``agent``'s task score beats ``reference``'s on ``layouts`` ("score" for the default ones,
+    "held_out"): its 95% interval wholly on the better side of the reference's, or, on the default layouts, both at
+    the score's ceiling and the agent better on the tie-break metric (faster to the goal, for instance)."""
+    a, b = agent[layouts], reference[layouts]
+    if a is None or b is None:
+        return False
+    agent_worst = a["low"] if score.direction == "max" else a["high"]
+    reference_best = b["high"] if score.direction == "max" else b["low"]
+    if score.sign * agent_worst > score.sign * reference_best:
+        return True
+    at_ceiling = score.ceiling is not None and a["value"] == b["value"] == score.ceiling
+    ties = agent["tie"], reference["tie"]
+    return layouts == "score" and at_ceiling and None not in ties and score.tie_sign * (ties[0] - ties[1]) > 0
+
+
+def agent_verdict(table: dict) -> dict | None:
+    """Whether a trained agent beats the paper's algorithm (the upper anchor where the row names one) on a table of
+    :func:`leaderboard_tables`: ``{"reference", "agent" (the best agent's row, the first ranked that beats the
+    reference if any does), "default", "held_out" (bools)}``, or None without a score, a reference or an agent."""
+    score, rows = table["score"], table["rows"]
+    kind = "anchor" if score is not None and score.upper_anchor else "paper"
+    reference = next((r for r in rows if r["kind"] == kind), None)
+    agents = [r for r in rows if r["kind"] == "agent" and r["score"] is not None]
+    if score is None or reference is None or not agents:
+        return None
+    winner = next((r for r in agents if _beats(r, reference, score, "score")), agents[0])
+    return {"reference": reference, "agent": winner, "default": _beats(winner, reference, score, "score"),
+            "held_out": _beats(winner, reference, score, "held_out")}  # fmt: skip
+
+
+def _verdict_section(tables: dict[str, dict]) -> list[str]:
+    """The question the leaderboard answers, per environment: does a trained agent beat the paper's algorithm?"""
+    lines = [
+        "## Does a trained agent beat the paper's algorithm?",
+        "",
+        "Beats: the agent's 95% interval of the task score lies wholly on the better side of the paper's algorithm's "
+        "(of the upper anchor's, on a row that names one), or both are at the score's ceiling and the agent is "
+        "better on the tie-break metric (default layouts only: the held-out column compares intervals).",
+        "",
+        "| environment | paper's algorithm (or anchor) | best trained agent | beats it | on held-out layouts |",
+        "|---|---|---|---|---|",
+    ]
+    wins = held = counted = 0
+    for env_id, table in tables.items():
+        verdict = agent_verdict(table)
+        if verdict is None:
+            reference = next((r for r in table["rows"] if r["kind"] in ("paper", "anchor")), None)
+            name = f"{reference['label']} {_format_interval(reference['score'])}" if reference else "-"
+            lines.append(f"| {env_id} | {name} | no trained agent | - | - |")
+            continue
+        counted += 1
+        wins, held = wins + verdict["default"], held + verdict["held_out"]
+        ref, agent = verdict["reference"], verdict["agent"]
+        cells = [env_id, f"{ref['label']} {_format_interval(ref['score'])}",
+                 f"{agent['label']} {_format_interval(agent['score'])}",
+                 "**yes**" if verdict["default"] else "no", "**yes**" if verdict["held_out"] else "no"]  # fmt: skip
+        lines.append("| " + " | ".join(cells) + " |")
+    total = len(tables)
+    summary = (
+        f"A trained agent beats the paper's algorithm on {wins} of the {total} environments ({counted} have a "
+        f"trained agent), and on the held-out layouts on {held}."
+    )
+    return [*lines[:2], summary, "", *lines[2:], ""]
+
+
 def _episode_counts(documents: list[dict]) -> str:
     """How many episodes each policy ran: the usual count, then the environments that ran another."""
     per_env: dict[str, set[int]] = {}
@@ -858,9 +925,11 @@ def leaderboard_markdown(
             f"**Quick mode**: fewer episodes than the protocol's {PROTOCOL_EPISODES}; numbers are indicative only.",
             "",
         ]
+    tables = leaderboard_tables(documents)
+    lines += _verdict_section(tables)
     if profile:
         lines += [f"![Performance profile of the normalised task scores over the environments]({profile})", ""]
-    for env_id, table in leaderboard_tables(documents).items():
+    for env_id, table in tables.items():
         lines += [f"## {env_id}", "", *environment_section(env_id, table, (plots or {}).get(env_id))]
     return "\n".join(lines)
 

@@ -170,6 +170,44 @@ def test_the_committed_reference_holds_each_rows_protocol_count():
         assert doc["n_episodes"] == rows[doc["env_id"]], f"{path.name}: {doc['n_episodes']} episodes"
 
 
+def _agent(doc: dict, seed: int = 0) -> dict:
+    doc["agent"] = {"algo": "ppo", "label": "ppo", "training_seed": seed}
+    return doc
+
+
+def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out():
+    rng = np.random.default_rng(1)
+    paper = [_doc(WALL, "wall_follower", list(rng.uniform(0.5, 0.6, 30)), "perimeter_fraction", layouts=layouts)
+             for layouts in ("default", "test")]  # fmt: skip
+    random = _doc(WALL, "random", list(rng.uniform(0.0, 0.1, 30)), "perimeter_fraction")
+    better = _agent(_doc(WALL, "x", list(rng.uniform(0.7, 0.8, 30)), "perimeter_fraction"))
+    overlapping = _agent(_doc(WALL, "x", list(rng.uniform(0.5, 0.6, 30)), "perimeter_fraction", layouts="test"))
+    verdict = polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random, better, overlapping])[WALL])
+    assert verdict["reference"]["label"] == "wall_follower" and verdict["agent"]["label"] == "ppo"
+    assert verdict["default"] is True and verdict["held_out"] is False
+    # Lower is better on the turn: an agent with a larger heading error does not beat it.
+    turn = [_doc(TURN, "sharp_turn", [1.0, 1.1, 0.9] * 10, "heading_error_deg"),
+            _agent(_doc(TURN, "x", [2.0, 2.1, 1.9] * 10, "heading_error_deg"))]  # fmt: skip
+    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is False
+    turn[1] = _agent(_doc(TURN, "x", [0.2, 0.3, 0.1] * 10, "heading_error_deg"))
+    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is True
+    # An interval that only reaches below the paper's is no win (its worse end, the upper one, is above).
+    turn[1] = _agent(_doc(TURN, "x", list(rng.uniform(0.0, 2.2, 30)), "heading_error_deg"))
+    verdict = polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])
+    assert verdict["agent"]["score"]["low"] < 0.9 < verdict["agent"]["score"]["high"] and verdict["default"] is False
+    # Both at the ceiling: the tie-break decides (fewer steps to the goal), on the default layouts.
+    goal = [_doc(GOAL, "goal_seeker", [1.0] * 30, "success", steps_to_goal=[30] * 30),
+            _agent(_doc(GOAL, "x", [1.0] * 30, "success", steps_to_goal=[25] * 30))]  # fmt: skip
+    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(goal)[GOAL])["default"] is True
+    goal[1] = _agent(_doc(GOAL, "x", [1.0] * 30, "success", steps_to_goal=[35] * 30))
+    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(goal)[GOAL])["default"] is False
+    # Without an agent there is no verdict, and the page says so.
+    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
+    page = leaderboard_markdown([*paper, random, better])
+    assert "A trained agent beats the paper's algorithm on 1 of the 1 environments" in page
+    assert f"| {WALL} | wall_follower " in page and "| **yes** | no |" in page
+
+
 def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
     pytest.importorskip("matplotlib")
     rng = np.random.default_rng(0)
