@@ -854,25 +854,28 @@ def _verdict_section(tables: dict[str, dict]) -> list[str]:
         "| environment | paper's algorithm (or anchor) | best trained agent | beats it | on held-out layouts |",
         "|---|---|---|---|---|",
     ]
-    wins = held = counted = 0
+    wins = held = counted = total = 0
     for env_id, table in tables.items():
-        verdict = agent_verdict(table)
+        verdict, successor = agent_verdict(table), _superseded_by(env_id)
+        total += successor is None
+        if successor is not None:
+            env_id = f"{env_id} (superseded by {successor}: not counted)"
         if verdict is None:
             reference = next((r for r in table["rows"] if r["kind"] in ("paper", "anchor")), None)
             name = f"{reference['label']} {_format_interval(reference['score'])}" if reference else "-"
             lines.append(f"| {env_id} | {name} | no trained agent | - | - |")
             continue
-        counted += 1
-        wins, held = wins + verdict["default"], held + verdict["held_out"]
+        if successor is None:
+            counted += 1
+            wins, held = wins + verdict["default"], held + verdict["held_out"]
         ref, agent = verdict["reference"], verdict["agent"]
         cells = [env_id, f"{ref['label']} {_format_interval(ref['score'])}",
                  f"{agent['label']} {_format_interval(agent['score'])}",
                  "**yes**" if verdict["default"] else "no", "**yes**" if verdict["held_out"] else "no"]  # fmt: skip
         lines.append("| " + " | ".join(cells) + " |")
-    total = len(tables)
     summary = (
-        f"A trained agent beats the paper's algorithm on {wins} of the {total} environments ({counted} have a "
-        f"trained agent), and on the held-out layouts on {held}."
+        f"A trained agent beats the paper's algorithm on {wins} of the {total} environments the benchmark ranks on "
+        f"({counted} have a trained agent), and on the held-out layouts on {held}."
     )
     return [*lines[:2], summary, "", *lines[2:], ""]
 

@@ -225,6 +225,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
         paper="rolling_gait",
         score=_BEAST_SUCCESS,
+        superseded_by="polyenvs/BeastTumble-v1",
     ),
     EnvEntry(
         id="polyenvs/BeastRoll-v0",
@@ -237,6 +238,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=(_beast("rolling_gait", "RollingGait"),),
         paper="rolling_gait",
         score=Score("distance_m", "max"),
+        superseded_by="polyenvs/BeastRoll-v1",
     ),
     EnvEntry(
         id="polyenvs/BeastTurn-v0",
@@ -248,6 +250,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
         paper="sharp_turn",
         score=Score("heading_error_deg", "min", ceiling=0.0),
+        superseded_by="polyenvs/BeastTurn-v1",
     ),
     EnvEntry(
         id="polyenvs/BeastRecover-v0",
@@ -260,6 +263,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         baselines=(_beast("righting", "Righting"),),
         paper="righting",
         score=Score("success", "max", ceiling=1.0, tie_break="time_to_stance_s", aggregate="mean"),
+        superseded_by="polyenvs/BeastRecover-v1",
     ),
     # The -v1 beasts: the robot's contact model (servo dead band, debounced foot switches) and rewards that track
     # the task scores, which are the -v0 ids' (each docstring's "Task score" says why).

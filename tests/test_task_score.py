@@ -204,8 +204,14 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     # Without an agent there is no verdict, and the page says so.
     assert polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
     page = leaderboard_markdown([*paper, random, better])
-    assert "A trained agent beats the paper's algorithm on 1 of the 1 environments" in page
+    assert "A trained agent beats the paper's algorithm on 1 of the 1 environments the benchmark ranks on" in page
     assert f"| {WALL} | wall_follower " in page and "| **yes** | no |" in page
+    # A version the benchmark no longer ranks on is shown, not counted.
+    roll = "polyenvs/BeastRoll-v0"
+    old = [_doc(roll, "rolling_gait", [0.82] * 30, "distance_m"), _agent(_doc(roll, "x", [0.9] * 30, "distance_m"))]
+    page = leaderboard_markdown([*paper, random, better, *old])
+    assert f"| {roll} (superseded by polyenvs/BeastRoll-v1: not counted) | rolling_gait " in page
+    assert "on 1 of the 1 environments the benchmark ranks on (1 have a trained agent)" in page
 
 
 def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
