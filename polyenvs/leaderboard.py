@@ -632,12 +632,23 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
         "score_runs": _score_groups(docs, metric),
         "score": _interval(_score_groups(docs, metric), score),
         "held_out": _interval(_score_groups(held_out, metric), score) if held_out else None,
-        "tie": metrics.get(score.tie_break) if score is not None and score.tie_break else None,
+        "tie": _tie_mean(docs, score),
+        "held_out_tie": _tie_mean(held_out, score),
         "metrics": metrics,
         "n_timesteps": float(np.mean(timesteps)) if timesteps else None,
         "seeds": [d["agent"].get("training_seed") for d in docs] if agent else None,
         "episodes": len(episodes),
     }
+
+
+def _tie_mean(docs: list[dict], score) -> float | None:
+    """The mean of the score's tie-break metric over ``docs``' episodes (None without one or without values)."""
+    if score is None or not score.tie_break:
+        return None
+    values = [
+        e["metrics"][score.tie_break] for d in docs for e in d["episodes"] if score.tie_break in e.get("metrics", {})
+    ]
+    return float(np.mean(values)) if values else None
 
 
 def _overlap(a: dict, b: dict) -> bool:
@@ -677,7 +688,8 @@ def leaderboard_tables(documents: list[dict]) -> dict[str, dict]:
     Rows are ranked by the task score (:func:`_rank_key`). A row: ``{"label", "kind" ("random", "paper",
     "anchor", "baseline" or "agent"), "returns" (pooled), "iqm", "low", "high" (of the return), "score" and
     "held_out" (``{"iqm", "low", "high", "mean"}`` of the score on the default and the held-out layouts, or None),
-    "score_runs" (the score's values per run), "normalised" (None where not discriminative), "gap", "tie",
+    "score_runs" (the score's values per run), "normalised" (None where not discriminative), "gap", "tie" and
+    "held_out_tie" (the tie-break metric's mean on the default and the held-out layouts),
     "metrics" (means over the pooled episodes), "n_timesteps" (mean over seeds, or None), "seeds" (training seeds,
     agents only), "episodes"}``. A trained algorithm's row pools its training seeds' episodes.
     """
@@ -813,8 +825,8 @@ def _details_table(env_id: str, rows: list[dict]) -> list[str]:
 
 def _beats(agent: dict, reference: dict, score, layouts: str) -> bool:
     """Whether ``agent``'s task score beats ``reference``'s on ``layouts`` ("score" for the default ones,
-    "held_out"): its 95% interval wholly on the better side of the reference's, or, on the default layouts, both at
-    the score's ceiling and the agent better on the tie-break metric (faster to the goal, for instance)."""
+    "held_out"): its 95% interval wholly on the better side of the reference's, or both at the score's ceiling and
+    the agent better on the tie-break metric over those layouts' episodes (faster to the goal, for instance)."""
     a, b = agent[layouts], reference[layouts]
     if a is None or b is None:
         return False
@@ -823,8 +835,9 @@ def _beats(agent: dict, reference: dict, score, layouts: str) -> bool:
     if score.sign * agent_worst > score.sign * reference_best:
         return True
     at_ceiling = score.ceiling is not None and a["value"] == b["value"] == score.ceiling
-    ties = agent["tie"], reference["tie"]
-    return layouts == "score" and at_ceiling and None not in ties and score.tie_sign * (ties[0] - ties[1]) > 0
+    tie = "tie" if layouts == "score" else "held_out_tie"
+    ties = agent[tie], reference[tie]
+    return at_ceiling and None not in ties and score.tie_sign * (ties[0] - ties[1]) > 0
 
 
 def agent_verdict(table: dict) -> dict | None:
@@ -849,7 +862,7 @@ def _verdict_section(tables: dict[str, dict]) -> list[str]:
         "",
         "Beats: the agent's 95% interval of the task score lies wholly on the better side of the paper's algorithm's "
         "(of the upper anchor's, on a row that names one), or both are at the score's ceiling and the agent is "
-        "better on the tie-break metric (default layouts only: the held-out column compares intervals).",
+        "better on the tie-break metric (its mean over the same layouts' episodes).",
         "",
         "| environment | paper's algorithm (or anchor) | best trained agent | beats it | on held-out layouts |",
         "|---|---|---|---|---|",

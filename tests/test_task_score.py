@@ -195,12 +195,17 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     turn[1] = _agent(_doc(TURN, "x", list(rng.uniform(0.0, 2.2, 30)), "heading_error_deg"))
     verdict = polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])
     assert verdict["agent"]["score"]["low"] < 0.9 < verdict["agent"]["score"]["high"] and verdict["default"] is False
-    # Both at the ceiling: the tie-break decides (fewer steps to the goal), on the default layouts.
-    goal = [_doc(GOAL, "goal_seeker", [1.0] * 30, "success", steps_to_goal=[30] * 30),
-            _agent(_doc(GOAL, "x", [1.0] * 30, "success", steps_to_goal=[25] * 30))]  # fmt: skip
-    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(goal)[GOAL])["default"] is True
-    goal[1] = _agent(_doc(GOAL, "x", [1.0] * 30, "success", steps_to_goal=[35] * 30))
-    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(goal)[GOAL])["default"] is False
+
+    # Both at the ceiling: the tie-break decides (fewer steps to the goal), on each layouts' own episodes.
+    def goal(agent_steps: int, agent_held_out_steps: int) -> dict:
+        docs = [_doc(GOAL, "goal_seeker", [1.0] * 30, "success", layouts, steps_to_goal=[30] * 30)
+                for layouts in ("default", "test")]  # fmt: skip
+        docs += [_agent(_doc(GOAL, "x", [1.0] * 30, "success", "default", steps_to_goal=[agent_steps] * 30)),
+                 _agent(_doc(GOAL, "x", [1.0] * 30, "success", "test", steps_to_goal=[agent_held_out_steps] * 30))]  # fmt: skip
+        return polyenvs.leaderboard.agent_verdict(leaderboard_tables(docs)[GOAL])
+
+    assert [goal(25, 35)[k] for k in ("default", "held_out")] == [True, False]
+    assert [goal(35, 25)[k] for k in ("default", "held_out")] == [False, True]
     # Without an agent there is no verdict, and the page says so.
     assert polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
     page = leaderboard_markdown([*paper, random, better])
