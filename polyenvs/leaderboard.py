@@ -256,7 +256,7 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
 def default_agents_dirs() -> list[Path]:
     """Where the leaderboard looks for the committed agents, in order: ``benchmarks/agents`` in the current
     directory, then in the checkout polyenvs runs from (a clone, or an editable install of one). An installed
-    package does not ship them (7 MB of models): from anywhere else there are none."""
+    package does not ship them (16 MB of models): from anywhere else there are none."""
     candidates = [DEFAULT_AGENTS_DIR]
     root = Path(__file__).resolve().parents[1]
     if (root / "pyproject.toml").is_file() and (root / "polyenvs" / "__init__.py").is_file():
