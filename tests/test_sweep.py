@@ -123,7 +123,7 @@ def test_an_interrupted_job_that_saved_no_model_is_trained_again(tmp_path, confi
     assert "2 of 2 jobs finished" in printed
     _check_outputs(out)
     assert "resumed_at" not in json.loads((busy / "run.json").read_text())
-    assert sorted(p.name for p in busy.iterdir()) == ["model.zip", "run.json", "vecnormalize.pkl"]
+    assert sorted(p.name for p in busy.iterdir()) == ["curve.json", "model.zip", "run.json", "vecnormalize.pkl"]
 
 
 def _wait_for_checkpoints(proc: subprocess.Popen, run_files: list[Path], log: Path) -> None:
