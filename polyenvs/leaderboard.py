@@ -632,7 +632,7 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
         "score_runs": _score_groups(docs, metric),
         "score": _interval(_score_groups(docs, metric), score),
         "held_out": _interval(_score_groups(held_out, metric), score) if held_out else None,
-        "tie": _tie_mean(docs, score),
+        "tie": metrics.get(score.tie_break) if score is not None and score.tie_break else None,
         "held_out_tie": _tie_mean(held_out, score),
         "metrics": metrics,
         "n_timesteps": float(np.mean(timesteps)) if timesteps else None,
