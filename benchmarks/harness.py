@@ -34,6 +34,7 @@ __all__ = [
     "paired_ratio",
     "peak_memory_mb",
     "progress",
+    "run_steps",
     "serpentine",
 ]
 
@@ -129,7 +130,7 @@ def _num_envs(env: Any) -> tuple[int, bool]:
     return 1, False
 
 
-def _run_steps(env: Any, actions: Sequence[Any], vector: bool) -> None:
+def run_steps(env: Any, actions: Sequence[Any], vector: bool) -> None:
     """Step through ``actions``, resetting a single env when its episode ends."""
     step = env.step
     if vector:
@@ -169,10 +170,10 @@ class EnvRunner:
         """Untimed steps (numba compilation, caches, lazy setup), and a step-time estimate to size the loop."""
         env, sample, clock = self.env, self.env.action_space.sample, self.clock
         # The first step may compile or allocate lazily; keep it out of the estimate.
-        _run_steps(env, [sample()], self.vector)
+        run_steps(env, [sample()], self.vector)
         steps, elapsed, start = 0, 0.0, clock()
         while steps < _WARMUP_MAX_STEPS and elapsed < _WARMUP_SECONDS:
-            _run_steps(env, [sample()], self.vector)
+            run_steps(env, [sample()], self.vector)
             steps += 1
             elapsed = clock() - start
         step_seconds = elapsed / max(steps, 1)
@@ -189,7 +190,7 @@ class EnvRunner:
         start = clock()
         while True:
             for chunk in chunks:
-                _run_steps(env, chunk, vector)
+                run_steps(env, chunk, vector)
                 steps += len(chunk)
                 elapsed = clock() - start
                 if elapsed >= min_seconds:
@@ -218,7 +219,7 @@ def peak_memory_mb(make_fn: Callable[[], Any], *, steps: int | None = None, seed
         env.action_space.seed(seed)
         if steps is None:
             steps = MEMORY_STEPS_VECTOR if vector else MEMORY_STEPS_SINGLE
-        _run_steps(env, [env.action_space.sample() for _ in range(steps)], vector)
+        run_steps(env, [env.action_space.sample() for _ in range(steps)], vector)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         if env is not None:

@@ -26,12 +26,22 @@ import numpy as np
 
 from benchmarks.targets import SCALAR_TARGETS
 
-__all__ = ["format_rows", "measure", "measure_batched", "peak_memory_mb", "run", "section"]
+__all__ = [
+    "batched_stepper",
+    "format_rows",
+    "measure",
+    "measure_batched",
+    "peak_memory_mb",
+    "run",
+    "section",
+    "swarm_env",
+    "swarm_stepper",
+]
 
 TASKS = ("obstacle_field_v0", "corridor_v0", "formation_v0")
 
 
-def _swarm(task: str, n: int):
+def swarm_env(task: str, n: int):
     import importlib
 
     module = importlib.import_module(f"polyenvs.swarm.{task}")
@@ -44,7 +54,7 @@ def _mpe2(n: int):
     return simple_spread_v3.parallel_env(N=n, max_cycles=25)
 
 
-def _stepper(env, seed: int = 0) -> Callable[[int], int]:
+def swarm_stepper(env, seed: int = 0) -> Callable[[int], int]:
     """A function that takes ``k`` joint steps (resetting when every agent is done) and returns agent-steps."""
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
@@ -71,7 +81,7 @@ def _stepper(env, seed: int = 0) -> Callable[[int], int]:
     return steps
 
 
-def _batched_stepper(task: str, n_envs: int, n_robots: int, seed: int = 0) -> Callable[[int], int]:
+def batched_stepper(task: str, n_envs: int, n_robots: int, seed: int = 0) -> Callable[[int], int]:
     """``k`` steps of the batched swarm (autoresets inside); returns environment-steps."""
     from polyenvs.swarm.batched import SwarmVectorEnv
 
@@ -117,7 +127,7 @@ def measure_batched(rounds: int = 3, seconds: float = 2.0, task: str = "obstacle
                     n_robots: int = 4) -> list[dict]:  # fmt: skip
     """Env-steps/s of the batched swarm and of VMAS navigation at the same size, interleaved; the ratio is the
     median of per-round ratios. VMAS missing: its row says so and the ratio is absent."""
-    cases = {f"batched {task} {n_envs}x{n_robots}": _batched_stepper(task, n_envs, n_robots)}
+    cases = {f"batched {task} {n_envs}x{n_robots}": batched_stepper(task, n_envs, n_robots)}
     try:
         cases[f"vmas navigation {n_envs}x{n_robots}"] = _vmas_stepper(n_envs, n_robots)
     except ImportError:
@@ -134,7 +144,7 @@ def measure_batched(rounds: int = 3, seconds: float = 2.0, task: str = "obstacle
         row["ratio_vs_vmas"] = statistics.median(a / b for a, b in zip(results[ours], results[peer[0]], strict=True))
     else:
         rows.append({"row": "vmas navigation: not installed (pip install vmas)", "env_steps_per_s": float("nan")})
-    row["peak_memory_mb"] = _peak_memory(lambda: _batched_stepper(task, n_envs, n_robots)(10))
+    row["peak_memory_mb"] = _peak_memory(lambda: batched_stepper(task, n_envs, n_robots)(10))
     return rows
 
 
@@ -161,15 +171,15 @@ def _peak_memory(work: Callable[[], object]) -> float:
 
 def peak_memory_mb(task: str = "obstacle_field_v0", n: int = 256) -> float:
     """Peak traced memory (MB) of building a swarm, resetting it and taking 10 random steps."""
-    return _peak_memory(lambda: _stepper(_swarm(task, n))(10))
+    return _peak_memory(lambda: swarm_stepper(swarm_env(task, n))(10))
 
 
 def measure(rounds: int = 3, seconds: float = 2.0, tasks=TASKS) -> list[dict]:
     """The rows: per task, agent-steps/s at N = 20 with its ratio to mpe2 N = 20, joint steps/s at N = 256."""
-    cases = {"mpe2 simple_spread_v3 N=20": _stepper(_mpe2(20))}
+    cases = {"mpe2 simple_spread_v3 N=20": swarm_stepper(_mpe2(20))}
     for task in tasks:
-        cases[f"{task} N=20"] = _stepper(_swarm(task, 20))
-        cases[f"{task} N=256"] = _stepper(_swarm(task, 256))
+        cases[f"{task} N=20"] = swarm_stepper(swarm_env(task, 20))
+        cases[f"{task} N=256"] = swarm_stepper(swarm_env(task, 256))
     results: dict[str, list[tuple[float, float]]] = {name: [] for name in cases}
     for r in range(rounds):
         order = list(cases) if r % 2 == 0 else list(reversed(cases))

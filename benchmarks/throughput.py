@@ -11,7 +11,8 @@ MiniGrid, PPO on CartPole), because these shared machines drift by up to 25%. Se
 - a family whose targets pair it with peers of its own (the cart's localizer, the swarms against mpe2 and VMAS,
   the beasts against Ant-v5 and raw ``mj_step``) has a module listed in :data:`FAMILY_BENCHMARKS` whose
   ``section(quick)`` times them in interleaved rounds of its own and returns its Markdown section of the report;
-  ``benchmarks.first_step``, listed there too, times the first step of one id per family in fresh processes.
+  ``benchmarks.first_step``, listed there too, times the first step of one id per family in fresh processes, and
+  ``benchmarks.profiling`` profiles every targeted row (where the time of a step goes).
 
 From the repo root::
 
@@ -36,9 +37,15 @@ from benchmarks.training import measure_training
 __all__ = ["FAMILY_BENCHMARKS", "BenchmarkRun", "alternate", "family_sections", "main", "run"]
 
 DEFAULT_OUTPUT = Path(__file__).resolve().parent / "THROUGHPUT.md"
-#: Benchmarks with sections of their own (families with peers of their own, the first step in a fresh process):
-#: modules with ``section(quick: bool) -> str``.
-FAMILY_BENCHMARKS = ("benchmarks.bumper", "benchmarks.swarm", "benchmarks.beast", "benchmarks.first_step")
+#: Benchmarks with sections of their own (families with peers of their own, the first step in a fresh process, where
+#: the time of a step goes): modules with ``section(quick: bool) -> str``.
+FAMILY_BENCHMARKS = (
+    "benchmarks.bumper",
+    "benchmarks.swarm",
+    "benchmarks.beast",
+    "benchmarks.first_step",
+    "benchmarks.profiling",
+)
 
 # (seconds per repeat, rounds, PPO timesteps per round)
 _FULL = (2.0, 3, 2048)

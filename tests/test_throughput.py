@@ -36,6 +36,7 @@ def test_quick_main_writes_a_report_that_says_how_rows_were_interleaved(tmp_path
     assert text.startswith("# Throughput") and "interleaved round" in text and "same round" in text
     assert "Machine:" in text and "| CartPole-v1 |" in text
     assert "## Time to the first step" in text and "(target <= 1 s: " in text  # benchmarks.first_step's section
+    assert "## Where the time goes" in text and "| polyenvs/BuckybotGoal-v0 `gym.make` |" in text  # profiling's
 
 
 def test_training_table_compares_with_ppo_on_cartpole() -> None:
@@ -330,3 +331,28 @@ def test_no_module_of_benchmarks_writes_a_target_of_its_own() -> None:
         for match in literal.finditer(path.read_text(encoding="utf-8"))
     ]
     assert found == []
+
+
+def _busy() -> int:
+    total = 0
+    for i in range(20_000):
+        total += i * i
+    return total
+
+
+def test_a_profile_names_the_function_that_takes_the_time_and_where_it_lives() -> None:
+    from benchmarks import profiling
+
+    profile = profiling.profile_work(lambda: (_busy(), len("x"))[1], seconds=0.2)
+    assert profile.units >= 1 and profile.us_per_unit > 0
+    assert abs(sum(profile.parts.values()) - 1.0) < 1e-9
+    (name, share), *_ = profile.top
+    assert name.endswith("test_throughput.py:_busy") and share > 0.8  # the loop, not len() or the lambda
+    # Our compiled kernels are C functions to cProfile, but they are our code; MuJoCo's are not.
+    assert profiling._part("~", "<built-in method polyenvs.buckybot.goal._step_kernel>") == "ours"
+    assert profiling._part("~", "<built-in method mujoco._functions.mj_step>") == "c"
+    assert profiling._part("/x/site-packages/gymnasium/wrappers/common.py", "step") == "wrappers"
+    assert profiling._part("/x/polyenvs/core/rows.py", "step") == "ours"
+    line = profiling.format_section([("a row", profile), ("a broken row", "error: boom")]).splitlines()
+    assert any(text.startswith("| a row |") and "test_throughput.py:_busy" in text for text in line)
+    assert "| a broken row | - | - | - | - | - | error: boom |" in line
