@@ -62,6 +62,29 @@ def test_tip_plan_keeps_planted_feet_fixed_on_the_ground(planner):
         np.testing.assert_allclose(feet[:3] @ rot.T - rot @ org, ground0[:3] - body0 + body0, atol=1e-9)
 
 
+def test_a_planner_reuses_a_motion_only_for_exactly_the_same_inputs():
+    planner = BeastPlanner()
+    q0 = (K0 * DEG).ravel()
+    first = planner.tip_plan(q0, (0, 1, 2, 3))
+    assert planner.tip_plan(q0.copy(), (0, 1, 2, 3)) is first  # the same plan, not planned again
+    with pytest.raises(ValueError):
+        first.q[0, 0] = 1.0  # so that no caller can change a plan another will reuse
+    # Anything the motion reads makes another motion: the angles (by one ulp), the knots, the branch rule.
+    moved = q0.copy()
+    moved[0] = np.nextafter(moved[0], 1.0)
+    other = planner.tip_plan(moved, (0, 1, 2, 3))
+    assert other is not first and not np.array_equal(other.q, first.q)
+    feet = planner.feet(q0)
+    rot0, origin = planner.tumble_frame(feet, 0, 1, 2)
+    feet_t = (feet - origin) @ rot0.T
+    pose0, pose1 = (rot0, -rot0 @ origin), (rot0, -rot0 @ origin + [0.001, 0.0, 0.0])
+    args = (q0, [0, 1, 2], feet_t, pose0, pose1, {3: TUCKED})
+    eight, sixteen = planner.body_motion(*args, knots=8), planner.body_motion(*args, knots=16)
+    assert len(eight.times) == 9 and len(sixteen.times) == 17
+    nearest = planner.body_motion(*args, knots=8, any_branch=True)
+    assert nearest is not eight and planner.body_motion(*args, knots=8) is eight
+
+
 def test_knot_velocities_are_the_jacobian_solution_and_the_path_is_continuous(planner):
     traj = planner.tip_plan((K0 * DEG).ravel(), (0, 1, 2, 3))
     # Finite differences of the piecewise cubic agree with its knot velocities (C1 at interior knots).

@@ -1,6 +1,7 @@
 """The rolling gait's planner: tumble geometry, the look-ahead's joint-1 bookkeeping and the joint trajectories.
 
-:class:`BeastPlanner` holds one beast's geometry and plans (no state between calls but a cache of plannable tumbles);
+:class:`BeastPlanner` holds one beast's geometry and plans (no state between calls but caches: of plannable tumbles,
+and of its last body motions, since one decision plans the same motion up to three times);
 :mod:`baselines.beast.gait` describes the algorithm and runs it closed loop. Public names: :class:`GaitConfig`
 (rates, stance, tip keyframes, stance branch), ``DEFAULT_CONFIGS`` (per beast), :class:`BeastPlanner`,
 :class:`JointTrajectory` (piecewise cubic), ``TUCKED`` (a free limb's pose).
@@ -27,15 +28,23 @@ _MODEL = BeastModelParams()
 _PLANNABLE: dict = {}
 #: The free limb's pose on top: straight out along its face normal, clear of the ground and the other limbs.
 TUCKED = K.STRAIGHT_OUT
+#: Body motions a planner remembers (:meth:`BeastPlanner.body_motion`): a decision's look-ahead plans a candidate's tip
+#: and stance, then the chosen tip again, and the tip plan checks the stance that the look-ahead planned; one decision
+#: plans about 20 distinct motions, and every entry is a few kilobytes.
+MOTION_CACHE = 64
+
+
+def _read_only(values) -> np.ndarray:
+    array = np.array(values, dtype=float)  # a copy: the caller's array stays writable
+    array.flags.writeable = False
+    return array
 
 
 class JointTrajectory:
     """Piecewise cubic Hermite joint trajectory through knots (times, angles, velocities); holds the end after T."""
 
     def __init__(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray):
-        self.times = np.asarray(times, dtype=float)
-        self.q = np.asarray(q, dtype=float)
-        self.qd = np.asarray(qd, dtype=float)
+        self.times, self.q, self.qd = (_read_only(a) for a in (times, q, qd))  # a planner reuses its trajectories
 
     @property
     def duration(self) -> float:
@@ -109,8 +118,15 @@ DEFAULT_CONFIGS = {
 }
 
 
+def _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots) -> tuple:
+    """Everything :meth:`BeastPlanner.body_motion` reads, exactly (the arrays' bytes)."""
+    arrays = (q_now, feet_tumble, *pose0, *pose1, *free_targets.values())
+    data = b"".join(np.ascontiguousarray(a, dtype=float).tobytes() for a in arrays)
+    return data, tuple(planted), tuple(free_targets), any_branch, knots
+
+
 class BeastPlanner:
-    """Geometry and trajectory planning for one beast (no state between calls)."""
+    """Geometry and trajectory planning for one beast (no state between calls but its caches)."""
 
     def __init__(
         self,
@@ -132,6 +148,7 @@ class BeastPlanner:
         self._low = np.tile(self.joint_ranges[:, 0], self.n_limbs)
         self._high = np.tile(self.joint_ranges[:, 1], self.n_limbs)
         self._sweeps: dict | None = None
+        self._motions: dict[tuple, JointTrajectory | None] = {}  # oldest first; see MOTION_CACHE
 
     # ----------------------------------------------------------------------------------------------- geometry
     def feet(self, q: np.ndarray) -> np.ndarray:
@@ -356,6 +373,17 @@ class BeastPlanner:
         its stop); then a foot must stay 1 mm inside its workspace and a jump between branches (a singularity
         crossed) is None. ``knots``: knot intervals (default the gait's).
         """
+        key = _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots)
+        if key in self._motions:  # the same inputs plan the same motion: reuse it (trajectories are never modified)
+            return self._motions[key]
+        traj = self._body_motion(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots)
+        if len(self._motions) >= MOTION_CACHE:
+            del self._motions[next(iter(self._motions))]
+        self._motions[key] = traj
+        return traj
+
+    def _body_motion(self, q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots):
+        """:meth:`body_motion`, planned."""
         q_now = np.asarray(q_now, dtype=float).reshape(self.n_limbs, 3)
         (r0, c0), (r1, c1) = pose0, pose1
         omega = rotation_log(r1 @ r0.T)  # spatial rotation vector, tumble frame
