@@ -107,7 +107,7 @@ def _env_work(env, vector: bool, seed: int = 0) -> Callable[[], int]:
     return work
 
 
-def _rows(seconds: float) -> list[tuple[str, Callable[[], Callable[[], int]]]]:
+def _rows() -> list[tuple[str, Callable[[], Callable[[], int]]]]:
     """(row label, a builder of its work function) for every profiled row."""
     import gymnasium as gym
 
@@ -136,7 +136,7 @@ def _rows(seconds: float) -> list[tuple[str, Callable[[], Callable[[], int]]]]:
     rows.append(
         ("batched obstacle_field_v0 1024x4", lambda: _vector_steps(swarm.batched_stepper("obstacle_field_v0", 1024, 4)))
     )
-    rows.append((f"BumpSpaceMCL {bumper.PARTICLES} particles (updates)", lambda: _localizer_work(seconds)))
+    rows.append((f"BumpSpaceMCL {bumper.PARTICLES} particles (updates)", _localizer_work))
     return rows
 
 
@@ -152,10 +152,10 @@ def _vector_steps(steps: Callable[[int], int]) -> Callable[[], int]:
     return lambda: steps(1)
 
 
-def _localizer_work(seconds: float) -> Callable[[], int]:
+def _localizer_work() -> Callable[[], int]:
     from benchmarks.bumper import LocalizerRunner
 
-    runner = LocalizerRunner(min_seconds=seconds)
+    runner = LocalizerRunner(min_seconds=ROW_SECONDS)  # only its logs and filter are used: the profile times itself
     runner.warm_up()
     logs = runner.logs[1]
 
@@ -171,7 +171,7 @@ def _localizer_work(seconds: float) -> Callable[[], int]:
 def measure(seconds: float = ROW_SECONDS) -> list[tuple[str, Profile | str]]:
     """Every row's :class:`Profile`, or a one-line error for a row that failed."""
     results: list[tuple[str, Profile | str]] = []
-    for label, build in _rows(seconds):
+    for label, build in _rows():
         progress(f"profiling {label} ...")
         try:
             results.append((label, profile_work(build(), seconds)))
