@@ -48,6 +48,8 @@ __all__ = [
     "DEFAULT_AGENTS_DIR",
     "agent_verdict",
     "agents_line",
+    "checkout_dirs",
+    "compare_with_reference",
     "default_agents_dirs",
     "environment_section",
     "EVAL_SEED",
@@ -67,6 +69,8 @@ __all__ = [
     "load_result",
     "plot_path",
     "provenance",
+    "REPRODUCE_EPISODES",
+    "Reproduction",
     "result_path",
     "run_leaderboard",
     "step_budget",
@@ -81,6 +85,10 @@ PROTOCOL_EPISODES = 50
 #: The layouts every policy is evaluated on: the default (today's episodes) and the held-out test distribution
 #: (``layouts="test"``, disjoint from the "train" one that training may use).
 LAYOUTS = ("default", "test")
+#: Episodes of each evaluation that a reproduction re-runs (the protocol's first seeds) to check a machine against
+#: the reference results: a tenth of the protocol, so that every evaluation of the reference is checked within the
+#: main job's 15 minutes on two cores (:func:`compare_with_reference`).
+REPRODUCE_EPISODES = 5
 #: Where committed trained agents live (relative to the repository root, like the reference results).
 DEFAULT_AGENTS_DIR = Path("benchmarks/agents")
 _REQUIRED_KEYS = ("env_id", "policy", "episodes", "summary", "n_episodes")
@@ -253,15 +261,20 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     return agents
 
 
-def default_agents_dirs() -> list[Path]:
-    """Where the leaderboard looks for the committed agents, in order: ``benchmarks/agents`` in the current
-    directory, then in the checkout polyenvs runs from (a clone, or an editable install of one). An installed
-    package does not ship them (16 MB of models): from anywhere else there are none."""
-    candidates = [DEFAULT_AGENTS_DIR]
+def checkout_dirs(relative: Path) -> list[Path]:
+    """Where to look for a directory of the repository, in order: ``relative`` to the current directory, then in
+    the checkout polyenvs runs from (a clone, or an editable install of one). An installed package does not ship
+    the repository's ``benchmarks/`` (16 MB of models): from anywhere else there is only the first."""
+    candidates = [Path(relative)]
     root = Path(__file__).resolve().parents[1]
     if (root / "pyproject.toml").is_file() and (root / "polyenvs" / "__init__.py").is_file():
-        candidates.append(root / DEFAULT_AGENTS_DIR)
+        candidates.append(root / relative)
     return candidates
+
+
+def default_agents_dirs() -> list[Path]:
+    """Where the leaderboard looks for the committed agents: :func:`checkout_dirs` of ``benchmarks/agents``."""
+    return checkout_dirs(DEFAULT_AGENTS_DIR)
 
 
 def agents_line(agents_dir: Path | None, env_ids: list[str], looked: list[Path] | None = None) -> str:
@@ -575,6 +588,64 @@ def stored_results(
                 elif why is not None:
                     progress(f"{env_id} {agent.name if agent else policy}: left out of the table: {path}: {why}")
     return documents
+
+
+@dataclass
+class Reproduction:
+    """How re-run episodes compare with the reference's episodes of the same seeds (:func:`compare_with_reference`)."""
+
+    same: int = 0  # episodes identical to the reference's: return, length and every metric
+    differ: list[str] = field(default_factory=list)  # a line per evaluation with an episode that is not
+    absent: list[str] = field(default_factory=list)  # a line per evaluation the reference cannot be compared on
+
+    def summary(self) -> str:
+        line = f"reproduced {self.same} episodes of the reference exactly"
+        if self.differ:
+            line += f"; {len(self.differ)} evaluation{'s' if len(self.differ) != 1 else ''} differ"
+        if self.absent:
+            line += f"; {len(self.absent)} not in the reference"
+        return line
+
+
+def _identity(doc: dict) -> tuple:
+    """What a result is of, whichever directory its agent was found in: environment, layouts and policy (an agent
+    by its row, ``ppo`` or ``ppo_residual_paper`` for instance, and its training seed)."""
+    agent = doc.get("agent")
+    return doc["env_id"], result_layouts(doc), (agent["label"], agent["training_seed"]) if agent else doc["policy"]
+
+
+def _title(doc: dict) -> str:
+    agent, layouts = doc.get("agent"), result_layouts(doc)
+    name = f"{agent['label']} seed{agent['training_seed']}" if agent else doc["policy"]
+    return f"{doc['env_id']} {name}" + ("" if layouts == "default" else f" (layouts={layouts})")
+
+
+def _canonical(episode: dict) -> str:
+    return json.dumps(episode, sort_keys=True)  # floats as Python writes them: the same text is the same bits
+
+
+def compare_with_reference(sample: list[dict], reference: list[dict]) -> Reproduction:
+    """Compare each document of ``sample`` (a re-run of the protocol's first seeds) episode by episode with the
+    document of ``reference`` (:func:`stored_results` of the reference results) of the same environment, layouts
+    and policy.
+
+    Episodes are deterministic (same seed, same episode, on any machine), so a re-run episode that differs in its
+    return, its length or any metric means that this machine or this code does not reproduce the reference.
+    """
+    by_identity = {_identity(doc): doc for doc in reference}
+    result = Reproduction()
+    for doc in sample:
+        ref = by_identity.get(_identity(doc))
+        ours = doc["episodes"]
+        if ref is None or len(ref["episodes"]) < len(ours):
+            why = "not in the reference" if ref is None else f"the reference has {len(ref['episodes'])} episodes"
+            result.absent.append(f"{_title(doc)}: {why} (evaluate it with the full protocol)")
+            continue
+        differing = [a["seed"] for a, b in zip(ours, ref["episodes"], strict=False) if _canonical(a) != _canonical(b)]
+        result.same += len(ours) - len(differing)
+        if differing:
+            result.differ.append(f"{_title(doc)}: seeds {', '.join(map(str, differing))} differ from the reference")
+    return result
 
 
 # ------------------------------------------------------------------------------------------------------ the table

@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import polyenvs
@@ -268,6 +269,75 @@ def test_update_reference_outside_the_repository_is_refused(tmp_path, monkeypatc
     monkeypatch.chdir(tmp_path)
     code, _, err = run_main(["leaderboard", "--update-reference"], capsys)
     assert_one_line_error(code, err, "repository root")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _reference_of_goal(tmp_path, monkeypatch, capsys, episodes: int = 3) -> Path:
+    """A reference of BuckybotGoal in ``tmp_path`` (the current directory): ``episodes`` per policy and layouts."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(polyenvs.leaderboard, "PROTOCOL_EPISODES", episodes)
+    reference = tmp_path / "benchmarks" / "results"
+    reference.mkdir(parents=True)
+    code, _, err = run_main(["leaderboard", "--update-reference", "--only", "Goal", "--jobs", "1"], capsys)
+    assert code == 0, err
+    return reference
+
+
+def test_reproduce_checks_every_evaluation_of_the_reference_episode_by_episode(tmp_path, monkeypatch, capsys):
+    reference = _reference_of_goal(tmp_path, monkeypatch, capsys)
+    reproduce = ["leaderboard", "--reproduce", "--episodes", "2", "--only", "Goal", "--jobs", "1"]
+    code, out, err = run_main(reproduce, capsys)
+    assert code == 0, err
+    assert "reproduced 8 episodes of the reference exactly (sample in runs/leaderboard/reproduce)" in err
+    assert sorted(p.name for p in (tmp_path / "runs" / "leaderboard" / "reproduce").iterdir()) == GOAL_FILES
+    table = (tmp_path / "runs" / "leaderboard" / "LEADERBOARD.md").read_text()
+    assert out.strip() == table.strip() and "3 evaluation episodes" in table  # the reference's table, not the sample's
+
+    # A reference episode the code no longer produces (its last bit changed): named, and the exit status says so.
+    path = result_path(reference, GOAL, "goal_seeker", "test")
+    doc = json.loads(path.read_text())
+    doc["episodes"][1]["return"] = float(np.nextafter(doc["episodes"][1]["return"], np.inf))
+    path.write_text(json.dumps(doc))
+    code, _, err = run_main(reproduce, capsys)  # the sample is reused: only the comparison runs again
+    assert code == 1
+    assert f"{GOAL} goal_seeker (layouts=test): seeds 1001 differ from the reference" in err
+    assert "reproduced 7 episodes of the reference exactly; 1 evaluation differ" in err
+
+
+def test_reproduce_matches_an_agent_by_its_row_and_seed_wherever_it_was_found():
+    def doc(policy: str, returns: list[float], label: str = "ppo") -> dict:
+        episodes = [{"seed": 1000 + i, "return": r, "length": 5, "metrics": {"m": r}} for i, r in enumerate(returns)]
+        agent = {"algo": "ppo", "label": label, "training_seed": 0}
+        return {"env_id": GOAL, "policy": policy, "episodes": episodes, "agent": agent, "env_kwargs": {}}
+
+    reference = [
+        doc("benchmarks/agents/polyenvs__BuckybotGoal-v0/ppo/seed0", [1.0, 2.0, 3.0]),
+        doc("benchmarks/agents/polyenvs__BuckybotGoal-v0/ppo_residual_paper/seed0", [4.0] * 3, "ppo_residual_paper"),
+    ]
+    same = polyenvs.leaderboard.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.0])], reference)
+    assert (same.same, same.differ, same.absent) == (2, [], [])
+    other = polyenvs.leaderboard.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.5])], reference)
+    assert other.same == 1 and other.differ == [f"{GOAL} ppo seed0: seeds 1001 differ from the reference"]
+    longer = polyenvs.leaderboard.compare_with_reference([doc("x", [1.0, 2.0, 3.0, 4.0])], reference)
+    assert longer.same == 0 and "the reference has 3 episodes" in longer.absent[0]
+
+
+@pytest.mark.parametrize("extra", [["--quick"], ["--update-reference"], ["--agents-dir", "."], ["--policy", "x"]])
+def test_reproduce_refuses_flags_that_change_what_the_reference_holds(
+    tmp_path, monkeypatch, capsys, no_evaluation, extra
+):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "benchmarks" / "results").mkdir(parents=True)
+    code, _, err = run_main(["leaderboard", "--reproduce", *extra], capsys)
+    assert_one_line_error(code, err, f"do not combine it with {extra[0]}")
+    assert not (tmp_path / "runs").exists()
+
+
+def test_reproduce_without_a_reference_says_where_it_looked(tmp_path, monkeypatch, capsys, no_evaluation):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(polyenvs.leaderboard, "checkout_dirs", lambda relative: [Path(relative)])  # an installed copy
+    code, _, err = run_main(["leaderboard", "--reproduce"], capsys)
+    assert_one_line_error(code, err, f"no reference results ({tmp_path / 'benchmarks' / 'results'})")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
 from polyenvs.files import check_writable_directory
-from polyenvs.leaderboard import DEFAULT_AGENTS_DIR
+from polyenvs.leaderboard import DEFAULT_AGENTS_DIR, REPRODUCE_EPISODES
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS
 
 __all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
@@ -31,12 +31,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         f"from; a line says which and what it holds) on every environment, on its default and (where it takes "
         f"layouts=) held-out layouts, in parallel over the CPUs (--jobs), and write the table ranked by each "
         f"environment's task score, with charts beside it (matplotlib: the plots extra). By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
-        f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}.",
+        f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}; --reproduce "
+        "checks this machine against them.",
     )
     p.add_argument(
         "--episodes",
         default=None,
-        help=f"episodes per policy, 1 to {MAX_EPISODES} (default: the protocol's, 50 or as the row's score says; 5 with --quick)",
+        help=f"episodes per policy, 1 to {MAX_EPISODES} (default: the protocol's, 50 or as the row's score says; "
+        f"5 with --quick; {REPRODUCE_EPISODES} with --reproduce)",
     )
     p.add_argument("--quick", action="store_true", help="5 episodes per policy; the table says so")
     p.add_argument("--only", default=None, help="only evaluate environment ids containing this text")
@@ -71,6 +73,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help=f"re-evaluate and overwrite the committed reference results ({REFERENCE_RESULTS_DIR}/, "
         f"{REFERENCE_TABLE}) with the full protocol; run from the repository root",
     )
+    p.add_argument(
+        "--reproduce",
+        action="store_true",
+        help=f"re-run the first {REPRODUCE_EPISODES} episodes (or --episodes) of every evaluation of the committed "
+        f"reference ({REFERENCE_RESULTS_DIR}/, here or in the checkout polyenvs runs from) with its agents, check "
+        "each episode against the reference's bit for bit, and write the reference's table and charts; exit status "
+        f"1 if any episode differs. The sample goes to {DEFAULT_LEADERBOARD_DIR}/reproduce (or --results-dir)",
+    )
     p.set_defaults(func=run)
     return p
 
@@ -87,6 +97,7 @@ class _Plan:
     missing: dict[str, str]
     agents_found: str
     workers: int
+    reference_dir: Path | None  # with --reproduce: the reference results the sample is checked against
 
 
 def run(args: argparse.Namespace) -> int:
@@ -94,14 +105,19 @@ def run(args: argparse.Namespace) -> int:
     plan = _plan(args)
     bar = ProgressBar("episodes")
     selected = _evaluate(args, plan, bar)
+    if plan.reference_dir is not None:
+        return _check_reproduction(plan, selected, bar)
     _write_table(plan, selected, bar)
     return 0
 
 
 def _episodes(args: argparse.Namespace) -> int | None:
-    """--episodes (or --quick's 5, else None: the protocol's count of each environment), and --update-reference's
-    refusals of the other flags."""
+    """--episodes (or --quick's 5, --reproduce's sample, else None: the protocol's count of each environment), and
+    the refusals of flags that --update-reference and --reproduce do not combine with."""
     episodes = int_flag("--episodes", args.episodes, 1, MAX_EPISODES)
+    if args.reproduce:
+        _refuse_with_reproduce(args)
+        return episodes if episodes is not None else REPRODUCE_EPISODES
     if episodes is None and args.quick:
         episodes = 5
     if args.update_reference:
@@ -127,11 +143,41 @@ def _episodes(args: argparse.Namespace) -> int | None:
     return episodes
 
 
+def _refuse_with_reproduce(args: argparse.Namespace) -> None:
+    """--reproduce re-runs the reference's own evaluations, its agents and nothing else."""
+    for flag, given in [
+        ("--update-reference", args.update_reference),
+        ("--quick", args.quick),
+        ("--agents-dir", args.agents_dir is not None),
+        ("--policy", bool(args.policy)),
+    ]:
+        if given:
+            raise CliError(
+                f"--reproduce checks the committed reference with its own agents: do not combine it with {flag}"
+            )
+
+
+def _reference_dirs() -> tuple[Path, Path]:
+    """The reference results --reproduce checks and the agents evaluated for them, from the same checkout."""
+    from polyenvs.leaderboard import checkout_dirs
+
+    candidates = list(zip(checkout_dirs(REFERENCE_RESULTS_DIR), checkout_dirs(DEFAULT_AGENTS_DIR), strict=True))
+    for results, agents in candidates:
+        if results.is_dir():
+            return results, agents
+    where = " or ".join(str(results.absolute()) for results, _ in candidates)
+    raise CliError(
+        f"--reproduce: no reference results ({where}); an installed package does not ship them: run it in a clone "
+        "of the repository"
+    )
+
+
 def _outputs(args: argparse.Namespace) -> tuple[Path, Path]:
     """The results directory and the table: the committed ones with --update-reference."""
     if args.update_reference:
         return REFERENCE_RESULTS_DIR, REFERENCE_TABLE
-    results_dir = Path(args.results_dir) if args.results_dir is not None else DEFAULT_LEADERBOARD_DIR / "results"
+    default_results = DEFAULT_LEADERBOARD_DIR / ("reproduce" if args.reproduce else "results")
+    results_dir = Path(args.results_dir) if args.results_dir is not None else default_results
     output = Path(args.output) if args.output is not None else DEFAULT_LEADERBOARD_DIR / "LEADERBOARD.md"
     return results_dir, output
 
@@ -158,9 +204,15 @@ def _plan(args: argparse.Namespace) -> _Plan:
     from polyenvs.registry import ALL_IDS
 
     episodes = _episodes(args)
+    reference_dir = None
+    if args.reproduce:
+        reference_dir, agents_dir = _reference_dirs()
+        looked = [agents_dir]
+        agents_dir = agents_dir if agents_dir.is_dir() else None
+    else:
+        agents_dir, looked = _agents(args)
     workers = int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else os.cpu_count() or 1
     results_dir, output = _outputs(args)
-    agents_dir, looked = _agents(args)
     env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
     if not env_ids:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
@@ -176,7 +228,10 @@ def _plan(args: argparse.Namespace) -> _Plan:
         raise CliError(f"--output {output} is the results directory")
     for chart in [profile_path(output), *(plot_path(output, env_id) for env_id in env_ids)]:  # beside the table
         check_output_file(chart, "--output")
-    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found, min(workers, MAX_JOBS))
+    if reference_dir is not None and results_dir.absolute() == reference_dir.absolute():
+        raise CliError(f"--results-dir {results_dir} is the reference that --reproduce checks")
+    workers = min(workers, MAX_JOBS)
+    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found, workers, reference_dir)
 
 
 def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
@@ -208,7 +263,7 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
 
 def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
     """Write the table (and its plots) of ``selected`` and every other environment's stored results; print it."""
-    from polyenvs.leaderboard import stored_results, write_leaderboard
+    from polyenvs.leaderboard import stored_results
     from polyenvs.registry import ALL_IDS
 
     # The table shows every environment with results in the directory, not only the ones just evaluated.
@@ -218,13 +273,37 @@ def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
         progress=bar.message,
         agents_dir=plan.agents_dir,
     )
+    _print_table(plan.output, selected + others, plan.results_dir, bar)
+
+
+def _check_reproduction(plan: _Plan, sample: list[dict], bar: ProgressBar) -> int:
+    """Compare ``sample`` with the reference, write and print the reference's table, say what differs: 1 if any
+    episode does, else 0."""
+    from polyenvs.leaderboard import compare_with_reference, stored_results
+    from polyenvs.registry import ALL_IDS
+
+    assert plan.reference_dir is not None
+    reference = stored_results(ALL_IDS, plan.reference_dir, progress=bar.message, agents_dir=plan.agents_dir)
+    reproduction = compare_with_reference(sample, reference)
+    _print_table(plan.output, reference, plan.reference_dir, bar)
+    for line in reproduction.absent + reproduction.differ:
+        print(line, file=sys.stderr)
+    print(f"{reproduction.summary()} (sample in {plan.results_dir})", file=sys.stderr)
+    return 1 if reproduction.differ else 0
+
+
+def _print_table(output: Path, documents: list[dict], source: Path, bar: ProgressBar) -> None:
+    """Write the table of ``documents`` to ``output`` with its charts beside it, and print it."""
+    from polyenvs.leaderboard import write_leaderboard
+    from polyenvs.registry import ALL_IDS
+
     order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
-    documents = sorted(selected + others, key=lambda d: order[d["env_id"]])  # stable: policy order kept
-    text = write_leaderboard(documents, plan.output, progress=bar.message)
+    documents = sorted(documents, key=lambda d: order[d["env_id"]])  # stable: policy order kept
+    text = write_leaderboard(documents, output, progress=bar.message)
     print(text)
     charts = text.count("![")
     print(
-        f"wrote {plan.output} ({len(documents)} results from {plan.results_dir}) and {charts} chart"
+        f"wrote {output} ({len(documents)} results from {source}) and {charts} chart"
         f"{'s' if charts != 1 else ''} beside it",
         file=sys.stderr,
     )
