@@ -66,7 +66,7 @@ INT_FLAGS = [
 #: Flags that take something else than an integer (text, paths, JSON, names, switches; --fps is a number).
 OTHER_FLAGS = {
     "help", "json", "policy", "env_kwargs", "policy_kwargs", "quick", "only", "results_dir", "output", "redo",
-    "agents_dir", "update_reference", "fps", "algo", "config", "out", "progress", "resume", "overwrite", "envs",
+    "agents_dir", "update_reference", "reproduce", "fps", "algo", "config", "out", "progress", "resume", "overwrite", "envs",
     "algos", "config_dir", "backend", "address", "estimator", "map", "env", "estimator_kwargs", "bc_from",
     "bc_log_std", "residual", "residual_scale", "residual_log_std",
 }  # fmt: skip
