@@ -160,7 +160,7 @@ class Agent:
     @property
     def name(self) -> str:
         """How progress messages name it: ``ppo seed0``."""
-        return f"{self.label} seed{self.seed}" if self.seed is not None else self.label
+        return _agent_name(self.label, self.seed)
 
     def meta(self) -> dict:
         """What a result document records about the agent (its row, seed and training length)."""
@@ -172,6 +172,10 @@ class Agent:
             "requested_timesteps": self.run.get("requested_timesteps"),
             "completed": self.run.get("completed"),
         }
+
+
+def _agent_name(label: str, seed: int | None) -> str:
+    return f"{label} seed{seed}" if seed is not None else label
 
 
 def _trained():
@@ -397,7 +401,12 @@ class _Evaluation:
 
     @property
     def title(self) -> str:
-        return f"{self.env_id} {self.name}" + ("" if self.layouts == "default" else f" (layouts={self.layouts})")
+        return _evaluation_title(self.env_id, self.name, self.layouts)
+
+
+def _evaluation_title(env_id: str, name: str, layouts: str) -> str:
+    """How progress and reproduction lines name an evaluation: ``<env id> ppo seed0 (layouts=test)``."""
+    return f"{env_id} {name}" + ("" if layouts == "default" else f" (layouts={layouts})")
 
 
 @contextmanager
@@ -615,9 +624,9 @@ def _identity(doc: dict) -> tuple:
 
 
 def _title(doc: dict) -> str:
-    agent, layouts = doc.get("agent"), result_layouts(doc)
-    name = f"{agent['label']} seed{agent['training_seed']}" if agent else doc["policy"]
-    return f"{doc['env_id']} {name}" + ("" if layouts == "default" else f" (layouts={layouts})")
+    agent = doc.get("agent")
+    name = _agent_name(agent["label"], agent["training_seed"]) if agent else doc["policy"]
+    return _evaluation_title(doc["env_id"], name, result_layouts(doc))
 
 
 def _canonical(episode: dict) -> str:
