@@ -19,6 +19,7 @@ Both take the tables of :func:`polyenvs.leaderboard.leaderboard_tables` and retu
 from __future__ import annotations
 
 import importlib.util
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,13 @@ INSTALL_HINT = 'pip install "polyenvs[plots]"'
 #: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm (or anchor) blue, other hand
 #: baselines light blue, trained agents orange.
 COLOURS = {"random": "#7f7f7f", "paper": "#1f77b4", "anchor": "#1f77b4", "baseline": "#9ecae1", "agent": "#ff7f0e"}
+#: The trained algorithms' lines: tab10 without random's grey and the paper's blue, each colour solid, then
+#: dash-dotted, then dotted (never dashed: a hand policy's level is), so that any number of algorithms can be drawn.
+SERIES_STYLES = tuple(
+    (colour, style)
+    for style in ("-", "-.", ":")
+    for colour in ("#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf")
+)
 #: Thresholds of the performance profile, in normalised score.
 TAUS = np.linspace(-0.5, 2.0, 101)
 #: Bootstrap samples of the profile's band (fewer than the table's 2000: a band per tau, drawn, not printed).
@@ -111,11 +119,12 @@ def performance_profile_plot(tables: dict[str, dict]):
     plt = _pyplot()
     envs = sum(1 for t in tables.values() if t["discriminative"])
     figure, axes = plt.subplots(figsize=(7.0, 4.5), layout="constrained")
-    colours = iter(["#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"])
+    series = itertools.cycle(SERIES_STYLES)
     for name, runs in groups.items():
         curve, low, high = performance_profile(runs, TAUS, n_boot=PROFILE_BOOTSTRAPS)
-        colour = COLOURS.get({"random": "random", "paper's algorithm": "paper"}.get(name, ""), None) or next(colours)
-        axes.plot(TAUS, curve, color=colour, linewidth=2, label=name)
+        kind = {"random": "random", "paper's algorithm": "paper"}.get(name)
+        colour, style = (COLOURS[kind], "-") if kind else next(series)
+        axes.plot(TAUS, curve, color=colour, linestyle=style, linewidth=2, label=name)
         axes.fill_between(TAUS, low, high, color=colour, alpha=0.2)
     axes.set_xlabel(r"normalised task score $\tau$ (random 0, paper's algorithm 1)")
     axes.set_ylabel(r"fraction of episodes with score $> \tau$")
@@ -132,11 +141,10 @@ def learning_curve_plot(env_id: str, metric: str, curves: dict[str, list[tuple]]
     training episodes); ``levels``: a hand policy's name -> ``(its evaluated score, its kind)``, drawn across."""
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(7.0, 4.0), layout="constrained")
-    colours = iter(["#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"])
-    for label, seeds in curves.items():
-        colour = next(colours)
+    for (label, seeds), (colour, style) in zip(curves.items(), itertools.cycle(SERIES_STYLES)):
         for i, (steps, values) in enumerate(seeds):
-            axes.plot(steps, values, color=colour, linewidth=1.5, alpha=0.8, label=label if i == 0 else None)
+            axes.plot(steps, values, color=colour, linestyle=style, linewidth=1.5, alpha=0.8,
+                      label=label if i == 0 else None)  # fmt: skip
     for name, (value, kind) in levels.items():
         axes.axhline(value, color=COLOURS[kind], linestyle="--", linewidth=1.2, label=f"{name} (evaluated)")
     axes.set_xlabel("training steps")

@@ -232,6 +232,30 @@ def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
         assert f"]({name})" in text and (tmp_path / name).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
 
 
+def test_charts_draw_more_trained_algorithms_than_colours_each_its_own_line(tmp_path):
+    """The reference page has a dozen trained recipes (ppo, ppo_bc_<baseline>, ppo_residual_<baseline>, ...)."""
+    pytest.importorskip("matplotlib")
+    rng = np.random.default_rng(0)
+    docs = [
+        _doc(WALL, "random", list(rng.uniform(0.0, 0.2, 8)), "perimeter_fraction"),
+        _doc(WALL, "wall_follower", list(rng.uniform(0.6, 0.9, 8)), "perimeter_fraction"),
+    ]
+    labels = [f"algo{i}" for i in range(len(charts.SERIES_STYLES) + 3)]
+    for label in labels:
+        docs.append(_doc(WALL, label, list(rng.uniform(0.5, 1.0, 8)), "perimeter_fraction"))
+        docs[-1]["agent"] = {"algo": "ppo", "label": label, "training_seed": 0}
+    profile = charts.performance_profile_plot(leaderboard_tables(docs))
+    curves = {label: [(np.arange(3), rng.uniform(size=3))] for label in labels}
+    learning = charts.learning_curve_plot(WALL, "perimeter_fraction", curves, {"wall_follower": (0.8, "paper")})
+    for figure, expected in ((profile, ["random", "paper's algorithm", *labels]), (learning, labels)):
+        lines = {line.get_label(): (line.get_color(), line.get_linestyle()) for line in figure.axes[0].get_lines()}
+        assert set(expected) <= set(lines)
+        drawn = [lines[label] for label in labels]
+        assert len(set(drawn)) == len(charts.SERIES_STYLES)  # each style once before any repeats
+        assert all(style != "--" for _, style in drawn)  # dashed is a hand policy's evaluated level
+        charts.save(figure, tmp_path / "chart.png")
+
+
 def test_without_matplotlib_the_table_is_written_and_says_why(tmp_path, monkeypatch):
     monkeypatch.setattr(charts, "available", lambda: False)
     said = []
