@@ -219,12 +219,19 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     assert "on 1 of the 1 environments the benchmark ranks on (1 have a trained agent)" in page
 
 
+def _random_and_paper(rng) -> list[dict]:
+    """WallFollow's random and paper's results on the default layouts, the paper clearly above random."""
+    return [
+        _doc(WALL, "random", list(rng.uniform(0.0, 0.2, 8)), "perimeter_fraction"),
+        _doc(WALL, "wall_follower", list(rng.uniform(0.6, 0.9, 8)), "perimeter_fraction"),
+    ]
+
+
 def test_charts_are_interval_plots_and_a_performance_profile(tmp_path):
     pytest.importorskip("matplotlib")
     rng = np.random.default_rng(0)
     docs = [
-        _doc(WALL, "random", list(rng.uniform(0.0, 0.2, 8)), "perimeter_fraction"),
-        _doc(WALL, "wall_follower", list(rng.uniform(0.6, 0.9, 8)), "perimeter_fraction"),
+        *_random_and_paper(rng),
         _doc(WALL, "wall_follower", list(rng.uniform(0.3, 0.5, 8)), "perimeter_fraction", "test"),
     ]
     text = write_leaderboard(docs, tmp_path / "LB.md")
@@ -236,10 +243,7 @@ def test_charts_draw_more_trained_algorithms_than_colours_each_its_own_line(tmp_
     """The reference page has a dozen trained recipes (ppo, ppo_bc_<baseline>, ppo_residual_<baseline>, ...)."""
     pytest.importorskip("matplotlib")
     rng = np.random.default_rng(0)
-    docs = [
-        _doc(WALL, "random", list(rng.uniform(0.0, 0.2, 8)), "perimeter_fraction"),
-        _doc(WALL, "wall_follower", list(rng.uniform(0.6, 0.9, 8)), "perimeter_fraction"),
-    ]
+    docs = _random_and_paper(rng)
     labels = [f"algo{i}" for i in range(len(charts.SERIES_STYLES) + 3)]
     for label in labels:
         docs.append(_doc(WALL, label, list(rng.uniform(0.5, 1.0, 8)), "perimeter_fraction"))
