@@ -12,7 +12,8 @@ A trained model is named by a path: a training directory or a ``.zip``. A traini
 A residual agent (``polyenvs train --residual``, :mod:`baselines.residual`) learned a correction of a hand baseline:
 its model sees the observation with the base action appended and outputs the correction. Loaded, it rebuilds the
 baseline from run.json and composes the two inside :meth:`TrainedPolicy.predict`, its ``state`` the baseline's
-memory, so it acts on the environment as registered, wherever a model does.
+memory, so it acts on the environment as registered, wherever a model does. A model trained on stacked observations
+(the config's ``frame_stack``, SB3's ``VecFrameStack``) likewise stacks them itself, in its ``state``.
 
 For a bare ``.zip``, a ``run.json`` beside it is used when there is one, and the normalisation statistics are looked
 for beside it (``vecnormalize.pkl``) and where RL Zoo keeps them (``<name>/vecnormalize.pkl`` for ``<name>.zip``);
@@ -351,7 +352,7 @@ class TrainedPolicy:
 
     def __init__(
         self, model, algo: str, path: str, normalization=None, run: dict | None = None, checksum=None,
-        residual: ResidualComposer | None = None,
+        residual: ResidualComposer | None = None, stack: ObservationStack | None = None,
     ):  # fmt: skip
         self.model = model
         self.algo = algo
@@ -361,7 +362,11 @@ class TrainedPolicy:
         self.checksum = checksum
         #: The baseline a residual agent corrects (None for a plain model).
         self.residual = residual
+        #: The frames a model trained with ``frame_stack`` sees (None: one observation).
+        self.stack = stack
         self.observation_space = model.observation_space if residual is None else residual.env_observation_space
+        if stack is not None:
+            self.observation_space = stack.observation_space
         self.action_space = model.action_space if residual is None else residual.env_action_space
         self.uses_action_masks = algo == "maskable_ppo"
         #: SB3's deterministic predict without its per-call overhead, where the policy allows it (else None).
@@ -372,10 +377,14 @@ class TrainedPolicy:
         0/1 array, one row per environment) reaches MaskablePPO models and is ignored by the others. A residual
         agent's ``state`` is its baseline's memory, its held correction and its tick count
         (:meth:`~baselines.residual.ResidualComposer.act`): called every control tick, it asks its network every
-        ``hold`` ticks, as the wrapper it trained in did."""
+        ``hold`` ticks, as the wrapper it trained in did. A model trained on stacked frames (``frame_stack``) keeps
+        its stack in ``state`` (:class:`ObservationStack`)."""
         if self.residual is not None:
             correct = functools.partial(self._correction, deterministic=deterministic)
             return self.residual.act(observation, state, episode_start, correct)
+        if self.stack is not None:
+            stacked, state = self.stack.push(observation, state, episode_start)
+            return self._model_predict(stacked, None, None, deterministic, action_masks)[0], state
         return self._model_predict(observation, state, episode_start, deterministic, action_masks)
 
     def _correction(self, agent_observations, deterministic: bool) -> np.ndarray:
@@ -408,12 +417,61 @@ class TrainedPolicy:
             description["action_masks"] = True
         if self.residual is not None:
             description["residual"] = self.residual.describe()
+        if self.stack is not None:
+            description["frame_stack"] = self.stack.frames
         if self.run.get("completed") is False:
             description["completed"] = False
             description["requested_timesteps"] = self.run.get("requested_timesteps")
         if self.checksum is not None:
             description["sha256"] = self.checksum
         return description
+
+
+class ObservationStack:
+    """The observation stack of SB3's ``VecFrameStack`` (a config's ``frame_stack``) for a model acting on the
+    environment as registered: each row's last ``frames`` observations side by side, oldest first, zeros before its
+    episode's first, carried as ``predict``'s ``state`` (so the evaluation loop keeps it per row and per robot)."""
+
+    def __init__(self, frames: int, observation_space: spaces.Box):
+        self.frames = frames
+        self.observation_space = observation_space
+        self.width = observation_space.shape[-1]
+        self.dtype = observation_space.dtype
+        # VecFrameStack's space (its bounds repeated, not tiled: the model saved that one)
+        self.stacked_space = spaces.Box(
+            np.repeat(observation_space.low, frames, axis=-1),
+            np.repeat(observation_space.high, frames, axis=-1),
+            dtype=observation_space.dtype,
+        )
+
+    def push(self, observation, state, episode_start) -> tuple[np.ndarray, np.ndarray]:
+        """``(stacked observation, new state)``: ``observation`` (one or a batch) appended to each row's stack, a
+        row whose episode starts (or with no state yet) emptied first."""
+        rows = np.asarray(observation, dtype=self.dtype).reshape(-1, self.width)
+        if state is None:
+            stack = np.zeros((rows.shape[0], self.frames * self.width), dtype=self.dtype)
+        else:
+            stack = np.roll(np.asarray(state, dtype=self.dtype).reshape(rows.shape[0], -1), -self.width, axis=-1)
+            if episode_start is not None:
+                stack[np.broadcast_to(np.asarray(episode_start, dtype=bool), rows.shape[:1])] = 0
+        stack[:, -self.width :] = rows
+        single = np.ndim(observation) == 1
+        return (stack[0] if single else stack), stack
+
+
+def _stack_of(path, run: dict, run_file, observation_space) -> ObservationStack | None:
+    """The observation stack of a run.json whose config stacked frames (None without one)."""
+    hyperparams = run.get("hyperparams") if isinstance(run.get("hyperparams"), dict) else {}
+    frames = hyperparams.get("frame_stack")
+    if frames is None:
+        return None
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise TrainedModelError(f"{path}: {run_file}: frame_stack must be a positive integer, got {frames!r}")
+    if "residual" in run:
+        raise TrainedModelError(f"{path}: {run_file}: a residual agent with stacked frames is not supported")
+    if not isinstance(observation_space, spaces.Box) or len(observation_space.shape) != 1:
+        raise TrainedModelError(f"{path}: frame_stack stacks flat Box observations, not {observation_space}")
+    return ObservationStack(frames, observation_space)
 
 
 def _residual_of(path, run: dict, run_file, env_id: str, observation_space, action_space, seed):
@@ -453,6 +511,9 @@ def load_trained_policy(
     residual = _residual_of(path, run, run_file, env_id, observation_space, action_space, seed)
     if residual is not None:  # the model sees and does what the residual wrapper gave it
         observation_space, action_space = residual.observation_space, residual.action_space
+    stack = _stack_of(path, run, run_file, observation_space)
+    if stack is not None:  # the model (and its statistics) saw the stacked observations
+        observation_space = stack.stacked_space
     model, algo = _load_model(model_file, run.get("algo"))
     for what, theirs, ours in (
         ("observations", model.observation_space, observation_space),
@@ -464,4 +525,4 @@ def load_trained_policy(
             )
     normalization = _load_normalization(normalize_file, observation_space) if normalize_file is not None else None
     checksum = model_checksum(model_file, normalize_file)
-    return TrainedPolicy(model, algo, path, normalization, run, checksum, residual)
+    return TrainedPolicy(model, algo, path, normalization, run, checksum, residual, stack)

@@ -524,6 +524,8 @@ def _plan(request: _Request, action: str) -> _Job:
     _check_extras(request.progress_bar, request.tensorboard)
     wrappers = cfg.wrapper_callables()
     if request.residual is not None:  # innermost: it needs the env's own spaces and id
+        if cfg.frame_stack is not None:  # the loaded agent asks its network every hold ticks, on one frame
+            raise InputError(f"{cfg.path}: {env_id}: --residual learns on single frames; drop frame_stack")
         wrappers = [_residual_wrapper(request, target), *wrappers]
     n_envs = request.n_envs if request.n_envs is not None else cfg.n_envs
     requested = request.timesteps if request.timesteps is not None else cfg.n_timesteps
