@@ -24,6 +24,7 @@ ALGO_OF_FILE = {
     "ppo.yml": "ppo",
     "ppo_residual.yml": "ppo",
     "ppo_bc.yml": "ppo",
+    "ppo_stack.yml": "ppo",
     "maskable_ppo.yml": "maskable_ppo",
     "dqn.yml": "dqn",
     "sac.yml": "sac",
