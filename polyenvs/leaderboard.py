@@ -340,6 +340,15 @@ def _check_agent(agent: Agent, envs: dict) -> str:
 # ------------------------------------------------------------------------------------------------- result files
 
 
+def _same_policy(stored: str, policy: str, sha256: str | None) -> bool:
+    """Whether a result names ``policy``: a hand policy by its name; a trained model (``sha256`` given, checked
+    apart) by its path's last three parts (environment, row, seed), since the same agents are named by another path
+    from another directory (the reference's ``benchmarks/agents/...`` is ``/clone/benchmarks/agents/...`` there)."""
+    if stored == policy:
+        return True
+    return sha256 is not None and Path(stored).parts[-3:] == Path(policy).parts[-3:]
+
+
 def load_result(
     path: Path,
     env_id: str,
@@ -370,7 +379,7 @@ def load_result(
     if not isinstance(doc, dict) or any(k not in doc for k in _REQUIRED_KEYS):
         missing = [k for k in _REQUIRED_KEYS if not isinstance(doc, dict) or k not in doc]
         return None, f"it is not a results document (missing {', '.join(missing)})"
-    if doc["env_id"] != env_id or doc["policy"] != policy:
+    if doc["env_id"] != env_id or not _same_policy(str(doc["policy"]), policy, sha256):
         return None, f"it holds {doc['env_id']} {doc['policy']}, not {env_id} {policy}"
     n = doc["n_episodes"]
     if not isinstance(doc["episodes"], list) or not doc["episodes"] or len(doc["episodes"]) != n:

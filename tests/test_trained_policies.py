@@ -507,6 +507,24 @@ def test_leaderboard_evaluates_and_aggregates_trained_agents(agents_dir, tmp_pat
     assert (tmp_path / "LEADERBOARD_polyenvs__BuckybotGoal-v0.png").is_file()
 
 
+def test_agents_found_by_another_path_reuse_their_results(agents_dir, tmp_path, capsys, monkeypatch):
+    """The reference names its agents from the checkout (benchmarks/agents/...); the main job run from another
+    directory finds the same agents by an absolute path, and must still take their results as theirs."""
+    code, _, err = run_main(leaderboard_args(tmp_path, agents_dir, "--episodes", "2"), capsys)
+    assert code == 0, err
+    monkeypatch.chdir(agents_dir.parent)
+    code, _, err = run_main(leaderboard_args(tmp_path, Path(agents_dir.name), "--episodes", "2"), capsys)
+    assert code == 0 and "ppo seed0: done before" in err and "ppo seed1: done before" in err, err
+    result = tmp_path / "results" / f"{WALL_SLUG}__agent__ppo__seed0.json"
+    sha = json.loads(result.read_text())["policy_description"]["sha256"]
+    load = polyenvs.leaderboard.load_result
+    assert load(result, WALL, f"/elsewhere/agents/{WALL_SLUG}/ppo/seed0", sha256=sha)[0] is not None
+    others = ("polyenvs__BuckybotGoal-v0/ppo/seed0", f"{WALL_SLUG}/maskable_ppo/seed0", f"{WALL_SLUG}/ppo/seed1")
+    for other in (f"/elsewhere/agents/{part}" for part in others):
+        doc, why = load(result, WALL, other, sha256=sha)  # another directory, row or seed is another agent
+        assert doc is None and f"not {WALL} {other}" in why
+
+
 def test_leaderboard_policy_flag_adds_a_model_by_path(ppo_run, tmp_path, capsys):
     empty = tmp_path / "no_agents"
     empty.mkdir()
