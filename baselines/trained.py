@@ -364,9 +364,12 @@ class TrainedPolicy:
         self.residual = residual
         #: The frames a model trained with ``frame_stack`` sees (None: one observation).
         self.stack = stack
-        self.observation_space = model.observation_space if residual is None else residual.env_observation_space
-        if stack is not None:
-            self.observation_space = stack.observation_space
+        # What the environment gives: the model's own space, unless a residual or a stack stands between them.
+        self.observation_space = (
+            residual.env_observation_space if residual is not None
+            else stack.observation_space if stack is not None
+            else model.observation_space
+        )  # fmt: skip
         self.action_space = model.action_space if residual is None else residual.env_action_space
         self.uses_action_masks = algo == "maskable_ppo"
         #: SB3's deterministic predict without its per-call overhead, where the policy allows it (else None).

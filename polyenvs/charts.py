@@ -30,8 +30,8 @@ from polyenvs.statistics import performance_profile
 __all__ = ["INSTALL_HINT", "available", "interval_plot", "learning_curve_plot", "performance_profile_plot", "save"]
 
 INSTALL_HINT = 'pip install "polyenvs[plots]"'
-#: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm blue (an upper anchor navy), other hand
-#: baselines light blue, trained agents orange.
+#: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm blue, an upper anchor navy (both
+#: can be drawn on one row), other hand baselines light blue, trained agents orange.
 COLOURS = {"random": "#7f7f7f", "paper": "#1f77b4", "anchor": "#08306b", "baseline": "#9ecae1", "agent": "#ff7f0e"}
 #: The trained algorithms' lines: tab10 without random's grey and the paper's blue, each colour solid, then
 #: dash-dotted, then dotted (never dashed: a hand policy's level is), so that any number of algorithms can be drawn.
