@@ -81,6 +81,23 @@ def test_arrival_on_the_last_step_is_terminated_and_truncated_as_time_limit_says
     _assert_same(native.step(still), sync.step(still), "after")
 
 
+def test_a_restarting_sub_env_reports_its_new_episodes_zero_powers_bit_for_bit():
+    """At a next-step autoreset the restarting sub-envs ignore their actions and report the new episode's motor
+    powers, +0.0 as ``SyncVectorEnv``'s fresh episode does: not -0.0, a negative action times nothing (the
+    registry-wide parity test finds this too, now that it compares bytes, but only when its random actions are
+    negative on a restart step)."""
+    make = {"num_envs": 2, "max_episode_steps": 2}
+    native = gym.make_vec(IDS[0], vectorization_mode="vector_entry_point", **make)
+    sync = gym.make_vec(IDS[0], vectorization_mode="sync", **make)
+    _assert_same(native.reset(seed=4), sync.reset(seed=4), "reset")
+    backwards = np.full((2, 2), -0.5, np.float32)
+    for t in range(3):  # two steps of the episode, then the restart step
+        result = native.step(backwards)
+        _assert_same(result, sync.step(backwards), f"step {t}")
+    assert result[4]["motor_powers"].tolist() == [[0.0, 0.0], [0.0, 0.0]]
+    assert not np.signbit(result[4]["motor_powers"]).any()
+
+
 def test_vector_env_refuses_use_after_close_and_bad_arguments():
     envs = gym.make_vec(IDS[0], num_envs=2)
     envs.reset(seed=0)

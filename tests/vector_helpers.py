@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import gymnasium as gym
 import numpy as np
 
@@ -22,11 +24,15 @@ def assert_same(a, b, where=""):
             if isinstance(x, np.ndarray | dict):
                 assert_same(x, y, f"{where}[{i}]")
             else:
-                assert x == y, where
+                assert type(x) is type(y) and x == y, where
+                assert not isinstance(x, float | np.floating) or math.copysign(1.0, x) == math.copysign(1.0, y), (
+                    f"{where}: {x} vs {y}"
+                )
     else:
         a, b = np.asarray(a), np.asarray(b)
         assert a.dtype == b.dtype and a.shape == b.shape, f"{where}: {a.dtype}{a.shape} vs {b.dtype}{b.shape}"
-        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where
+        # Bytes, not ==: == takes -0.0 for 0.0 (and never NaN for NaN), which hid a sign difference.
+        assert a.tobytes() == b.tobytes(), f"{where}: {a} vs {b}"
 
 
 def assert_native_matches_sync(env_id: str, mode, steps: int = 75, **make_kwargs) -> int:

@@ -90,7 +90,9 @@ def drive(command, live, noise, params, out):
     terrain, full_speed = params[0], params[1]
     for i in range(command.shape[0]):
         for w in range(2):
-            power = command[i, w] * live[i]
+            # Not command * live: a negative command times 0 is -0.0, and a robot out of its step (an environment
+            # restarting, a robot that has left) reports the +0.0 power of its reset, as a fresh environment does.
+            power = command[i, w] if live[i] else 0.0
             factor = min(max(1.0 + terrain * normals[i, w] + drift[i, w], 0.0), MAX_SPEED_FACTOR)
             powers[i, w] = power
             wheels[i, w] = power * full_speed * factor
