@@ -4,7 +4,8 @@ Build it from the repository root (README, "Documentation")::
 
     MUJOCO_GL=egl python -m sphinx -W --keep-going -b html docs docs/_build/html
 
-The environment pages are generated at build time (``_ext/polyenvs_pages.py``); nothing reaches the network:
+The environment pages, their gallery and the BibTeX of ``CITATION.cff`` are generated at build time
+(``_ext/polyenvs_pages.py``, ``_ext/polyenvs_bibtex.py``); nothing reaches the network:
 ``linkcheck`` checks the internal links and skips every external URL.
 """
 
@@ -39,6 +40,8 @@ autodoc_typehints = "description"
 
 html_theme = "furo"
 html_title = f"polyenvs {release}"
+html_static_path = ["_static"]
+html_css_files = ["polyenvs.css"]  # the environment index's gallery
 
 # linkcheck: internal links only (this project's machines reach no network).
 linkcheck_ignore = [r"https?://.*"]
