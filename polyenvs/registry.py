@@ -248,7 +248,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
         baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
-        paper="sharp_turn",
+        paper="sharp_turn_cone",
         score=Score("heading_error_deg", "min", ceiling=0.0),
         superseded_by="polyenvs/BeastTurn-v1",
     ),
@@ -298,7 +298,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         extra="mujoco",
         description="BeastTurn with the robot's contact model; reward = decrease of the heading error - control cost",
         baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
-        paper="sharp_turn",
+        paper="sharp_turn_cone",
         score=Score("heading_error_deg", "min", ceiling=0.0),
     ),
     EnvEntry(

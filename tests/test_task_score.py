@@ -75,10 +75,10 @@ def test_rows_are_ranked_by_the_score_and_the_tie_break_at_the_ceiling():
     turn = leaderboard_tables(
         [
             _doc(TURN, "random", [180.0] * 4, "heading_error_deg"),
-            _doc(TURN, "sharp_turn", [5.0] * 4, "heading_error_deg"),
+            _doc(TURN, "sharp_turn_cone", [5.0] * 4, "heading_error_deg"),
         ]
     )[TURN]
-    assert [r["label"] for r in turn["rows"]] == ["sharp_turn", "random"]
+    assert [r["label"] for r in turn["rows"]] == ["sharp_turn_cone", "random"]
     assert turn["rows"][0]["normalised"] == pytest.approx(1.0) and turn["rows"][1]["normalised"] == 0.0
 
 
@@ -97,7 +97,7 @@ def test_a_superseded_version_says_which_version_the_benchmark_ranks_on():
     old = "polyenvs/BumperCartExplore-v0"
     docs = [_doc(old, p, [0.8, 0.85, 0.9], "wall_fraction_touched") for p in ("random", "random_bounce")]
     text = leaderboard_markdown(docs)
-    assert "**Superseded** by `polyenvs/BumperCartExplore-v1`, which the benchmark ranks on" in text
+    assert "**Superseded** by `polyenvs/BumperCartExplore-v2`, which the benchmark ranks on" in text
     assert "Superseded" not in leaderboard_markdown([_doc(WALL, "random", [0.1, 0.2], "perimeter_fraction")])
 
 
@@ -186,7 +186,7 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     assert verdict["reference"]["label"] == "wall_follower" and verdict["agent"]["label"] == "ppo"
     assert verdict["default"] is True and verdict["held_out"] is False
     # Lower is better on the turn: an agent with a larger heading error does not beat it.
-    turn = [_doc(TURN, "sharp_turn", [1.0, 1.1, 0.9] * 10, "heading_error_deg"),
+    turn = [_doc(TURN, "sharp_turn_cone", [1.0, 1.1, 0.9] * 10, "heading_error_deg"),
             _agent(_doc(TURN, "x", [2.0, 2.1, 1.9] * 10, "heading_error_deg"))]  # fmt: skip
     assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is False
     turn[1] = _agent(_doc(TURN, "x", [0.2, 0.3, 0.1] * 10, "heading_error_deg"))

@@ -20,6 +20,7 @@ from baselines.beast.crawl import CrawlConfig, CrawlController, ReorientControll
 from baselines.beast.gait import RightingController, RollingGaitController
 from baselines.beast.observation import joint_ranges_of, n_limbs_of, polyhedron_of, split_observation
 from baselines.beast.planner import DEFAULT_CONFIGS, BeastPlanner
+from baselines.beast.zero_tip import ZeroTipController
 from polyenvs.beast.model import stance_orientation
 from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
 from polyenvs.core.validation import check_bool, check_in_range, check_int
@@ -91,6 +92,9 @@ class RollingGait(_ControllerPolicy):
         rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s (paper's power budget: ~15).
         max_tumbles: stop (hold the stance) after this many tumbles, in [1, 1000]; None rolls on.
         disabled_limbs: 1-based limbs known to be broken (paper section 5): lifted first if standing, never landed.
+        zero_tip: the paper's zero-tip tumbles instead (section 3, 4-beast only; :mod:`baselines.beast.zero_tip`):
+            the landing foot set down before the centre of mass crosses the edge, never fewer than three feet down,
+            about twice as slow. Only the strip's first tumble can be made so; then the policy holds its stance.
     """
 
     def __init__(
@@ -100,9 +104,13 @@ class RollingGait(_ControllerPolicy):
         rate_deg_s: float = 20.0,
         max_tumbles: int | None = None,
         disabled_limbs=(),
+        zero_tip: bool = False,
     ):
         super().__init__(observation_space, action_space, rate_deg_s)
         self._require_tumbles()
+        self.zero_tip = check_bool("zero_tip", zero_tip)
+        if self.zero_tip and self.planner.n_limbs != 4:
+            raise ValueError(f"zero_tip is the 4-beast's tumble (paper section 3), got a {self.polyhedron}")
         self.max_tumbles = None if max_tumbles is None else check_int("max_tumbles", max_tumbles, 1, 1000)
         if isinstance(disabled_limbs, (str, bytes)) or not hasattr(disabled_limbs, "__iter__"):
             raise ValueError(f"disabled_limbs must be a sequence of limb numbers, got {disabled_limbs!r}")
@@ -115,10 +123,12 @@ class RollingGait(_ControllerPolicy):
             "rate_deg_s": self.rate_deg_s,
             "max_tumbles": self.max_tumbles,
             "disabled_limbs": list(self.disabled_limbs),
+            "zero_tip": self.zero_tip,
         }
 
     def make_controller(self, observation):
-        return RollingGaitController(self.planner, max_tumbles=self.max_tumbles, disabled_limbs=self.disabled_limbs)
+        controller = ZeroTipController if self.zero_tip else RollingGaitController
+        return controller(self.planner, max_tumbles=self.max_tumbles, disabled_limbs=self.disabled_limbs)
 
 
 class SharpTurn(_ControllerPolicy):
@@ -128,10 +138,11 @@ class SharpTurn(_ControllerPolicy):
     policy follows whatever turn the environment was made with. The paper keeps limb 1 planted while the robot rolls
     about it. On a straight strip every limb is planted through two tumbles in a row; a turn keeps one planted
     through a third, which rolls the strip by 60 degrees about that foot and winds its joint 1 by a further 120
-    degrees (hence ``BeastTurn-v0``'s joint-1 range of +-250 degrees for the 4-beast). The controller is the rolling
-    gait's look-ahead steering for the turned heading, allowed to tip back over the last edge; ``pivot`` (1-based
-    limb) instead restricts every tumble to edges containing that limb, the literal cone, and stops when none is
-    plannable. ``pivot="inside"`` is the paper's turn as written (registered as ``sharp_turn_cone``): the 4-beast
+    degrees (hence ``BeastTurn-v0``'s joint-1 range of +-250 degrees for the 4-beast). By default the controller is
+    our look-ahead steering (registered as ``sharp_turn``): the rolling gait's look-ahead for the turned heading,
+    allowed to tip back over the last edge; ``pivot`` (1-based limb) instead restricts every tumble to edges
+    containing that limb, the literal cone, and stops when none is plannable. ``pivot="inside"`` is the paper's turn
+    as written (registered as ``sharp_turn_cone``, the ``BeastTurn`` ids' paper policy): the 4-beast
     keeps planted the edge limb of its first tumble (1234) on the inside of the turn, limb 1 for a right turn as
     the paper has it and its mirror image, limb 2, for a left one. Within joint 1's +-250 degrees the cone about
     limb 1 lasts two tumbles (its joint 1 winds 0 -> 240 degrees) and turns by about -53 degrees; about limb 2
