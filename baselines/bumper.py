@@ -54,7 +54,7 @@ class RandomBounce(Policy):
 
 
 class FixedTurn(Policy):
-    """BumperCartExplore-v1's upper anchor: after every cycle, turn by the same ``turn_deg`` (counter-clockwise).
+    """BumperCartExplore-v1's and -v2's upper anchor: after every cycle, turn by the same ``turn_deg`` (counter-clockwise).
 
     Deliberate where the paper's bounce is random: turned 150°, the cart backs off the wall it just hit and leaves
     it 30° off its way in, so that successive bumps walk round the room instead of falling anywhere; the turn was

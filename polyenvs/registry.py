@@ -325,7 +325,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         score=Score("wall_fraction_touched", "max", ceiling=1.0),
         # Coverage saturates by 200 cycles: the paper's random bounce (random by design) 0.859 [0.849, 0.867]
         # against random 0.843 [0.835, 0.850] over the leaderboard's seeds, and no policy has room above.
-        superseded_by="polyenvs/BumperCartExplore-v1",
+        superseded_by="polyenvs/BumperCartExplore-v2",
         estimators=(
             Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
             Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),
@@ -345,6 +345,25 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         ),
         paper="random_bounce",
         # Random and the paper's random bounce coincide on the cart: the deliberate fixed turn is the upper anchor.
+        score=Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn"),
+        # A back-up that touches a wall after the bump gets that wall credited (issue 29): v2 credits the bumper's.
+        superseded_by="polyenvs/BumperCartExplore-v2",
+    ),
+    EnvEntry(
+        id="polyenvs/BumperCartExplore-v2",
+        entry_point="polyenvs.bumper.explore_v2:BumperCartExploreV2Env",
+        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV2VectorEnv",
+        max_episode_steps=50,
+        family="bumper",
+        description="The bump-only cart touches as much wall as it can in a budget of 50 cycles, each bump "
+        "credited to the wall its bumper touched; coverage is the wall fraction touched over the most 50 cycles "
+        "can touch",
+        baselines=(
+            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
+            Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
+        ),
+        paper="random_bounce",
+        # v1's baselines and score: the fix moved no baseline's IQM by more than 0.001 over seeds 0-49.
         score=Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn"),
     ),
     EnvEntry(

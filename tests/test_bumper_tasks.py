@@ -8,6 +8,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.error import ResetNeeded
 
 import polyenvs  # noqa: F401  (registers the ids)
 from baselines.base import RandomPolicy
@@ -228,6 +229,40 @@ def test_v1_rewards_sum_to_coverage_which_no_policy_pushes_past_one():
         assert sum(i["reward"] for i in infos) == pytest.approx(100.0 * m["coverage"])
         assert m["coverage"] == pytest.approx(m["wall_fraction_touched"] / env.unwrapped.coverage_bound)
         assert 0.3 < m["coverage"] <= 1.0
+
+
+@pytest.mark.parametrize("make_kwargs", [{"budget_cycles": 5}, {"max_episode_steps": 80}])
+def test_coverage_never_passes_its_ceiling_whatever_the_episode_limit(make_kwargs):
+    """Issue 29, finding 5: ``budget_cycles=5`` under the registered limit of 50 ran 50 cycles and reported
+    coverage 7.4 (this seed and policy). The episode ends at the budget (truncated), whatever limit ``gym.make``
+    was given."""
+    env = gym.make(EXPLORE_V1, **make_kwargs)
+    budget = env.unwrapped.budget_cycles
+    infos, _, terminated = _episode(env, RandomPolicy(env.observation_space, env.action_space, seed=0), 0)
+    assert len(infos) == budget and not terminated
+    assert 0.0 < infos[-1]["episode_metrics"]["coverage"] <= 1.0
+
+
+def test_the_vector_env_ends_episodes_at_the_budget_too():
+    envs = gym.make_vec(EXPLORE_V1, num_envs=2, budget_cycles=5)  # the registration's max_episode_steps, 50
+    envs.reset(seed=0)
+    for _ in range(4):
+        assert not envs.step(np.zeros((2, 1), dtype=np.float32))[3].any()
+    _, _, terminated, truncated, info = envs.step(np.zeros((2, 1), dtype=np.float32))
+    assert truncated.all() and not terminated.any() and (info["episode_metrics"]["coverage"] <= 1.0).all()
+
+
+def test_a_step_past_the_budget_is_refused_and_changes_nothing():
+    env = BumperCartExploreV1Env(budget_cycles=2)
+    env.reset(seed=0)
+    assert not env.step(np.zeros(1, dtype=np.float32))[3]
+    assert env.step(np.zeros(1, dtype=np.float32))[3]
+    state = env.state.copy()
+    with pytest.raises(ResetNeeded, match="budget_cycles"):
+        env.step(np.zeros(1, dtype=np.float32))
+    np.testing.assert_array_equal(env.state, state)
+    env.reset(seed=1)
+    assert not env.step(np.zeros(1, dtype=np.float32))[3]
 
 
 def test_v1_starts_as_v0_does_with_the_same_cart():

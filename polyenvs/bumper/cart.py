@@ -22,7 +22,11 @@ the cart's left normal, ``J`` a quarter turn): regular as ``θ -> 0``. Its signe
 ``c0 + (A sin φ - B (1 - cos φ)) / θ``; with ``u = tan(φ/2)`` that is the quadratic
 ``(c0 θ - 2B) u² + 2A u + c0 θ = 0``, solved in the cancellation-free form. Stages turning more than 90° are
 cut into equal sub-arcs so that ``u`` stays single-valued. A stage that meets a wall stops there (the bumper trips,
-or a blocked wheel stalls), a hair short of the contact, so the cart never enters a wall.
+or a blocked wheel stalls), a hair short of the contact, so the cart never enters a wall. Only the drive stage's
+contact is a bump (the paper's: the bumper's switch closes as the cart drives into a wall; on the drive's slight
+arc the body's inner side can meet a box's corner first, which counts too: 0.22% of bumps on the ``obstacles``
+map, none where no corner juts into the room); the turn's and the back-up's stop the cart unsensed and are
+recorded apart (``LATEST_*``).
 
 What the robot logs are encoder ticks: wheel rotation (not ground travel) in units of 0.0675 in, rounded. Ground
 travel differs by a small per-stage wheel slip. At a bump the wheels can slip badly, unseen by the encoders (the
@@ -52,6 +56,8 @@ __all__ = ["CART_PARAMETER_RANGES", "DRAWS_PER_CYCLE", "N_STATE", "CartModel", "
 # State columns. True pose, dead-reckoned pose (nominal odometry from the true start), per-episode motor mismatch
 # and true wheel base, then what the last cycle did.
 X, Y, HEADING, DR_X, DR_Y, DR_HEADING, MISMATCH, BASE = range(8)
+# The last bump's contact: where the bumper met a wall at the end of a drive stage (the wall's row, the fraction
+# along it).
 BUMP, CONTACT_X, CONTACT_Y, CONTACT_SEG, CONTACT_ALONG = range(8, 13)
 BUMP_X, BUMP_Y, BUMP_HEADING = range(13, 16)  # true pose when the drive stage ended (at the bump)
 TURN_X, TURN_Y = range(16, 18)  # position after the turn, for rendering paths
@@ -59,7 +65,10 @@ BIG_SLIP = 18  # 1 if the bump made the cart slip (flatten or slide)
 TICKS = 19  # 6 columns: left, right of turn, drive, back-up
 TURN_HEADING = 25  # heading after the turn (with TURN_X, TURN_Y: the pose the drive stage started from)
 SLIP_X, SLIP_Y, SLIP_HEADING = range(26, 29)  # pose after the bump's slip (the back-up's start; the bump pose if none)
-N_STATE = 29
+# The latest contact of any stage: the turn and the back-up stall against a wall too, unsensed (no switch closes), and
+# the back-up's follows the bump's. BumperCartExplore-v0 and -v1 credit this wall (kept for their results).
+LATEST_X, LATEST_Y, LATEST_SEG = range(29, 32)
+N_STATE = 32
 
 # Packed parameters.
 (P_TICK, P_BASE, P_FRONT, P_HALF, P_REAR, P_BACKUP, P_DRIVE, P_SLIP, P_SNAP_P, P_SNAP_MAX, P_SLIDE_P,
@@ -324,7 +333,8 @@ def _uniform(z):
 @njit(cache=True)
 def _stage(row, k, a_cmd, b_cmd, z_a, z_b, params, walls):
     """One logged stage: wheels commanded to rotate ``(a_cmd, b_cmd)`` cm; ground travel has per-wheel slip. Logs
-    the rounded ticks of the rotation done, dead-reckons them; returns the contact segment or -1."""
+    the rounded ticks of the rotation done, dead-reckons them, records a contact as the latest; returns the contact
+    ``(segment or -1, x, y)``."""
     slip = params[P_SLIP]
     ga = a_cmd * (1.0 + slip * min(max(z_a, -4.0), 4.0))
     gb = b_cmd * (1.0 + slip * min(max(z_b, -4.0), 4.0))
@@ -336,8 +346,8 @@ def _stage(row, k, a_cmd, b_cmd, z_a, z_b, params, walls):
         row[DR_X], row[DR_Y], row[DR_HEADING], left * tick, right * tick, params[P_BASE]
     )
     if seg >= 0:
-        row[CONTACT_X], row[CONTACT_Y], row[CONTACT_SEG] = cx, cy, seg
-    return seg
+        row[LATEST_X], row[LATEST_Y], row[LATEST_SEG] = cx, cy, seg
+    return seg, cx, cy
 
 
 @njit(cache=True)
@@ -375,13 +385,16 @@ def cycle_row(row, turn, draws, params, walls):
     _stage(row, 0, -spin * slow, spin * fast, draws[0], draws[1], params, walls)
     row[TURN_X], row[TURN_Y], row[TURN_HEADING] = row[X], row[Y], row[HEADING]
     drive = params[P_DRIVE]
-    seg = _stage(row, 1, drive * slow, drive * fast, draws[2], draws[3], params, walls)
+    # The paper's bump: the drive stage ends with the bumper's switch closed. The turn's and the back-up's contacts
+    # stop the cart (physics) but close no switch: they never become the bump's contact.
+    seg, cx, cy = _stage(row, 1, drive * slow, drive * fast, draws[2], draws[3], params, walls)
     row[BUMP] = 1.0 if seg >= 0 else 0.0
     row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = row[X], row[Y], row[HEADING]
     row[BIG_SLIP] = 0.0
     if seg >= 0:
         w = walls[seg]
-        row[CONTACT_ALONG] = ((row[CONTACT_X] - w[0]) * w[2] + (row[CONTACT_Y] - w[1]) * w[3]) * w[4]
+        row[CONTACT_X], row[CONTACT_Y], row[CONTACT_SEG] = cx, cy, seg
+        row[CONTACT_ALONG] = ((cx - w[0]) * w[2] + (cy - w[1]) * w[3]) * w[4]
         row[BIG_SLIP] = _bump_slip(row, seg, _uniform(draws[6]), _uniform(draws[7]), params, walls)
     row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = row[X], row[Y], row[HEADING]
     backup = params[P_BACKUP]
@@ -403,4 +416,4 @@ def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None
     row[TURN_X], row[TURN_Y], row[TURN_HEADING] = pose
     row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = pose
     row[MISMATCH], row[BASE] = mismatch, wheel_base
-    row[CONTACT_SEG] = -1.0
+    row[CONTACT_SEG] = row[LATEST_SEG] = -1.0

@@ -133,13 +133,14 @@ def _cycle_kernel(actions, kernel):
 @njit(cache=True)
 def touch_row(b, row, touch) -> float:
     """Row ``b``'s share of the wall newly touched by its last cycle (its state row ``row``), marking the cell and
-    counting the bump and any large slip. ``touch = (task, touched, cell_first, cell_count, cell_share)``, as
-    :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first, as the walls)."""
-    task, touched, cell_first, cell_count, cell_share = touch
+    counting the bump and any large slip. ``touch = (task, touched, cell_first, cell_count, cell_share, credited)``,
+    as :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first, as the walls; ``credited``
+    the state column of the wall a bump credits)."""
+    task, touched, cell_first, cell_count, cell_share, credited = touch
     w = 0 if cell_first.shape[0] == 1 else b
     fresh = 0.0
     if row[C.BUMP] > 0.5:
-        seg = int(row[C.CONTACT_SEG])
+        seg = int(row[credited])
         count = cell_count[w, seg]
         cell = cell_first[w, seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
         if touched[b, cell] == 0:
@@ -192,6 +193,10 @@ class BumperCartEnv(RowsEnv):
     default_map = "paper"
     #: How ``layouts="train"`` and ``"test"`` draw rooms (each task's docstring shows it with ``{layouts}``).
     layout_split = LAYOUT_SPLIT
+    #: Whether a bump credits the cycle's latest contact instead of its own: the back-up's, when it touches a wall
+    #: after the bump (a wall the bumper never touched). BumperCartExplore-v0 and -v1 did; they keep it, so that
+    #: their results reproduce.
+    credits_latest_contact = False
 
     def __init__(self, *, map=default_map, layouts: str = "default", render_mode: str | None = None,
                  window_scale: float = 1.0, num_rows: int = 1, **cart):  # fmt: skip
@@ -261,6 +266,13 @@ class BumperCartEnv(RowsEnv):
 
     def _slot(self, row: int) -> int:
         return 0 if len(self._slot_worlds) == 1 else row
+
+    @property
+    def _contact_columns(self) -> tuple[int, int, int]:
+        """The state columns (x, y, segment) of the contact a bump credits and ``info["contact_point"]`` shows."""
+        if self.credits_latest_contact:
+            return C.LATEST_X, C.LATEST_Y, C.LATEST_SEG
+        return C.CONTACT_X, C.CONTACT_Y, C.CONTACT_SEG
 
     @property
     def world(self) -> BumperMap:
@@ -452,7 +464,8 @@ class BumperCartEnv(RowsEnv):
         true_path.extend(((s[C.TURN_X], s[C.TURN_Y]), (s[C.BUMP_X], s[C.BUMP_Y]), (s[C.X], s[C.Y])))
         dead_reckoned.append((s[C.DR_X], s[C.DR_Y]))
         if s[C.BUMP] > 0.5:
-            bumps.append((s[C.CONTACT_X], s[C.CONTACT_Y]))
+            x, y, _ = self._contact_columns
+            bumps.append((s[x], s[y]))
         if self.render_mode == "human":
             self.render()
 
@@ -461,12 +474,13 @@ class BumperCartEnv(RowsEnv):
         poses = s.take(_POSE_INDEX)  # one fresh array; the poses below are views of it
         poses *= _POSE_SCALE
         out = self._out[row].tolist()
+        x, y, _ = self._contact_columns
         return {
             "pose": poses[0:3],
             "dead_reckoned_pose": poses[3:6],
             "pose_at_bump": poses[6:9],
             "bumped": bool(s[C.BUMP] > 0.5),
-            "contact_point": s[C.CONTACT_X : C.CONTACT_Y + 1].copy(),
+            "contact_point": s[[x, y]],
             **self._task_info(row),
             **dict(zip(self._reward_keys, out[self.out_columns.term_slice], strict=True)),
             "episode_metrics": dict(zip(self._metric_names, out[self.out_columns.metric_slice], strict=True)),
@@ -478,12 +492,13 @@ class BumperCartEnv(RowsEnv):
         poses = s[:, _POSE_COLUMNS]
         poses[:, 2::3] = np.degrees(poses[:, 2::3])
         scores = self._out[:, : self._reward_column].copy()
+        x, y, _ = self._contact_columns
         values = {
             "pose": poses[:, 0:3],
             "dead_reckoned_pose": poses[:, 3:6],
             "pose_at_bump": poses[:, 6:9],
             "bumped": s[:, C.BUMP] > 0.5,
-            "contact_point": s[:, [C.CONTACT_X, C.CONTACT_Y]],
+            "contact_point": s[:, [x, y]],
             **self._vector_task_info(),
             **{key: scores[:, j] for j, key in enumerate(self._reward_keys)},
         }
@@ -561,12 +576,16 @@ class BumperCartExploreEnv(BumperCartEnv):
       default episode: turns must be real numbers (complex, boolean and string actions raise), the parameters
       declared once with range and source (2026-12-01), ``layouts=`` (held-out training and test rooms,
       2026-12-02), ``window_scale=`` (2026-12-02); BumperCartExplore-v1 (a 50-cycle budget) is its successor for
-      ranking.
+      ranking. Known defect, kept so that its results reproduce (2026-12-05, issue 29): when the back-up touches a
+      wall after the bump, that wall is credited (``touch``, ``wall_fraction_touched``, ``touched_cells``,
+      ``contact_point``: the rear's contact, a wall the bumper never touched), in 0.1-0.35% of bumps;
+      BumperCartExplore-v2 credits the bumper's.
     """
 
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
+    credits_latest_contact = True
 
     def __init__(self, *, map=BumperCartEnv.default_map, layouts: str = "default", cell_cm: float = 5.0,
                  render_mode: str | None = None, num_rows: int = 1, **cart):  # fmt: skip
@@ -614,7 +633,8 @@ class BumperCartExploreEnv(BumperCartEnv):
         return self._slot_cell_share[self._slot(0)]
 
     def _task_arrays(self) -> tuple:
-        return (self._task, self._touched, self._slot_cell_first, self._slot_cell_count, self._slot_cell_share)
+        cells = (self._slot_cell_first, self._slot_cell_count, self._slot_cell_share)
+        return (self._task, self._touched, *cells, self._contact_columns[2])
 
     def _task_commit(self, row: int, sample: Any) -> None:
         self._touched[row] = 0

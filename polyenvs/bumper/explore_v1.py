@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel
@@ -95,15 +96,16 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     As BumperCartExplore-v0 (reset option ``pose``).
 
     ## Episode End
-    Never terminates; truncated after ``max_episode_steps`` cycles, 50 at registration: the budget. Pass
-    ``budget_cycles`` with ``max_episode_steps`` to change it (the bound holds for ``budget_cycles`` cycles; a
-    longer episode can exceed coverage 1). ``info["episode_metrics"]``: ``coverage`` (the wall fraction touched
-    over the bound), and v0's ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm``, ``large_slips``.
+    Never terminates; truncated after ``budget_cycles`` cycles (50, the registration's ``max_episode_steps`` too),
+    whatever time limit ``gym.make`` was given: the bound holds for the budget, so a longer episode could pass
+    coverage 1 (a shorter limit ends it sooner). A step past the budget without a reset raises ``ResetNeeded``.
+    ``info["episode_metrics"]``: ``coverage`` (the wall fraction touched over the bound), and v0's
+    ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm``, ``large_slips``.
 
     ## Arguments
     | argument | default | meaning |
     |----------|---------|---------|
-    | budget_cycles | 50 | the cycles the coverage bound is for (the registration's ``max_episode_steps``), in [1, 100000] |
+    | budget_cycles | 50 | the episode's cycles, which the coverage bound is for, in [1, 100000] |
     | map | "paper" | as BumperCartExplore-v0 |
     {layouts}
     | cell_cm | 5.0 | as BumperCartExplore-v0 |
@@ -116,7 +118,10 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
 
     ## Version History
     * v1: a budget of 50 cycles and ``coverage`` against its upper bound (the reward scaled by the bound); v0 is
-      kept registered unchanged.
+      kept registered unchanged. Since 2026-12-05 (issue 29) the episode ends at ``budget_cycles`` whatever the
+      time limit: ``budget_cycles=5`` under the registered 50 had run 50 cycles to a coverage of 7.4; the registered
+      episodes are unchanged. Known defect, v0's, kept so that its results reproduce: a back-up that touches a
+      wall after the bump gets that wall credited; BumperCartExplore-v2 credits the bumper's.
     * v0: 200 cycles, the reward 100 x the wall fraction touched.
     """
 
@@ -148,3 +153,13 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
 
     def _task_step(self, actions: np.ndarray) -> None:
         _coverage_kernel(actions, self._kernel)
+
+    def step(self, action):
+        if self._cycles[0] >= self.budget_cycles:
+            raise ResetNeeded(f"the episode's budget_cycles ({self.budget_cycles}) are spent: call reset()")
+        observation, reward, terminated, _, info = super().step(action)
+        return observation, reward, terminated, bool(self._cycles[0] >= self.budget_cycles), info
+
+    def budget_spent(self) -> np.ndarray:
+        """Per row, whether its episode has used its ``budget_cycles`` (it ends there, truncated)."""
+        return self._cycles >= self.budget_cycles

@@ -9,10 +9,16 @@ from __future__ import annotations
 
 from polyenvs.bumper.env import BumperCartExploreEnv
 from polyenvs.bumper.explore_v1 import BumperCartExploreV1Env
+from polyenvs.bumper.explore_v2 import BumperCartExploreV2Env
 from polyenvs.bumper.localize import BumperCartLocalizeEnv
 from polyenvs.core.rows import RowsVectorEnv
 
-__all__ = ["BumperCartExploreV1VectorEnv", "BumperCartExploreVectorEnv", "BumperCartLocalizeVectorEnv"]
+__all__ = [
+    "BumperCartExploreV1VectorEnv",
+    "BumperCartExploreV2VectorEnv",
+    "BumperCartExploreVectorEnv",
+    "BumperCartLocalizeVectorEnv",
+]
 
 
 class BumperCartExploreVectorEnv(RowsVectorEnv):
@@ -22,9 +28,21 @@ class BumperCartExploreVectorEnv(RowsVectorEnv):
 
 
 class BumperCartExploreV1VectorEnv(RowsVectorEnv):
-    """Vector form of :class:`~polyenvs.bumper.explore_v1.BumperCartExploreV1Env` (same arguments and reset options)."""
+    """Vector form of :class:`~polyenvs.bumper.explore_v1.BumperCartExploreV1Env` (same arguments and reset options;
+    a row's episode ends at its ``budget_cycles``, as the single env's does, whatever ``max_episode_steps``)."""
 
     env_class = BumperCartExploreV1Env
+    _core: BumperCartExploreV1Env
+
+    def _step_result(self, restart):
+        rewards, terminated, truncated = super()._step_result(restart)
+        return rewards, terminated, truncated | self._core.budget_spent()
+
+
+class BumperCartExploreV2VectorEnv(BumperCartExploreV1VectorEnv):
+    """Vector form of :class:`~polyenvs.bumper.explore_v2.BumperCartExploreV2Env` (as v1's)."""
+
+    env_class = BumperCartExploreV2Env
 
 
 class BumperCartLocalizeVectorEnv(RowsVectorEnv):
