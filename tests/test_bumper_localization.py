@@ -118,6 +118,40 @@ def test_mcl_bump_space_keeps_only_poses_facing_a_wall(logs):
     assert context.world.free(mcl.particles[:, :2]).all()
 
 
+NO_MOTION_ERROR = dict(heading_sd_deg=0, heading_sd_frac=0, forward_sd_cm=0, forward_sd_frac=0, lateral_sd_cm=0,
+                       lateral_sd_frac=0)  # fmt: skip
+
+
+#: Three stages a cycle (turn, drive, back-up), each with its own draws: a fixed sd acts three times (root 3), one
+#: proportional to the distance only in the drive (here the only stage that moves).
+THREE_STAGES = math.sqrt(3.0)
+
+
+@pytest.mark.parametrize(
+    "error,spread",
+    [({"forward_sd_frac": 0.06}, (3.0, 0.0, 0.0)), ({"lateral_sd_frac": 0.06}, (0.0, 3.0, 0.0)),
+     ({"forward_sd_cm": 0.6}, (0.6 * THREE_STAGES, 0.0, 0.0)), ({"lateral_sd_cm": 0.6}, (0.0, 0.6 * THREE_STAGES, 0.0)),
+     # the turn's heading error sends the 50 cm drive off sideways
+     ({"heading_sd_deg": 2.0}, (0.0, 50.0 * math.radians(2.0), 2.0 * THREE_STAGES))],
+)  # fmt: skip
+def test_each_motion_error_spreads_the_particles_along_its_own_axis(logs, error, spread):
+    """One 50 cm straight drive east without a bump, every particle from one pose: ``(sd of x along the drive,
+    sd of y across it, sd of the heading in degrees)``. The forward error spreads the particles along the drive,
+    the lateral one across it, the heading one (``heading_sd_deg``, in degrees) turns them."""
+    context, _ = logs
+    mcl = BumpSpaceMCL(particles=20_000, **{**NO_MOTION_ERROR, **error})
+    mcl.reset(context, None, np.random.default_rng(0))
+    mcl.particles[:] = (30.0, 45.0, 0.0)
+    ticks = round(50.0 / context.tick_cm)
+    log = np.zeros(7)
+    log[slice(*context.observation_structure["drive_ticks"])] = ticks
+    mcl.update(log)
+    x, y, heading = mcl.particles.T
+    np.testing.assert_allclose([x.std(), y.std()], spread[:2], rtol=0.05, atol=0.1)
+    assert np.degrees(heading.std()) == pytest.approx(spread[2], rel=0.05, abs=1e-9)
+    assert abs(x.mean() - (30.0 + ticks * context.tick_cm)) < 0.1 and abs(y.mean() - 45.0) < 0.1
+
+
 def test_dead_reckoning_matches_the_odometry(logs):
     context, runs = logs
     run = runs[0]

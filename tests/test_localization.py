@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401  (registers the ids)
+from polyenvs import charts
 from polyenvs.commands.localize import add_parser
 from polyenvs.errors import InputError
 from polyenvs.localization import Estimator, estimator_class, estimators, make_estimator
@@ -92,8 +93,18 @@ def test_report_table_and_plot(logs):
         document["estimators"][name] = summarize(score_estimator(name, {}, context, runs, 5))
     table = convergence_table(document)
     assert table.splitlines()[0].split()[0] == "bump" and len(table.splitlines()) == 1 + 5 + 2
-    image = convergence_plot(document)
-    assert image.dtype == np.uint8 and image.shape[2] == 3 and (image != 255).any()
+    pytest.importorskip("matplotlib")
+    axes = convergence_plot(document).axes[0]
+    lines = {line.get_label(): line for line in axes.get_lines()}
+    for name, band in zip(document["estimators"], axes.collections, strict=True):
+        quartiles = document["estimators"][name]["position_error_cm"]
+        np.testing.assert_array_equal(lines[name].get_xdata(), [1, 2, 3, 4, 5])  # after the k-th bump, k from 1
+        np.testing.assert_allclose(lines[name].get_ydata(), quartiles["median"])
+        edge = band.get_paths()[0].vertices[:, 1]  # the quartile band, from q1 up to q3
+        assert edge.min() == pytest.approx(min(quartiles["q1"]))
+        assert edge.max() == pytest.approx(max(quartiles["q3"]))
+    assert lines["10 cm: converged if also within 30°"].get_ydata()[0] == 10.0
+    assert axes.get_xlabel() == "bumps" and axes.get_ylabel() == "position error (cm)"
 
 
 def _args(*argv):
@@ -123,6 +134,7 @@ def test_command_refuses_an_unwritable_out(tmp_path):
 
 
 def test_command_writes_json_and_png(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
     out = tmp_path / "loc"
     args = _args("--runs", "3", "--bumps", "4", "--particles", "300", "--out", str(out), "--json", "--no-progress",
                  "--estimator", "mcl", "--estimator", f"{__name__}:StartPose")  # fmt: skip
@@ -140,6 +152,17 @@ def test_command_writes_json_and_png(tmp_path, capsys):
     assert saved["estimators"][f"{__name__}:StartPose"]["kwargs"] == {}
     assert (out / "convergence.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert not list(out.glob(".*.tmp*"))
+
+
+def test_without_matplotlib_the_json_and_table_are_written_and_it_says_why(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(charts, "available", lambda: False)
+    args = _args("--runs", "2", "--bumps", "2", "--estimator", "dead_reckoning", "--no-progress", "--out",
+                 str(tmp_path))  # fmt: skip
+    assert args.func(args) == 0
+    said = capsys.readouterr()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["localization.json"]
+    assert said.err.strip() == f"convergence chart left out: it needs matplotlib: {charts.INSTALL_HINT}"
+    assert "dead_reckoning" in said.out and said.out.strip().endswith(f"wrote {tmp_path / 'localization.json'}")
 
 
 def test_command_map_flag_and_table(tmp_path, capsys):

@@ -32,14 +32,13 @@ def test_image_dtype_shape_and_copy():
     assert (canvas.image == WHITE).all()
 
 
-def test_margin_and_explicit_height():
+def test_margin_sets_the_height_from_the_aspect_ratio():
     # 5% of the larger side (10) on each side: 11 x 6 world units -> 440 x 240 px at width 440.
-    assert Canvas((0.0, 0.0, 10.0, 5.0), width=440).image.shape == (240, 440, 3)
-    canvas = Canvas((0.0, 0.0, 10.0, 10.0), width=200, height=100, margin=0.0)
-    assert canvas.image.shape == (100, 200, 3)
+    canvas = Canvas((0.0, 0.0, 10.0, 5.0), width=440)
+    assert canvas.image.shape == (240, 440, 3)
     # Uniform scale, content centred: the world centre maps to the image centre.
-    np.testing.assert_allclose(canvas.to_pixels(np.array([5.0, 5.0])), [100.0, 50.0])
-    np.testing.assert_allclose(canvas.to_pixels(np.array([10.0, 10.0])), [150.0, 0.0])
+    np.testing.assert_allclose(canvas.to_pixels(np.array([5.0, 2.5])), [220.0, 120.0])
+    np.testing.assert_allclose(canvas.to_pixels(np.array([10.0, 5.0])), [420.0, 20.0])
 
 
 def test_y_axis_points_up():

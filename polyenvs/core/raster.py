@@ -16,15 +16,13 @@ overflow) are skipped, and empty inputs draw nothing.
 from __future__ import annotations
 
 import math
-import struct
-import zlib
 from functools import lru_cache
 
 import numpy as np
 
 from polyenvs.core.validation import check_finite, check_positive
 
-__all__ = ["Canvas", "png_bytes", "stamp_text", "text_width", "with_legend"]
+__all__ = ["Canvas", "stamp_text", "text_width", "with_legend"]
 
 # Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
 # bounds-checked pixel by pixel. Grown on demand for very wide strokes.
@@ -135,9 +133,7 @@ class Canvas:
 
     Args:
         bounds: ``(xmin, ymin, xmax, ymax)`` of the region to show, in world units.
-        width: image width in pixels.
-        height: image height in pixels; ``None`` derives it from the aspect ratio of the (margined) bounds. When
-            given, the scale is uniform anyway and the bounds are centred, leaving bands of background.
+        width: image width in pixels; the height follows from the aspect ratio of the (margined) bounds.
         margin: fraction of the larger side of ``bounds`` added on every side.
         background: RGB fill of the initial image.
     """
@@ -146,7 +142,6 @@ class Canvas:
         self,
         bounds: tuple[float, float, float, float],
         width: int = 480,
-        height: int | None = None,
         margin: float = 0.05,
         background=(255, 255, 255),
     ):
@@ -158,8 +153,6 @@ class Canvas:
         margin = check_positive("margin", margin, allow_zero=True)
         if int(width) != width or width < 1:
             raise ValueError(f"width must be a positive integer, got {width!r}")
-        if height is not None and (int(height) != height or height < 1):
-            raise ValueError(f"height must be a positive integer or None, got {height!r}")
 
         pad = margin * max(xmax - xmin, ymax - ymin)
         span_x = xmax - xmin + 2 * pad
@@ -172,7 +165,7 @@ class Canvas:
         elif span_y <= 0:
             span_y = span_x
         self.width = int(width)
-        self.height = max(1, round(self.width * span_y / span_x)) if height is None else int(height)
+        self.height = max(1, round(self.width * span_y / span_x))
         self.scale = min(self.width / span_x, self.height / span_y)  # pixels per world unit
         self._centre = (0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
         self.bounds = (xmin, ymin, xmax, ymax)
@@ -419,16 +412,3 @@ def with_legend(image: np.ndarray, entries, scale: int = 2) -> np.ndarray:
         strip[top : top + 5 * scale, left : min(left + swatch, width)] = color
         stamp_text(strip, left + swatch + gap, top, label, (40, 40, 40), scale)
     return np.concatenate([image, strip], axis=0)
-
-
-def png_bytes(image: np.ndarray) -> bytes:
-    """A minimal 8-bit RGB PNG encoder (zlib only)."""
-    image = np.ascontiguousarray(image, dtype=np.uint8)
-    height, width, _ = image.shape
-    raw = np.concatenate([np.zeros((height, 1), dtype=np.uint8), image.reshape(height, -1)], axis=1).tobytes()
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
