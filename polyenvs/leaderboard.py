@@ -42,7 +42,14 @@ from polyenvs.errors import InputError
 from polyenvs.evaluation import evaluate
 from polyenvs.files import write_json_atomic, write_text_atomic
 from polyenvs.registry import ParallelEnvEntry, bare_id, entry, slug
-from polyenvs.statistics import iqm_with_stratified_ci, mean_with_stratified_ci
+from polyenvs.statistics import (
+    Comparison,
+    aggregate_with_two_level_ci,
+    compare,
+    interquartile_mean,
+    iqm_with_stratified_ci,
+    probability_of_improvement,
+)
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
@@ -171,7 +178,16 @@ class Agent:
             "timesteps": self.run.get("timesteps"),
             "requested_timesteps": self.run.get("requested_timesteps"),
             "completed": self.run.get("completed"),
+            "training_layouts": training_layouts(self.run),
         }
+
+
+def training_layouts(run: dict) -> str:
+    """The layouts a training run drew its episodes from (its ``env_kwargs``' ``layouts``; "default" where it set
+    none, as every run did before ``polyenvs train`` followed the Procgen protocol)."""
+    env_kwargs = run.get("env_kwargs")
+    layouts = env_kwargs.get("layouts", "default") if isinstance(env_kwargs, dict) else "default"
+    return layouts if isinstance(layouts, str) else "default"
 
 
 def _agent_name(label: str, seed: int | None) -> str:
@@ -678,14 +694,32 @@ def _score_groups(docs: list[dict], metric: str | None) -> list[np.ndarray] | No
     return groups if all(np.isfinite(g).all() for g in groups) else None
 
 
+def _present_groups(docs: list[dict], metric: str | None) -> list[np.ndarray] | None:
+    """Each run's values of ``metric`` where its episodes report one (a tie-break metric: an episode that never
+    reached the goal has no time to it), or None where no run has any."""
+    if metric is None:
+        return None
+    groups = [np.array([e["metrics"][metric] for e in d["episodes"] if metric in e.get("metrics", {})]) for d in docs]
+    groups = [g.astype(np.float64) for g in groups if g.size]
+    return groups if groups and all(np.isfinite(g).all() for g in groups) else None
+
+
 def _interval(groups: list[np.ndarray] | None, score) -> dict | None:
-    """``{"value", "low", "high", "mean"}`` over ``groups``: the score's aggregate (IQM or mean) and its stratified
-    bootstrap interval, or None without values."""
+    """``{"value", "low", "high", "mean"}`` over ``groups``: the score's aggregate (IQM or mean) and its two-level
+    bootstrap interval (training seeds, then episodes within each: the run is the unit, as rliable's), or None
+    without values."""
     if groups is None:
         return None
-    aggregate = mean_with_stratified_ci if score.aggregate == "mean" else iqm_with_stratified_ci
-    value, low, high = aggregate(groups)
+    value, low, high = aggregate_with_two_level_ci(groups, score.aggregate)
     return {"value": value, "low": low, "high": high, "mean": float(np.mean(np.concatenate(groups)))}
+
+
+def _seed_scores(groups: list[np.ndarray] | None, score) -> list[float] | None:
+    """Each run's (training seed's) aggregate of the score, in seed order."""
+    if groups is None:
+        return None
+    aggregate = np.mean if score.aggregate == "mean" else interquartile_mean
+    return [float(aggregate(g)) for g in groups]
 
 
 def _kind(label: str, agent: bool, env_id: str, score) -> str:
@@ -711,6 +745,8 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
     timesteps = [t for t in timesteps if isinstance(t, int | float) and not isinstance(t, bool)]
     label = group_key.removeprefix("agent:")
     metric = score.metric if score is not None else None
+    tie_break = score.tie_break if score is not None else None
+    layouts = {d["agent"].get("training_layouts", "default") for d in docs} if agent else set()
     return {
         "label": label,
         "kind": _kind(label, agent, env_id, score),
@@ -719,8 +755,14 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
         "low": low,
         "high": high,
         "score_runs": _score_groups(docs, metric),
+        "held_out_runs": _score_groups(held_out, metric) if held_out else None,
+        "tie_runs": _present_groups(docs, tie_break),
+        "held_out_tie_runs": _present_groups(held_out, tie_break) if held_out else None,
         "score": _interval(_score_groups(docs, metric), score),
         "held_out": _interval(_score_groups(held_out, metric), score) if held_out else None,
+        "seed_scores": _seed_scores(_score_groups(docs, metric), score) if agent else None,
+        "held_out_seed_scores": _seed_scores(_score_groups(held_out, metric), score) if agent and held_out else None,
+        "training_layouts": "/".join(sorted(layouts)) if agent else None,
         "tie": metrics.get(score.tie_break) if score is not None and score.tie_break else None,
         "held_out_tie": _tie_mean(held_out, score),
         "metrics": metrics,
@@ -865,8 +907,9 @@ def _superseded_by(env_id: str) -> str | None:
 
 def _headline_table(table: dict) -> list[str]:
     lines = [
-        "| policy | score [95% CI] | normalised | return IQM [95% CI] | held-out score [95% CI] | gap |",
-        "|---|---|---|---|---|---|",
+        "| policy | score [95% CI] | normalised | return IQM [95% CI] | held-out score [95% CI] | gap | "
+        "per training seed (default; held-out) |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in table["rows"]:
         if r["normalised"] is not None:
@@ -880,9 +923,18 @@ def _headline_table(table: dict) -> list[str]:
             f"{r['iqm']:.2f} [{r['low']:.2f}, {r['high']:.2f}]",
             _format_interval(r["held_out"]),
             f"{r['gap']:.3g}" if r["gap"] is not None else "-",
+            _format_seed_scores(r),
         ]
         lines.append("| " + " | ".join(cells) + " |")
     return lines
+
+
+def _format_seed_scores(row: dict) -> str:
+    """``0.98, 0.96, 0.53; 0.9, 0.8, 0.4``: each training seed's score on the default and the held-out layouts."""
+    if row["seed_scores"] is None:
+        return "-"
+    parts = [row["seed_scores"], row["held_out_seed_scores"] or []]
+    return "; ".join(", ".join(f"{v:.3g}" for v in values) for values in parts if values)
 
 
 def _details_table(env_id: str, rows: list[dict]) -> list[str]:
@@ -912,74 +964,168 @@ def _details_table(env_id: str, rows: list[dict]) -> list[str]:
     return [*lines, "", "</details>"]
 
 
-def _beats(agent: dict, reference: dict, score, layouts: str) -> bool:
-    """Whether ``agent``'s task score beats ``reference``'s on ``layouts`` ("score" for the default ones,
-    "held_out"): its 95% interval wholly on the better side of the reference's, or both at the score's ceiling and
-    the agent better on the tie-break metric over those layouts' episodes (faster to the goal, for instance)."""
-    a, b = agent[layouts], reference[layouts]
-    if a is None or b is None:
-        return False
-    agent_worst = a["low"] if score.direction == "max" else a["high"]
-    reference_best = b["high"] if score.direction == "max" else b["low"]
-    if score.sign * agent_worst > score.sign * reference_best:
-        return True
-    at_ceiling = score.ceiling is not None and a["value"] == b["value"] == score.ceiling
-    tie = "tie" if layouts == "score" else "held_out_tie"
-    ties = agent[tie], reference[tie]
-    return at_ceiling and None not in ties and score.tie_sign * (ties[0] - ties[1]) > 0
+#: The layouts an agent must have trained on for the verdict to count it (the Procgen protocol: train on the training
+#: distribution, judge on the held-out one).
+COUNTED_TRAINING_LAYOUTS = "train"
+#: Which layouts' comparison the verdict counts, and which it shows beside.
+_LAYOUT_KEYS = {"held_out": ("held_out_runs", "held_out_tie_runs"), "default": ("score_runs", "tie_runs")}
+
+
+def _compare(agent: dict, reference: dict, score, layouts: str) -> Comparison | None:
+    """The agent against the reference on ``layouts`` ("default" or "held_out"): the difference of the task score
+    with its run-level interval (and of the tie-break metric where both are at the ceiling), or None without
+    values on both sides."""
+    runs, ties = _LAYOUT_KEYS[layouts]
+    if agent[runs] is None or reference[runs] is None:
+        return None
+    return compare(
+        agent[runs],
+        reference[runs],
+        aggregate=score.aggregate,
+        direction=score.direction,
+        ceiling=score.ceiling,
+        agent_tie_groups=agent[ties],
+        reference_tie_groups=reference[ties],
+        tie_direction=score.tie_direction,
+    )
+
+
+def _beats(comparison: Comparison | None) -> bool:
+    return comparison is not None and comparison.outcome == "better"
+
+
+def is_counted(agent: dict) -> bool:
+    """Whether the verdict counts an agent's row: every seed trained on the training layouts only."""
+    return agent["training_layouts"] == COUNTED_TRAINING_LAYOUTS
 
 
 def agent_verdict(table: dict) -> dict | None:
     """Whether a trained agent beats the paper's algorithm (the upper anchor where the row names one) on a table of
-    :func:`leaderboard_tables`: ``{"reference", "agent" (the best agent's row, the first ranked that beats the
-    reference if any does), "default", "held_out" (bools)}``, or None without a score, a reference or an agent."""
+    :func:`leaderboard_tables`, with the run as the unit: ``{"reference", "agent" (the best agent's row),
+    "held_out", "default" (bools: the interval of agent minus reference wholly on the better side, or both at the
+    ceiling and the tie-break's difference so), "comparisons" (layouts -> :class:`~polyenvs.statistics.Comparison`
+    or None), "improvement" (P(agent > reference) on the held-out layouts, ``(p, low, high)``, or None), "counted"
+    (the agent trained on the training layouts)}``, or None without a score, a reference or an agent.
+
+    The best agent is the first ranked that beats the reference on the held-out layouts, counted agents before
+    others, then one that beats it on the default layouts, else the best ranked.
+    """
     score, rows = table["score"], table["rows"]
     kind = "anchor" if score is not None and score.upper_anchor else "paper"
     reference = next((r for r in rows if r["kind"] == kind), None)
     agents = [r for r in rows if r["kind"] == "agent" and r["score"] is not None]
     if score is None or reference is None or not agents:
         return None
-    winner = next((r for r in agents if _beats(r, reference, score, "score")), agents[0])
-    return {"reference": reference, "agent": winner, "default": _beats(winner, reference, score, "score"),
-            "held_out": _beats(winner, reference, score, "held_out")}  # fmt: skip
+    verdicts = [_verdict_of(agent, reference, score) for agent in agents]
+    return max(verdicts, key=lambda v: (v["counted"], v["held_out"], v["default"]))  # max keeps the first of equals
+
+
+def _verdict_of(agent: dict, reference: dict, score) -> dict:
+    comparisons = {layouts: _compare(agent, reference, score, layouts) for layouts in _LAYOUT_KEYS}
+    improvement = None
+    if agent["held_out_runs"] is not None and reference["held_out_runs"] is not None:
+        improvement = probability_of_improvement(
+            agent["held_out_runs"], reference["held_out_runs"], score.aggregate, score.direction
+        )
+    return {
+        "reference": reference,
+        "agent": agent,
+        "held_out": _beats(comparisons["held_out"]),
+        "default": _beats(comparisons["default"]),
+        "comparisons": comparisons,
+        "improvement": improvement,
+        "counted": is_counted(agent),
+    }
+
+
+def _format_difference(comparison: Comparison | None) -> str:
+    """``+0.04 [0.01, 0.07] (+5.0%)``: agent minus reference with its interval and relative change; the tie-break's
+    difference after it where it decided."""
+    if comparison is None:
+        return "-"
+    d = comparison.score
+    text = f"{d.value:+.3g} [{d.low:.3g}, {d.high:.3g}]"
+    text += f" ({100 * d.relative:+.1f}%)" if d.relative is not None else ""
+    if comparison.tie_break is not None:
+        tie = comparison.tie_break
+        text += f"; tie-break {tie.value:+.3g} [{tie.low:.3g}, {tie.high:.3g}]"
+    return text
+
+
+def _format_probability(improvement: tuple[float, float, float] | None) -> str:
+    return "-" if improvement is None else f"{improvement[0]:.2f} [{improvement[1]:.2f}, {improvement[2]:.2f}]"
+
+
+_VERDICT_HEADER = (
+    "| environment | paper's algorithm (or anchor), held-out | best trained agent, held-out (trained on) | "
+    "held-out difference [95% CI] (relative) | P(agent > paper), held-out | beats it on held-out layouts | "
+    "on the default layouts |"
+)
 
 
 def _verdict_section(tables: dict[str, dict]) -> list[str]:
-    """The question the leaderboard answers, per environment: does a trained agent beat the paper's algorithm?"""
+    """The question the leaderboard answers, per environment: does a trained agent beat the paper's algorithm on
+    layouts it never trained on?"""
     lines = [
         "## Does a trained agent beat the paper's algorithm?",
         "",
-        "Beats: the agent's 95% interval of the task score lies wholly on the better side of the paper's algorithm's "
-        "(of the upper anchor's, on a row that names one), or both are at the score's ceiling and the agent is "
-        "better on the tie-break metric (its mean over the same layouts' episodes).",
+        'On layouts it never trained on: the held-out ones (`layouts="test"`), the default ones beside. Beats: '
+        "the 95% interval of the difference of the task score, agent minus the paper's algorithm (the upper "
+        "anchor, on a row that names one), lies wholly on the better side of 0, with the training run as the unit "
+        "(a two-level bootstrap: training seeds, then episodes within each; the reference's episodes); or both "
+        "are at the score's ceiling and the interval of the difference of the tie-break metric's mean lies wholly "
+        "on its better side. P(agent > paper) is rliable's probability of improvement: the chance that a training "
+        "run of the agent scores better than the paper's algorithm. Only agents trained on the training layouts "
+        f'(`layouts="{COUNTED_TRAINING_LAYOUTS}"`) are counted; others are shown, labelled with what they trained on.',
         "",
-        "| environment | paper's algorithm (or anchor) | best trained agent | beats it | on held-out layouts |",
-        "|---|---|---|---|---|",
+        _VERDICT_HEADER,
+        "|---|---|---|---|---|---|---|",
     ]
-    wins = held = counted = total = 0
+    counts = {"held": 0, "default": 0, "any_held": 0, "any_default": 0, "total": 0, "counted": 0}
     for env_id, table in tables.items():
         verdict, successor = agent_verdict(table), _superseded_by(env_id)
-        total += successor is None
+        counts["total"] += successor is None
         if successor is not None:
             env_id = f"{env_id} (superseded by {successor}: not counted)"
         if verdict is None:
             reference = next((r for r in table["rows"] if r["kind"] in ("paper", "anchor")), None)
-            name = f"{reference['label']} {_format_interval(reference['score'])}" if reference else "-"
-            lines.append(f"| {env_id} | {name} | no trained agent | - | - |")
+            name = f"{reference['label']} {_format_interval(reference['held_out'])}" if reference else "-"
+            lines.append(f"| {env_id} | {name} | no trained agent | - | - | - | - |")
             continue
         if successor is None:
-            counted += 1
-            wins, held = wins + verdict["default"], held + verdict["held_out"]
-        ref, agent = verdict["reference"], verdict["agent"]
-        cells = [env_id, f"{ref['label']} {_format_interval(ref['score'])}",
-                 f"{agent['label']} {_format_interval(agent['score'])}",
-                 "**yes**" if verdict["default"] else "no", "**yes**" if verdict["held_out"] else "no"]  # fmt: skip
-        lines.append("| " + " | ".join(cells) + " |")
+            _count(counts, verdict)
+        lines.append("| " + " | ".join(_verdict_cells(env_id, verdict)) + " |")
     summary = (
-        f"A trained agent beats the paper's algorithm on {wins} of the {total} environments the benchmark ranks on "
-        f"({counted} have a trained agent), and on the held-out layouts on {held}."
+        f"Counting agents trained on the training layouts: a trained agent beats the paper's algorithm on the "
+        f"held-out layouts on {counts['held']} of the {counts['total']} environments the benchmark ranks on "
+        f"({counts['counted']} have such an agent), and on the default layouts on {counts['default']}. Counting "
+        f"every agent, whatever it trained on: {counts['any_held']} on the held-out layouts, "
+        f"{counts['any_default']} on the default ones."
     )
     return [*lines[:2], summary, "", *lines[2:], ""]
+
+
+def _count(counts: dict, verdict: dict) -> None:
+    counts["any_held"] += verdict["held_out"]
+    counts["any_default"] += verdict["default"]
+    if verdict["counted"]:
+        counts["counted"] += 1
+        counts["held"] += verdict["held_out"]
+        counts["default"] += verdict["default"]
+
+
+def _verdict_cells(env_id: str, verdict: dict) -> list[str]:
+    ref, agent = verdict["reference"], verdict["agent"]
+    trained_on = f"{agent['training_layouts']} layouts" + ("" if verdict["counted"] else ": not counted")
+    return [
+        env_id,
+        f"{ref['label']} {_format_interval(ref['held_out'])}",
+        f"{agent['label']} {_format_interval(agent['held_out'])} ({trained_on})",
+        _format_difference(verdict["comparisons"]["held_out"]),
+        _format_probability(verdict["improvement"]),
+        "**yes**" if verdict["held_out"] else "no",
+        "**yes**" if verdict["default"] else "no",
+    ]
 
 
 def _episode_counts(documents: list[dict]) -> str:
@@ -1021,8 +1167,9 @@ def leaderboard_markdown(
         "random = 0 and the paper's algorithm (or a stated upper anchor) = 1, unless their intervals overlap "
         '("not discriminative"). The return\'s IQM is shown beside it. The gap is the default score minus the '
         "held-out one, in the score's units, positive where the held-out layouts are worse. A trained algorithm's "
-        "row pools the episodes of all its training seeds (a stratified bootstrap: episodes resampled within each "
-        "run).",
+        "row pools the episodes of all its training seeds, and its interval takes the run as the unit (a two-level "
+        "bootstrap: training seeds drawn with replacement, then episodes within each); each seed's own score is "
+        "in the last column.",
         "",
     ]
     if quick:

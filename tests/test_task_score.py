@@ -170,8 +170,8 @@ def test_the_committed_reference_holds_each_rows_protocol_count():
         assert doc["n_episodes"] == rows[doc["env_id"]], f"{path.name}: {doc['n_episodes']} episodes"
 
 
-def _agent(doc: dict, seed: int = 0) -> dict:
-    doc["agent"] = {"algo": "ppo", "label": "ppo", "training_seed": seed}
+def _agent(doc: dict, seed: int = 0, training_layouts: str = "train") -> dict:
+    doc["agent"] = {"algo": "ppo", "label": "ppo", "training_seed": seed, "training_layouts": training_layouts}
     return doc
 
 
@@ -209,14 +209,25 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     # Without an agent there is no verdict, and the page says so.
     assert polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
     page = leaderboard_markdown([*paper, random, better])
-    assert "A trained agent beats the paper's algorithm on 1 of the 1 environments the benchmark ranks on" in page
-    assert f"| {WALL} | wall_follower " in page and "| **yes** | no |" in page
+    assert (
+        "a trained agent beats the paper's algorithm on the held-out layouts on 0 of the 1 environments the "
+        "benchmark ranks on (1 have such an agent), and on the default layouts on 1." in page
+    )
+    assert f"| {WALL} | wall_follower " in page and "(train layouts) |" in page and "| no | **yes** |" in page
+    # An agent trained on the default layouts (not the training ones) is shown, labelled, and not counted.
+    page = leaderboard_markdown([*paper, random, _agent({**better}, training_layouts="default")])
+    assert "(default layouts: not counted) |" in page and "| no | **yes** |" in page
+    assert "on the held-out layouts on 0 of the 1 environments the benchmark ranks on (0 have such an agent)" in page
+    assert "Counting every agent, whatever it trained on: 0 on the held-out layouts, 1 on the default ones." in page
     # A version the benchmark no longer ranks on is shown, not counted.
     roll = "polyenvs/BeastRoll-v0"
     old = [_doc(roll, "rolling_gait", [0.82] * 30, "distance_m"), _agent(_doc(roll, "x", [0.9] * 30, "distance_m"))]
     page = leaderboard_markdown([*paper, random, better, *old])
     assert f"| {roll} (superseded by polyenvs/BeastRoll-v1: not counted) | rolling_gait " in page
-    assert "on 1 of the 1 environments the benchmark ranks on (1 have a trained agent)" in page
+    assert (
+        "on 0 of the 1 environments the benchmark ranks on (1 have such an agent), and on the default layouts on 1"
+        in page
+    )
 
 
 def _random_and_paper(rng) -> list[dict]:
@@ -348,3 +359,27 @@ def test_success_scores_rank_by_their_rate_not_its_iqm():
     runs = [np.r_[np.ones(38), np.zeros(12)]]
     stats = polyenvs.leaderboard._interval(runs, successes[0].score)
     assert stats["value"] == pytest.approx(0.76) and stats["high"] < 1.0
+
+
+def test_a_training_seed_that_fails_widens_the_agents_interval_and_can_flip_the_verdict():
+    """The run is the unit: three seeds well above the paper beat it; a fourth that fails makes the difference's
+    interval reach below 0 (episodes resampled within each seed alone would keep it narrow and the win)."""
+    rng = np.random.default_rng(3)
+    paper = [_doc(WALL, "wall_follower", list(rng.uniform(0.5, 0.6, 30)), "perimeter_fraction", layouts=layouts)
+             for layouts in ("default", "test")]  # fmt: skip
+    random = _doc(WALL, "random", list(rng.uniform(0.0, 0.1, 30)), "perimeter_fraction")
+
+    def seeds(values: list[tuple[float, float]]) -> list[dict]:
+        return [_agent(_doc(WALL, "x", list(rng.uniform(lo, hi, 30)), "perimeter_fraction", layouts=layouts), seed)
+                for seed, (lo, hi) in enumerate(values) for layouts in ("default", "test")]  # fmt: skip
+
+    good = [(0.7, 0.8), (0.72, 0.82), (0.68, 0.78)]
+    three = leaderboard_tables([*paper, random, *seeds(good)])[WALL]
+    four = leaderboard_tables([*paper, random, *seeds([*good, (0.0, 0.1)])])[WALL]
+    agent = [next(r for r in t["rows"] if r["kind"] == "agent") for t in (three, four)]
+    assert [len(a["seed_scores"]) for a in agent] == [3, 4]
+    widths = [a["held_out"]["high"] - a["held_out"]["low"] for a in agent]
+    assert widths[1] > 5 * widths[0]
+    verdicts = [polyenvs.leaderboard.agent_verdict(t) for t in (three, four)]
+    assert [v["held_out"] for v in verdicts] == [True, False] and [v["default"] for v in verdicts] == [True, False]
+    assert verdicts[0]["improvement"][0] == 1.0 and verdicts[1]["improvement"][0] == 0.75
