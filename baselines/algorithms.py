@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from gymnasium import spaces
 
+from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError
 
 __all__ = ["ALGOS", "AlgoInfo", "algo_class", "check_action_space", "get_algo"]
@@ -55,7 +56,7 @@ def algo_class(name: str) -> type:
     try:
         module = importlib.import_module(info.module)
     except ImportError as exc:
-        raise InputError(f'{name} needs {info.module.replace("_", "-")}: pip install "polyenvs[train]"') from exc
+        raise InputError(f"{name} needs {info.module.replace('_', '-')}: {install_hint('train')}") from exc
     return getattr(module, info.class_name)
 
 

@@ -156,8 +156,11 @@ def make_composer(
     spec: ResidualSpec, env_id: str, observation_space, action_space, seed: int | None = None
 ) -> ResidualComposer:
     """The composer of ``spec`` for ``env_id``: ``ValueError`` naming the parameter for an action space that is not
-    a Box (``env``) or a ``baseline`` that is not one of the id's hand baselines (random and trained models are not
-    bases: a residual corrects a fixed, known controller). ``seed`` seeds a stochastic baseline."""
+    a Box (``env``), a ``baseline`` that is not one of the id's hand baselines (random and trained models are not
+    bases: a residual corrects a fixed, known controller) or a ``seed`` that is not ``None`` or an integer >= 0
+    (it seeds a stochastic baseline)."""
+    if seed is not None:
+        check_int("seed", seed, 0)
     if not isinstance(action_space, spaces.Box) or not isinstance(observation_space, spaces.Box):
         kinds = " and ".join(f"Box{s.shape}" if isinstance(s, spaces.Box) else str(s)
                              for s in (observation_space, action_space))  # fmt: skip

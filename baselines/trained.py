@@ -44,6 +44,7 @@ from gymnasium import spaces
 
 from baselines.algorithms import ALGOS
 from baselines.residual import ResidualComposer, ResidualSpec, make_composer
+from polyenvs.core.extras import install_hint
 from polyenvs.pool import single_threaded_torch
 from polyenvs.registry import bare_id
 
@@ -164,7 +165,7 @@ def _algorithm_class(algo: str):
         module = __import__(module_name, fromlist=[class_name])
     except ImportError:
         package = {"stable_baselines3": "Stable-Baselines3", "sb3_contrib": "sb3-contrib"}[module_name]
-        raise TrainedModelError(f'a trained {algo} model needs {package}: pip install "polyenvs[train]"') from None
+        raise TrainedModelError(f"a trained {algo} model needs {package}: {install_hint('train')}") from None
     return getattr(module, class_name)
 
 

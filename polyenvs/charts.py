@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
+from polyenvs.core.extras import install_hint
 from polyenvs.files import atomic_path
 from polyenvs.statistics import performance_profile
 
 __all__ = ["INSTALL_HINT", "available", "interval_plot", "learning_curve_plot", "performance_profile_plot", "save"]
 
-INSTALL_HINT = 'pip install "polyenvs[plots]"'
+INSTALL_HINT = install_hint("plots")
 #: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm blue, an upper anchor navy (both
 #: can be drawn on one row), other hand baselines light blue, trained agents orange.
 COLOURS = {"random": "#7f7f7f", "paper": "#1f77b4", "anchor": "#08306b", "baseline": "#9ecae1", "agent": "#ff7f0e"}

@@ -30,7 +30,9 @@ draw their actions in another order than the whole swarm did.
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
+import re
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
@@ -41,6 +43,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, check_count
 from polyenvs.evaluation import make_agent, make_env
 from polyenvs.files import temp_path_for
@@ -74,7 +77,7 @@ def _minari():
     try:
         import minari
     except ImportError:
-        raise InputError('datasets need minari and h5py: pip install "polyenvs[collect]"') from None
+        raise InputError(f"datasets need minari and h5py: {install_hint('collect')}") from None
     return minari
 
 
@@ -304,15 +307,63 @@ def _minari_root(root: Path) -> Iterator[None]:
             os.environ["MINARI_DATASETS_PATH"] = saved
 
 
-def _replace_dir(tmp: Path, out_dir: Path) -> None:
-    """Move the finished ``tmp`` onto ``out_dir`` (an old one is renamed away first, then removed)."""
-    old = None
+#: The lock file of a run's work directory: held while the run lives (the kernel drops it when the run dies).
+_WORK_LOCK = ".collect.lock"
+
+
+def _hold_lock(lock_file: Path) -> int | None:
+    """A descriptor holding ``lock_file``'s exclusive lock (the file created if need be), or ``None`` if another
+    process holds it, its directory is gone, or the system has no such locks (Windows)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no locks, so no telling a live run's directory from a dead one
+        return None
+    try:
+        fd = os.open(lock_file, os.O_RDWR | os.O_CREAT, 0o666)
+    except FileNotFoundError:  # removed meanwhile
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _remove_abandoned(out_dir: Path) -> None:
+    """Remove the work directories beside ``out_dir`` that runs killed outright (kill -9) left behind: those whose
+    lock no process holds. Runs before the lock existed left none in theirs, which counts as abandoned too."""
+    name = re.compile(rf"\.{re.escape(out_dir.name)}\.[0-9a-f]{{8}}\.tmp")  # files.temp_path_for's names
+    for path in out_dir.parent.glob(f".{glob.escape(out_dir.name)}.*.tmp"):
+        if not name.fullmatch(path.name) or path.is_symlink() or not path.is_dir():
+            continue
+        fd = _hold_lock(path / _WORK_LOCK)
+        if fd is not None:
+            shutil.rmtree(path, ignore_errors=True)
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def _work_dir(out_dir: Path) -> Iterator[Path]:
+    """A new hidden directory beside ``out_dir`` (``.NAME.<random>.tmp``) for this run's files, locked while the
+    block runs and removed after it, even when it raises; the directories of killed runs are removed first."""
+    _remove_abandoned(out_dir)
+    work = temp_path_for(out_dir)
+    work.mkdir()
+    fd = _hold_lock(work / _WORK_LOCK)
+    try:
+        yield work
+    finally:
+        shutil.rmtree(work)
+        if fd is not None:
+            os.close(fd)
+
+
+def _replace_dir(new: Path, out_dir: Path, work: Path) -> None:
+    """Move the finished ``new`` onto ``out_dir``; an old ``out_dir`` goes into ``work``, removed with it."""
     if out_dir.exists():
-        old = temp_path_for(out_dir)
-        os.replace(out_dir, old)
-    os.replace(tmp, out_dir)
-    if old is not None:
-        shutil.rmtree(old)
+        os.replace(out_dir, work / "replaced")
+    os.replace(new, out_dir)
 
 
 def collect(
@@ -383,15 +434,16 @@ def collect(
 
 
 def _write(minari, out_dir, identifier, trajectories, spec, observation_space, action_space, metadata, references):
-    """Create the dataset in a hidden folder beside ``out_dir``, then rename it into place."""
+    """Create the dataset in a hidden work directory beside ``out_dir`` (:func:`_work_dir`), then rename it into
+    place."""
     from polyenvs.leaderboard import provenance
 
     facts = provenance()
     commit = facts["git_commit"]
     version = facts["versions"]["polyenvs"]
-    tmp = temp_path_for(out_dir)
-    try:
-        with _minari_root(tmp), warnings.catch_warnings():
+    with _work_dir(out_dir) as work:
+        root = work / "dataset"
+        with _minari_root(root), warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # Minari's notes on fields we leave out (author_email)
             dataset = minari.create_dataset_from_buffers(
                 dataset_id=identifier,
@@ -409,10 +461,7 @@ def _write(minari, out_dir, identifier, trajectories, spec, observation_space, a
                 **references,
             )
             dataset.storage.update_metadata({"polyenvs": {**metadata, "versions": facts["versions"]}})
-        _replace_dir(tmp, out_dir)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp)
+        _replace_dir(root, out_dir, work)
 
 
 # ---------------------------------------------------------------------------------------------------- reading

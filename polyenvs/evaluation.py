@@ -20,10 +20,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, check_count, shown
 from polyenvs.limits import MAX_EPISODE_STEPS
 from polyenvs.registry import bare_id
-from polyenvs.rollout import run_episode
+from polyenvs.rollout import run_episode, unknown_id_help
 
 __all__ = ["EnvTarget", "evaluate", "make_agent", "make_env", "resolve_env"]
 
@@ -50,6 +51,8 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         return build(env_id, env_kwargs, **extra)
     except UnknownEnvironment:
         raise _unknown(env_id) from None
+    except gym.error.DependencyNotInstalled as exc:  # an extra of ours (its message names it)
+        raise InputError(f"{bare_id(env_id)}: {exc}") from exc
     except ModuleNotFoundError as exc:
         from polyenvs.registry import entry
 
@@ -57,7 +60,7 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
             needed_extra = entry(env_id).extra
         except KeyError:  # a user's own environment
             needed_extra = None
-        hint = f'pip install "polyenvs[{needed_extra}]"' if needed_extra else "see the README's Install section"
+        hint = install_hint(needed_extra) if needed_extra else "see the README's Install section"
         raise InputError(f"{env_id} needs the package {exc.name!r}, which is not installed: {hint}") from exc
     except (TypeError, ValueError, gym.error.Error) as exc:
         if not env_kwargs:
@@ -95,10 +98,8 @@ def resolve_env(env_id: str, env_kwargs: dict | None = None) -> EnvTarget:
 
 
 def _unknown(env_id: str) -> InputError:
-    return InputError(
-        f"unknown environment id {bare_id(env_id)!r} (neither a Gymnasium id nor a PettingZoo module path); run "
-        "'polyenvs list' for ours"
-    )
+    hint = unknown_id_help(env_id) or "neither a Gymnasium id nor a PettingZoo module path"
+    return InputError(f"unknown environment id {shown(bare_id(env_id))!r}: {hint} (run 'polyenvs list' for ours)")
 
 
 def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, policy_kwargs: dict | None = None):

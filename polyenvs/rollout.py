@@ -22,6 +22,7 @@ a robot that left gets no observation and ``step({})`` with no robot left return
 
 from __future__ import annotations
 
+import difflib
 import functools
 import importlib
 import inspect
@@ -31,7 +32,7 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from polyenvs.registry import ParallelEnvEntry, bare_id, entry
+from polyenvs.registry import PARALLEL_ENV_IDS, ParallelEnvEntry, bare_id, entry
 
 __all__ = [
     "SharedPolicy",
@@ -44,6 +45,7 @@ __all__ = [
     "policy_action",
     "run_episode",
     "takes_action_masks",
+    "unknown_id_help",
 ]
 
 
@@ -65,6 +67,25 @@ def _parallel_module(name: str):
     except ImportError:
         return None
     return module if callable(getattr(module, "parallel_env", None)) else None
+
+
+def unknown_id_help(env_id: str) -> str:
+    """What to tell a user who named ``env_id``, which is neither a Gymnasium id nor a PettingZoo module: the nearest
+    of our PettingZoo modules (a name without a namespace, close to one), else Gymnasium's own help (the near name in
+    the namespace, the versions that exist); ``""`` when neither has any (a malformed name, or an id that exists)."""
+    name = bare_id(env_id)
+    if "/" not in name:
+        by_name = {**{m.rsplit(".", 1)[-1]: m for m in PARALLEL_ENV_IDS}, **{m: m for m in PARALLEL_ENV_IDS}}
+        near = difflib.get_close_matches(name, by_name, n=1)
+        if near:
+            return f"Did you mean: `{by_name[near[0]]}`?"
+    try:
+        gym.spec(name)
+    except (gym.error.UnregisteredEnv, gym.error.DeprecatedEnv) as exc:
+        return str(exc)
+    except gym.error.Error:  # malformed, or a version-less name
+        pass
+    return ""
 
 
 def env_kind(env_id: str) -> str:

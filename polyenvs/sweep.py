@@ -29,7 +29,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from polyenvs.errors import InputError
+from polyenvs.core.extras import install_hint
+from polyenvs.errors import InputError, shown
 from polyenvs.files import check_writable_directory
 from polyenvs.registry import bare_id, slug
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
@@ -50,7 +51,7 @@ __all__ = [
 #: Where ``polyenvs sweep`` writes by default (gitignored, like every run's output).
 DEFAULT_SWEEP_DIR = Path("runs/sweep")
 BACKENDS = ("local", "ray")
-RAY_HINT = 'the ray backend needs Ray: pip install "polyenvs[distributed]"'
+RAY_HINT = f"the ray backend needs Ray: {install_hint('distributed')}"
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,7 @@ def plan_jobs(
     from baselines.algorithms import check_action_space, get_algo
     from polyenvs.evaluation import make_env
     from polyenvs.registry import ALL_IDS
-    from polyenvs.rollout import agent_spaces
+    from polyenvs.rollout import agent_spaces, unknown_id_help
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.train import check_out_dir
 
@@ -182,7 +183,11 @@ def plan_jobs(
     for env_id in envs:
         bare = bare_id(env_id)
         if bare not in ALL_IDS:
-            raise InputError(f"--envs: unknown environment id {env_id!r}; run 'polyenvs list' for the ids")
+            hint = unknown_id_help(bare)
+            raise InputError(
+                f"--envs: unknown environment id {shown(env_id)!r}{': ' + hint if hint else ''} (run 'polyenvs list' "
+                "for the ids)"
+            )
         ids.append(bare)
     for algo in algos:
         try:

@@ -54,6 +54,29 @@ def test_list_shows_every_id_with_spaces(capsys):
     assert main(["list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["id"] for r in rows] == polyenvs.registry.ALL_IDS and all(r["description"] for r in rows)
+    assert [r["superseded_by"] for r in rows] == [e.superseded_by for e in polyenvs.registry.REGISTRY]
+    assert all(r["missing"] is None and r["action_space"] for r in rows)  # every extra is installed here
+
+
+def test_superseded_ids_are_named_in_one_line_of_our_own_never_in_gymnasiums_warning():
+    """Gymnasium's two-line "out of date" warning reached the user for every -v0 id: ten lines from ``polyenvs
+    list``, two before ``localize``'s one-line error (its default id is one), two on an evaluation of one."""
+    superseded = [e for e in polyenvs.registry.REGISTRY if e.superseded_by is not None]
+    listed = run_cli("list")
+    assert listed.returncode == 0 and listed.stderr == "", listed.stderr
+    for row in superseded:
+        assert f"(superseded by {row.superseded_by})" in next(
+            line for line in listed.stdout.splitlines() if line.startswith(f"{row.id} ")
+        )
+    localize = run_cli("localize", "--map", "nope")
+    assert localize.returncode == 2 and len(localize.stderr.splitlines()) == 1, localize.stderr
+    old = next(e for e in superseded if e.family == "bumper")
+    evaluated = run_cli("evaluate", old.id, "--episodes", "1")
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert evaluated.stderr.splitlines() == [
+        f"polyenvs evaluate: note: {old.id} is superseded by {old.superseded_by} (kept registered, unchanged, for "
+        "the results made with it)"
+    ]
 
 
 def test_evaluate_json_document(capsys):
@@ -191,6 +214,13 @@ def test_errors_are_one_line_without_traceback(args, fragment):
         (["record", GOAL, "--fps", "fast"], "--fps"),
         (["record", GOAL, "--output", "episode.png"], ".gif or .mp4"),
         (["record", "polyenvs/Nope-v0"], "unknown environment id"),
+        # Gymnasium's own help for a typo'd id, and ours for a module path
+        (["evaluate", "polyenvs/BuckybotWalFollow-v0"], "Did you mean: `BuckybotWallFollow`?"),
+        (["evaluate", "polyenvs/BeastRoll-v99"], "It provides versioned environments: [ `v0`, `v1`"),
+        (["evaluate", "polyenv/BuckybotGoal-v0"], "Namespace polyenv not found. Did you mean: `polyenvs`?"),
+        (["evaluate", "polyenvs.swarm.coridor_v0"], "Did you mean: `polyenvs.swarm.corridor_v0`?"),
+        (["record", "formation_v0"], "Did you mean: `polyenvs.swarm.formation_v0`?"),
+        (["collect", "polyenvs/BuckybotGoal-v99", "--out", "d"], "It provides versioned environments: [ `v0`"),
         (["record", GOAL, "--env-kwargs", '{"nonsense": 1}'], "nonsense"),
         (["record", GOAL, "--policy-kwargs", '{"clearance_cm": -1}'], "clearance_cm"),
         (["leaderboard", "--episodes", "0"], "--episodes"),
@@ -346,7 +376,7 @@ def test_record_mp4_without_imageio_ffmpeg_is_one_line(tmp_path, monkeypatch, ca
     monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # import imageio_ffmpeg now raises ImportError
     code, _, err = run_main(["record", GOAL, "--max-steps", "2", "--output", str(tmp_path / "x.mp4")], capsys)
     assert_one_line_error(code, err, "imageio-ffmpeg")
-    assert "polyenvs[render]" in err and list(tmp_path.iterdir()) == []
+    assert '.[render]" in a polyenvs clone' in err and list(tmp_path.iterdir()) == []
 
 
 def test_record_checks_the_output_path_before_running(tmp_path, monkeypatch, capsys):
@@ -454,5 +484,5 @@ def test_a_missing_optional_package_is_one_line_naming_the_extra(monkeypatch, ca
     monkeypatch.setattr(builtins, "__import__", no_imageio)
     code, out, err = run_main(["evaluate", "polyenvs/BeastRoll-v0", "--episodes", "1"], capsys)
     assert_one_line_error(
-        code, err, "needs the package 'imageio', which is not installed: pip install \"polyenvs[mujoco]\""
+        code, err, 'need imageio, which is not installed: pip install ".[mujoco]" in a polyenvs clone'
     )

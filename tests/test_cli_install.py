@@ -1,7 +1,10 @@
 """The installed package, not the checkout: a non-editable install (what pip makes of the wheel) finds its training
-configs from any directory, and its leaderboard says that it has no trained agents and why.
+configs from any directory, and its leaderboard says that it has no trained agents and why; and what a base install
+(``pip install .``, no extra) does where an extra is missing.
 
-The install takes the interpreter's own dependencies (``--no-deps``) and builds without isolation, offline.
+The install takes the interpreter's own dependencies (``--no-deps``) and builds without isolation, offline. A missing
+extra is played by a subprocess whose ``sys.modules`` holds ``None`` for the extra's packages (importing one then
+raises ``ModuleNotFoundError``), so nothing is uninstalled from the environment the tests run in.
 """
 
 from __future__ import annotations
@@ -96,3 +99,66 @@ def test_the_installed_package_has_one_version_and_ships_its_type_hints(installe
     metadata = next(installed.glob("polyenvs-*.dist-info")) / "METADATA"
     assert f"Version: {polyenvs.__version__}" in metadata.read_text().splitlines()
     assert (installed / "polyenvs" / "py.typed").is_file() and (installed / "baselines" / "py.typed").is_file()
+
+
+def _without(packages: list[str], code: str, cwd: Path) -> subprocess.CompletedProcess:
+    """``python -c code`` in ``cwd`` as if ``packages`` were not installed."""
+    shim = f"import sys; sys.modules.update(dict.fromkeys({packages!r}))\n"
+    return subprocess.run([sys.executable, "-c", shim + code], cwd=cwd, capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})  # fmt: skip
+
+
+def _cli(*argv: str) -> str:
+    return f"from polyenvs.cli import main; sys.exit(main({list(argv)!r}))"
+
+
+def test_without_mujoco_the_list_names_the_extra_and_gym_make_raises_dependency_not_installed(tmp_path):
+    """On a base install ``polyenvs list`` printed only a traceback (``No module named 'mujoco'``, exit 1), and
+    ``gym.make`` of a beast raised a bare ``ModuleNotFoundError`` where Gymnasium's MuJoCo envs name their extra."""
+    import polyenvs
+
+    listed = _without(["mujoco"], _cli("list"), tmp_path)
+    assert listed.returncode == 0 and listed.stderr == "", listed.stderr
+    lines = listed.stdout.splitlines()
+    for row in polyenvs.registry.REGISTRY:
+        line = next(line for line in lines if line.startswith(f"{row.id} "))
+        installed = " action " in line
+        assert installed == (row.extra is None), line
+        assert installed or line.split(None, 1)[1].startswith(
+            'the Platonic beasts need mujoco, which is not installed: pip install ".[mujoco]" in a polyenvs clone'
+        ), line
+    made = _without(["mujoco"], "import gymnasium as gym, polyenvs; gym.make('polyenvs/BeastRoll-v1')", tmp_path)
+    assert made.stderr.strip().splitlines()[-1] == (
+        "gymnasium.error.DependencyNotInstalled: the Platonic beasts need mujoco, which is not installed: "
+        'pip install ".[mujoco]" in a polyenvs clone'
+    ), made.stderr
+
+
+def test_without_pygame_a_human_window_raises_dependency_not_installed(tmp_path):
+    """The render extra's window, the one optional package ``gym.make``'s environments import besides MuJoCo."""
+    code = f"import gymnasium as gym, polyenvs; env = gym.make({GOAL!r}, render_mode='human'); env.reset(seed=0)"
+    shown = _without(["pygame"], code + "; env.render()", tmp_path)
+    assert shown.stderr.strip().splitlines()[-1] == (
+        'gymnasium.error.DependencyNotInstalled: render_mode="human" needs pygame: pip install ".[render]" in a polyenvs clone'
+    ), shown.stderr
+
+
+@pytest.mark.parametrize(
+    ("extra", "packages", "argv"),
+    [
+        ("mujoco", ["mujoco"], ["evaluate", "polyenvs/BeastRoll-v1", "--episodes", "1"]),
+        ("train", ["yaml", "stable_baselines3", "sb3_contrib", "torch"], ["train", GOAL, "--algo", "ppo", "--out", "x"]),
+        ("train", ["stable_baselines3", "sb3_contrib", "torch"], ["train", GOAL, "--algo", "ppo", "--out", "x"]),
+        ("train", ["stable_baselines3", "sb3_contrib", "torch"], ["sweep", "--envs", GOAL, "--algos", "ppo", "--seeds", "0", "--out", "x"]),
+        ("collect", ["minari", "h5py"], ["collect", GOAL, "--episodes", "1", "--out", "x"]),
+        ("render", ["imageio"], ["record", GOAL, "--max-steps", "2", "--output", "x.gif"]),
+        ("distributed", ["ray"], ["sweep", "--envs", GOAL, "--algos", "ppo", "--seeds", "0", "--backend", "ray", "--out", "x"]),
+    ],
+)  # fmt: skip
+def test_a_missing_extra_is_one_line_naming_its_install_line(extra, packages, argv, tmp_path):
+    done = _without(packages, _cli(*argv), tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.splitlines()) == 1 and f'pip install ".[{extra}]" in a polyenvs clone' in done.stderr, (
+        done.stderr
+    )
+    assert list(tmp_path.iterdir()) == []

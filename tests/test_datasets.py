@@ -3,7 +3,13 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +32,23 @@ FAMILIES = [
     ("polyenvs.swarm.corridor_v0", {"max_cycles": 25}),
 ]
 SEED = 7
+ROOT = Path(__file__).resolve().parent.parent
+#: ``polyenvs collect`` stalled while Minari writes its HDF5 (a partial file already there), until it is killed.
+STALLED_COLLECT = """
+import os, sys, time
+import minari
+from polyenvs.cli import main
+
+def stalled(*args, **kwargs):
+    root = os.environ["MINARI_DATASETS_PATH"]
+    os.makedirs(root)
+    with open(os.path.join(root, "partial.hdf5"), "wb") as fh:
+        fh.write(bytes(100_000))
+    time.sleep(600)
+
+minari.create_dataset_from_buffers = stalled
+sys.exit(main(sys.argv[1:]))
+"""
 
 
 def _load(root, identifier, monkeypatch):
@@ -138,6 +161,48 @@ def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monk
         collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=2, overwrite=True, **kwargs)
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
     assert [p.name for p in tmp_path.iterdir()] == ["demos"]
+
+
+def _stalled_collect(args: list[str], out, log) -> tuple[subprocess.Popen, Path]:
+    """A ``polyenvs collect`` process stalled in its write, and the work directory it writes in."""
+    before = set(out.parent.glob(f".{out.name}.*.tmp"))
+    proc = subprocess.Popen([sys.executable, "-c", STALLED_COLLECT, *args], cwd=ROOT, stdout=log,
+                            stderr=subprocess.STDOUT)  # fmt: skip
+    deadline = time.monotonic() + 120  # a bound on a broken run, not a timing assertion
+    while True:
+        started = [p.parent.parent for p in out.parent.glob(f".{out.name}.*.tmp/*/partial.hdf5")]
+        new = [p for p in started if p not in before]
+        if new:
+            return proc, new[0]
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"the collection never started writing: {Path(log.name).read_text()[-2000:]}")
+        time.sleep(0.1)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no kill -9 (nor the locks that tell a live run)")
+def test_a_collection_killed_outright_leaves_nothing_behind_the_next_run(tmp_path, capsys):
+    """kill -9 while Minari wrote left the hidden work directory (up to 3 MB of partial HDF5) beside the output for
+    ever: the next run removes it, and keeps the one a live collection is writing in."""
+    out = tmp_path / "demos"
+    args = ["collect", "polyenvs/APLiteCorridor-v0", "--episodes", "1", "--out", str(out), "--env-kwargs",
+            '{"max_episode_steps": 5}']  # fmt: skip
+    with open(tmp_path / "killed.log", "w") as killed_log, open(tmp_path / "live.log", "w") as live_log:
+        killed, abandoned = _stalled_collect(args, out, killed_log)
+        os.kill(killed.pid, signal.SIGKILL)
+        killed.wait()
+        assert (abandoned / "dataset" / "partial.hdf5").stat().st_size == 100_000  # what the kill leaves
+        live, working = _stalled_collect(args, out, live_log)  # the next run: it starts by removing it
+        try:
+            assert {p.name for p in tmp_path.glob(".demos.*")} == {working.name}
+            code, _, err = run_main(args, capsys)
+            assert code == 0, err
+            assert {p.name for p in tmp_path.glob(".demos.*")} == {working.name}
+            assert live.poll() is None  # still writing, undisturbed
+        finally:
+            live.kill()
+            live.wait()
+    assert (out / "polyenvs" / "APLiteCorridor-v0" / "aplite-v0" / "data" / "main_data.hdf5").is_file()
 
 
 @pytest.mark.parametrize(

@@ -182,3 +182,15 @@ def test_heading_in_scores_is_degrees(logs):
     result = score_estimator("dead_reckoning", {}, context, runs, 5)
     assert np.nanmax(result["heading_deg"]) <= 180.0
     assert math.isfinite(np.nanmedian(result["position_cm"]))
+
+
+def test_the_default_environment_is_a_current_id_whose_runs_go_past_its_task_budget():
+    """``polyenvs localize`` defaults to the id the benchmark ranks on (not a superseded one), and a run ends at its
+    bump count, not at the task's budget of 50 cycles."""
+    from polyenvs.localization import DEFAULT_ENV_ID
+    from polyenvs.localization.runner import rollout_logs
+    from polyenvs.registry import entry
+
+    assert entry(DEFAULT_ENV_ID).superseded_by is None and entry(DEFAULT_ENV_ID).estimators
+    _, (run,) = rollout_logs(DEFAULT_ENV_ID, runs=1, bumps=55)
+    assert int(run.bumped.sum()) == 55 and len(run.logs) > 50

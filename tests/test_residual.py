@@ -137,6 +137,16 @@ def test_bad_arguments_raise_naming_the_parameter(kwargs, name):
         ResidualPolicy(gym.make(CORRIDOR), **kwargs)
 
 
+@pytest.mark.parametrize("env_id", IDS)
+def test_a_bad_seed_raises_naming_seed(env_id):
+    """``seed="x"``, -1 and 1.5 were accepted (the cart's random bounce failed later, in NumPy, without the name)."""
+    env = _make(env_id)
+    for seed in ("x", -1, 1.5, True):
+        with pytest.raises(ValueError, match="^seed must be "):
+            ResidualPolicy(env, seed=seed)
+    env.close()
+
+
 def test_a_discrete_action_space_is_refused_naming_env():
     with pytest.raises(ValueError, match="env: a residual policy needs Box"):
         ResidualPolicy(gym.make("polyenvs/BuckybotGoal-v0"))

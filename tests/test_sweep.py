@@ -73,6 +73,7 @@ def test_local_sweep_runs_two_jobs_then_skips_them(tmp_path, config_dir, capsys)
     ("change", "message"),
     [
         ({"--envs": ["polyenvs/Nope-v0"]}, "--envs: unknown environment id 'polyenvs/Nope-v0'"),
+        ({"--envs": ["polyenvs/BuckybotWalFollow-v0"]}, "Did you mean: `BuckybotWallFollow`?"),
         ({"--algos": ["a2c"]}, "--algos: unknown algorithm 'a2c'"),
         ({"--seeds": ["0", "-1"]}, "--seeds must be >= 0, got -1"),
         ({"--seeds": ["x"]}, "--seeds must be an integer, got 'x'"),
@@ -202,6 +203,49 @@ def test_a_sweep_killed_mid_training_resumes_every_job(tmp_path, config_dir, cap
         assert run["resumed_at"] == [saved[seed]] and run["timesteps"] >= 512 and run["requested_timesteps"] == 512
 
 
+def _live_processes(session: int) -> set[int]:
+    """The processes of ``session`` that have not exited (zombies waiting to be reaped are not counted)."""
+    live = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            state, _, _, sid = stat.read_text().rsplit(")", 1)[1].split()[:4]
+        except (OSError, ValueError):  # gone meanwhile
+            continue
+        if int(sid) == session and state != "Z":
+            live.add(int(stat.parent.name))
+    return live
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table in /proc")
+def test_a_pool_worker_exits_when_its_parent_is_killed_outright(tmp_path):
+    """kill -9 of the sweep's main process alone (not its group) left its pool worker alive for ever (458 MB, idle
+    once its job ended): a worker must exit with its parent, here one busy with a 10-minute job."""
+    started = tmp_path / "started"
+    jobs = [f"open({str(started)!r}, 'w').close()", "import time; time.sleep(600)"]
+    script = f"from polyenvs.pool import run_local; run_local(exec, {jobs!r}, 1, print, print)"
+    log = tmp_path / "pool.log"
+    with open(log, "w") as sink:
+        proc = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, stdout=sink, stderr=subprocess.STDOUT,
+                                start_new_session=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120  # bounds on a broken run, not timing assertions
+        while not started.exists():
+            if proc.poll() is not None or time.monotonic() > deadline:
+                pytest.fail(f"the pool's first job never ran: {log.read_text()[-2000:]}")
+            time.sleep(0.1)
+        assert len(_live_processes(proc.pid)) >= 2  # the parent and its worker (and multiprocessing's tracker)
+        os.kill(proc.pid, signal.SIGKILL)  # the parent alone
+        proc.wait()
+        deadline = time.monotonic() + 60
+        while _live_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not _live_processes(proc.pid), f"still alive 60 s after their parent died: {_live_processes(proc.pid)}"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
 def test_a_failing_job_is_reported_and_the_others_finish(tmp_path, config_dir, capsys):
     out = tmp_path / "out"
     blocked = out / "results" / f"{SLUG}__agent__ppo__seed1.json"
@@ -218,7 +262,7 @@ def test_missing_ray_gives_the_install_hint(tmp_path, config_dir, capsys, monkey
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     assert main(_argv(config_dir, tmp_path / "out", "--backend", "ray")) == 2
     err = capsys.readouterr().err.strip()
-    assert err == 'polyenvs sweep: error: the ray backend needs Ray: pip install "polyenvs[distributed]"'
+    assert err == 'polyenvs sweep: error: the ray backend needs Ray: pip install ".[distributed]" in a polyenvs clone'
 
 
 def test_ray_backend_on_a_local_instance_runs_two_jobs(tmp_path, config_dir, capsys):

@@ -10,7 +10,9 @@ Paper: Pai, Barman and Ralph, "Platonic Beasts: spherically symmetric multilimbe
 | ``sensors`` | encoders with backlash, tilt switches, foot contacts, the tasks' summary: one compiled call per step |
 | ``env`` | the Gymnasium surface on ``MujocoEnv``: actions, observation, divergence, reward terms, metrics |
 | ``tasks`` | ``BeastTumbleEnv``, ``BeastRollEnv``, ``BeastTurnEnv``, ``BeastRecoverEnv`` |
+| ``mujoco_extra`` | MuJoCo and Gymnasium's ``MujocoEnv``, or ``DependencyNotInstalled`` naming the extra |
 
 Importing this package imports nothing heavy; MuJoCo (the ``mujoco`` extra) is loaded by ``model.build_model`` and
-by the environment modules.
+by the environment modules, all through ``mujoco_extra``: without the extra, ``gym.make`` of a beast raises
+Gymnasium's ``DependencyNotInstalled`` with ``pip install "polyenvs[mujoco]"``, as Gymnasium's MuJoCo environments do.
 """

@@ -25,10 +25,8 @@ import sys
 import tempfile
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium import spaces
-from gymnasium.envs.mujoco.mujoco_env import MujocoEnv
 from gymnasium.error import ResetNeeded
 
 from polyenvs.beast import kinematics as K
@@ -36,6 +34,7 @@ from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
 from polyenvs.beast.layouts import LAYOUT_PARAMETERS, LAYOUT_SPLIT, ModelFields, draw_layout
 from polyenvs.beast.model import CONTROL_DT
+from polyenvs.beast.mujoco_extra import MujocoEnv, mujoco
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, parameter
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show

@@ -15,9 +15,9 @@ depends on them; nothing is regenerated or recompiled.
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 
+from polyenvs.beast.mujoco_extra import mujoco
 from polyenvs.core.layouts import LayoutSplit, SplitParameter
 
 __all__ = ["LAYOUT_SPLIT", "ModelFields", "draw_layout"]

@@ -263,10 +263,8 @@ def beast_xml(params: BeastModelParams) -> str:
 
 def build_model(params: BeastModelParams):
     """A compiled ``mujoco.MjModel`` for these parameters (imports MuJoCo, the optional ``mujoco`` extra)."""
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - exercised only without the extra
-        raise ImportError('The beasts need MuJoCo: pip install "polyenvs[mujoco]"') from exc
+    from polyenvs.beast.mujoco_extra import mujoco
+
     return mujoco.MjModel.from_xml_string(beast_xml(params))
 
 

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 
 from polyenvs.beast import kinematics as K
 from polyenvs.beast.env import STANCE_TICKS, BeastEnv, RobotContactParams, SensorParams, TumbleCounter
 from polyenvs.beast.layouts import LAYOUT_SPLIT
 from polyenvs.beast.model import CONTROL_DT
+from polyenvs.beast.mujoco_extra import mujoco
 from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
 

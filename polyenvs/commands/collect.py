@@ -24,8 +24,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         f"algorithm, from the committed results in {REFERENCE_RESULTS_DIR}/ where they exist for these keywords, "
         "else evaluated on 10 episodes. A PettingZoo swarm gives a per-robot dataset: each robot's trajectory is an "
         "episode (options {'robot': NAME}), the spec is polyenvs.datasets.RobotView (the swarm as that robot sees "
-        "it, its teammates driven by the same policy). DIR is written under a temporary name and renamed into "
-        "place when done.",
+        "it, its teammates driven by the same policy). DIR is written under a temporary name beside it and renamed "
+        "into place when done (the next run removes what a killed one left there).",
     )
     p.add_argument(
         "env_id", help="a Gymnasium id (polyenvs/BuckybotGoal-v0) or a PettingZoo module (polyenvs.swarm.corridor_v0)"

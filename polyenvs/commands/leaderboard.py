@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
+from polyenvs.core.extras import install_hint
 from polyenvs.files import check_writable_directory
 from polyenvs.leaderboard import DEFAULT_AGENTS_DIR, REPRODUCE_EPISODES
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS
@@ -311,6 +312,8 @@ def _print_table(output: Path, documents: list[dict], source: Path, bar: Progres
 
 def _missing_extras(env_ids: list[str]) -> dict[str, str]:
     """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
+    from gymnasium.error import DependencyNotInstalled
+
     from polyenvs.errors import InputError
     from polyenvs.evaluation import make_env
     from polyenvs.leaderboard import old_versions_quietly
@@ -325,15 +328,14 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
             with old_versions_quietly():
                 make_env(env_id).close()
         except InputError as exc:
-            if not isinstance(exc.__cause__, ModuleNotFoundError):
+            if not isinstance(exc.__cause__, DependencyNotInstalled | ModuleNotFoundError):
                 raise
             missing[env_id] = extra
     return missing
 
 
 def _missing_line(missing: dict[str, str]) -> str:
-    extras = " ".join(f'"polyenvs[{e}]"' for e in dict.fromkeys(missing.values()))
     return (
         f"{', '.join(missing)} need{'s' if len(missing) == 1 else ''} packages that are not installed: "
-        f"pip install {extras}"
+        f"{install_hint(*dict.fromkeys(missing.values()))}"
     )

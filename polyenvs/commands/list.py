@@ -1,4 +1,9 @@
-"""``polyenvs list``: every environment with its spaces (one robot's) and a line."""
+"""``polyenvs list``: every environment with its spaces (one robot's) and a line.
+
+An environment whose optional extra is not installed (the beasts without ``mujoco``) is listed with the line that
+installs it instead of its spaces; a superseded id (kept registered for the results made with it) with its newer
+version.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,9 @@ import argparse
 import json
 
 __all__ = ["add_parser", "run"]
+
+#: The fields of a ``--json`` row (the spaces are ``null`` and ``missing`` says why where an extra is missing).
+FIELDS = ("id", "action_space", "observation_space", "description", "superseded_by", "missing")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -20,27 +28,34 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     import polyenvs
     from polyenvs.registry import REGISTRY
-    from polyenvs.rollout import agent_spaces, make_env
 
-    rows = []
-    for entry in REGISTRY:
-        env = make_env(entry.id)
-        observation_space, action_space = agent_spaces(env)  # a parallel env's: one robot's
-        rows.append((entry.id, _describe_space(action_space), _describe_space(observation_space), entry.description))
-        env.close()
+    rows = [_row(entry) for entry in REGISTRY]
     if args.json:
-        print(
-            json.dumps(
-                [dict(zip(("id", "action_space", "observation_space", "description"), r, strict=True)) for r in rows],
-                indent=1,
-            )
-        )
+        print(json.dumps([dict(zip(FIELDS, r, strict=True)) for r in rows], indent=1))
         return 0
     width = max(len(r[0]) for r in rows)
-    for env_id, act, obs, desc in rows:
-        print(f"{env_id:<{width}}  action {act}  observation {obs}\n{'':<{width}}  {desc}")
+    for env_id, act, obs, desc, newer, missing in rows:
+        spaces = missing or f"action {act}  observation {obs}"
+        superseded = f" (superseded by {newer})" if newer else ""
+        print(f"{env_id:<{width}}  {spaces}{superseded}\n{'':<{width}}  {desc}")
     print(f"\n{len(rows)} environments (polyenvs {polyenvs.__version__})")
     return 0
+
+
+def _row(entry) -> tuple:
+    """``FIELDS`` of one registry row: its spaces from a copy built here, or why it cannot be built."""
+    from gymnasium.error import DependencyNotInstalled
+
+    from polyenvs.rollout import agent_spaces, make_env
+
+    try:
+        env = make_env(entry.id)
+    except DependencyNotInstalled as exc:  # its message names the extra to install
+        return entry.id, None, None, entry.description, entry.superseded_by, str(exc)
+    observation_space, action_space = agent_spaces(env)  # a parallel env's: one robot's
+    env.close()
+    return (entry.id, _describe_space(action_space), _describe_space(observation_space), entry.description,
+            entry.superseded_by, None)  # fmt: skip
 
 
 def _describe_space(space) -> str:

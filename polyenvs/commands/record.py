@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from polyenvs.commands.flags import CliError, check_output_file, float_flag, int_flag, parse_json_object
+from polyenvs.core.extras import install_hint
 from polyenvs.limits import MAX_FRAMES, MAX_SEED, MAX_STEPS
 from polyenvs.registry import bare_id
 
@@ -67,16 +68,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         import imageio.v3 as iio
     except ImportError:
-        raise CliError('recording needs imageio: pip install "polyenvs[render]"') from None
+        raise CliError(f"recording needs imageio: {install_hint('render')}") from None
     if suffix == ".mp4":
         try:
             import imageio_ffmpeg
 
             imageio_ffmpeg.get_ffmpeg_exe()
         except (ImportError, RuntimeError):
-            raise CliError(
-                f'--output {output}: writing .mp4 needs imageio-ffmpeg: pip install "polyenvs[render]"'
-            ) from None
+            raise CliError(f"--output {output}: writing .mp4 needs imageio-ffmpeg: {install_hint('render')}") from None
     check_output_file(output, "--output")
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from polyenvs.core.extras import install_hint
 from polyenvs.core.validation import check_in_range
 
 __all__ = ["FrameRenderer", "FrameWindow", "WINDOW_SCALE_RANGE", "check_window_scale"]
@@ -39,7 +40,7 @@ class FrameWindow:
         except ImportError as exc:
             from gymnasium.error import DependencyNotInstalled
 
-            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "polyenvs[render]"') from exc
+            raise DependencyNotInstalled(f'render_mode="human" needs pygame: {install_hint("render")}') from exc
         size = (max(1, round(frame.shape[1] * self.scale)), max(1, round(frame.shape[0] * self.scale)))
         if self._surface is None:
             pygame.init()

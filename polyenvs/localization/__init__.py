@@ -29,7 +29,7 @@ import numpy as np
 __all__ = ["DEFAULT_ENV_ID", "Estimator", "estimator_class", "estimator_kwargs", "estimators", "make_estimator"]
 
 #: The environment whose logs the benchmark scores by default.
-DEFAULT_ENV_ID = "polyenvs/BumperCartExplore-v0"
+DEFAULT_ENV_ID = "polyenvs/BumperCartExplore-v2"
 
 
 def estimators(env_id: str = DEFAULT_ENV_ID) -> dict[str, str]:

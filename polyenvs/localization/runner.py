@@ -65,6 +65,12 @@ def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: 
     raw = env.unwrapped  # no time limit: a run ends at its bump count
     if not callable(getattr(raw, "localization_context", None)):
         raise InputError(f"{env_id} cannot produce localization logs (its environment has no localization_context())")
+    if "budget_cycles" not in (env_kwargs or {}) and hasattr(raw, "budget_cycles"):
+        # A task's budget of cycles (BumperCartExplore-v1 on) ends its episodes; a run here ends at its bump count,
+        # so the budget is the run's cap. The cycles and the logs are the same whatever the budget.
+        env.close()
+        env = make_env(env_id, {**(env_kwargs or {}), "budget_cycles": bumps * MAX_CYCLES_PER_BUMP})
+        raw = env.unwrapped
     context = raw.localization_context()
     out = []
     for r in range(runs):

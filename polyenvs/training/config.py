@@ -39,6 +39,7 @@ from numbers import Integral, Real
 from pathlib import Path
 from typing import Any
 
+from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError
 from polyenvs.limits import MAX_N_ENVS, MAX_TIMESTEPS
 from polyenvs.registry import bare_id
@@ -154,7 +155,7 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
     try:
         import yaml
     except ImportError:  # pragma: no cover - pyyaml is in the train extra
-        raise InputError('reading configs needs pyyaml: pip install "polyenvs[train]"') from None
+        raise InputError(f"reading configs needs pyyaml: {install_hint('train')}") from None
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

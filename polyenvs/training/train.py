@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, check_count
 from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
@@ -312,9 +313,9 @@ def _check_extras(progress_bar: bool, tensorboard: bool) -> None:
     import importlib.util
 
     if progress_bar and (importlib.util.find_spec("tqdm") is None or importlib.util.find_spec("rich") is None):
-        raise InputError('the progress bar needs tqdm and rich: pip install "polyenvs[train]" (or --no-progress)')
+        raise InputError(f"the progress bar needs tqdm and rich: {install_hint('train')} (or --no-progress)")
     if tensorboard and importlib.util.find_spec("tensorboard") is None:
-        raise InputError('TensorBoard logging needs tensorboard: pip install "polyenvs[train]"')
+        raise InputError(f"TensorBoard logging needs tensorboard: {install_hint('train')}")
 
 
 # ------------------------------------------------------------------------------------------------------ train
