@@ -98,7 +98,7 @@ def run_job(job: Job) -> dict[str, Any]:
     """
     from polyenvs.evaluation import evaluate
     from polyenvs.files import write_json_atomic
-    from polyenvs.leaderboard import EVAL_SEED, load_result, provenance
+    from polyenvs.leaderboard import EVAL_SEED, load_result, provenance, training_layouts
     from polyenvs.pool import single_threaded_torch
     from polyenvs.statistics import interquartile_mean
     from polyenvs.training.train import finished_run, read_run, train
@@ -135,6 +135,7 @@ def run_job(job: Job) -> dict[str, Any]:
                 "timesteps": run_doc.get("timesteps"),
                 "requested_timesteps": run_doc.get("requested_timesteps"),
                 "completed": run_doc.get("completed"),
+                "training_layouts": training_layouts(run_doc),
             }
             doc.update(provenance())
             write_json_atomic(result_file, doc)

@@ -120,7 +120,12 @@ def test_train_bc_from_then_ppo_is_a_policy_everywhere(demos, tmp_path, capsys):
     out = tmp_path / "run"
     args = ["train", CORRIDOR, "--algo", "ppo", "--config", str(config), "--bc-from", str(demos), "--bc-epochs",
             "10", "--bc-log-std", "-1.7", "--out", str(out), "--no-progress"]  # fmt: skip
+    # The demonstrations are of the default layouts: the run must learn on them too (the Procgen protocol's
+    # training layouts by default, which these demonstrations are not).
     code, _, err = run_main(args, capsys)
+    assert code == 2 and "demonstrations on the 'default' layouts, the run trains on 'train'" in err
+    assert not out.exists()
+    code, _, err = run_main([*args, "--layouts", "default"], capsys)
     assert code == 0, err
     run = json.loads((out / "run.json").read_text())
     bc = run["bc"]
@@ -160,7 +165,7 @@ def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
     config.write_text(TINY_CORRIDOR_CONFIG)
     run_dir = tmp_path / "run"
     code, _, err = run_main(["train", CORRIDOR, "--algo", "ppo", "--config", str(config), "--bc-from", str(demos),
-                             "--out", str(run_dir), "--no-progress"], capsys)  # fmt: skip
+                             "--layouts", "default", "--out", str(run_dir), "--no-progress"], capsys)  # fmt: skip
     assert code == 0, err
     identifier = collect(CORRIDOR, str(run_dir), episodes=2, seed=3, out_dir=tmp_path / "agent",
                          env_kwargs={"max_episode_steps": 30})  # fmt: skip

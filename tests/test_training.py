@@ -70,7 +70,7 @@ def test_train_writes_the_run_directory(tmp_path, algo, cls):
     out = tmp_path / "run"
     result = train(
         WALL, algo, config=CONFIGS / f"{algo}.yml", timesteps=256, n_envs=2, seed=3, out_dir=out,
-        env_kwargs={"floor_plan": "corner", "max_episode_steps": 50}, command="polyenvs train test",
+        env_kwargs={"floor_plan": "corner", "max_episode_steps": 50}, layouts="default", command="polyenvs train test",
     )  # fmt: skip
     assert result == out
     assert {p.name for p in out.iterdir()} == {"model.zip", "vecnormalize.pkl", "run.json", "curve.json", "tb"}
@@ -79,7 +79,11 @@ def test_train_writes_the_run_directory(tmp_path, algo, cls):
     assert RUN_KEYS <= set(run)
     assert run["env_id"] == WALL and run["algo"] == algo and run["seed"] == 3
     assert run["requested_timesteps"] == 256 and run["timesteps"] == 512  # one rollout: n_steps 256 x 2 envs
-    assert run["n_envs"] == 2 and run["env_kwargs"] == {"floor_plan": "corner", "max_episode_steps": 50}
+    assert run["n_envs"] == 2 and run["env_kwargs"] == {
+        "floor_plan": "corner",
+        "max_episode_steps": 50,
+        "layouts": "default",
+    }
     assert run["completed"] is True and run["wall_clock_s"] > 0
     assert run["command"] == "polyenvs train test"
     assert run["vec_env"] == "NativeVecEnvAdapter"

@@ -109,9 +109,31 @@ def test_train_command_runs_and_skips_when_finished(tmp_path, capsys):
     assert f"wrote {out}" in printed
     run = json.loads((out / "run.json").read_text())
     assert run["seed"] == 2 and run["n_envs"] == 1 and run["completed"] is True
-    assert run["env_kwargs"] == {"max_episode_steps": 30}
+    assert run["env_kwargs"] == {"max_episode_steps": 30, "layouts": "train"}  # the Procgen protocol by default
     assert main(argv) == 0
     assert "already holds a finished run" in capsys.readouterr().out
+
+
+def test_train_draws_the_training_layouts_unless_told_otherwise_and_records_them(tmp_path, capsys):
+    """Agents learn on layouts="train" (the leaderboard judges them on "test"); --layouts, --env-kwargs' layouts or
+    the config's env_kwargs say otherwise; two that disagree are refused before any work."""
+    from polyenvs.training.train import training_layouts
+
+    assert training_layouts(None, {}, {}, WALL) == "train"
+    assert training_layouts(None, {}, {}, "Pendulum-v1") is None  # not ours: it takes no layouts
+    assert training_layouts(None, {}, {"layouts": "default"}, WALL) == "default"
+    assert training_layouts(None, {"layouts": "test"}, {"layouts": "default"}, WALL) == "test"
+    assert training_layouts("default", {}, {"layouts": "test"}, WALL) == "default"
+    base = ["train", WALL, "--algo", "ppo", "--config", str(CONFIGS / "ppo.yml"), "--timesteps", "64", "--n-envs", "1",
+            "--env-kwargs", '{"max_episode_steps": 8}', "--no-progress"]  # fmt: skip
+    assert main([*base, "--layouts", "default", "--out", str(tmp_path / "a")]) == 0
+    capsys.readouterr()
+    assert json.loads((tmp_path / "a" / "run.json").read_text())["env_kwargs"]["layouts"] == "default"
+    for bad, words in ((["--layouts", "held-out"], "layouts must be one of"),
+                       (["--layouts", "test", "--env-kwargs", '{"layouts": "train"}'], "give one")):  # fmt: skip
+        assert main([*base, *bad, "--out", str(tmp_path / "b")]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and words in err and not (tmp_path / "b").exists()
 
 
 def test_ctrl_c_exits_130_and_says_where_the_model_is(tmp_path, capsys, monkeypatch):

@@ -1,6 +1,6 @@
 """The ``polyenvs train`` subcommand.
 
-``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON]
+``polyenvs train ENV_ID --algo ALGO [--config FILE] [--timesteps N] [--seed S] [--n-envs N] [--env-kwargs JSON] [--layouts L]
 [--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress] [--residual NAME
 [--residual-scale S] [--residual-log-std L] [--residual-hold K]] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]``
 
@@ -61,6 +61,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--n-envs", default=None, help=f"parallel environments, 1 to {MAX_N_ENVS} (default: the config's n_envs)"
     )
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    p.add_argument(
+        "--layouts",
+        default=None,
+        help="the layouts the episodes are drawn from: train (the default, Procgen's protocol: the leaderboard "
+        "judges agents on the held-out test layouts and counts only those trained on train), default or test; "
+        "recorded in run.json's env_kwargs (also --env-kwargs' layouts, or the config's env_kwargs)",
+    )
     p.add_argument(
         "--out", default=None, metavar="DIR", help=f"output directory (default {DEFAULT_TRAIN_DIR}/ENV/ALGO/seedS)"
     )
@@ -223,6 +230,7 @@ def run(args: argparse.Namespace) -> int:
             seed=seed,
             n_envs=n_envs,
             env_kwargs=env_kwargs,
+            layouts=args.layouts,
             out_dir=out_dir,
             progress_bar=progress,
             resume=resume,

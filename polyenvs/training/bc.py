@@ -103,6 +103,14 @@ class BehaviourCloning:
             if not _same_space(theirs, ours):
                 raise InputError(f"{where}: its {name} space is {theirs}, the environment's is {ours}")
         info = demos.info
+        theirs, ours = (
+            (kwargs or {}).get("layouts", "default") for kwargs in (info.get("env_kwargs"), target.env_kwargs)
+        )
+        if theirs != ours:  # the Procgen protocol: a run learns from its own training layouts, demonstrations too
+            raise InputError(
+                f"{where}: demonstrations on the {theirs!r} layouts, the run trains on {ours!r}: collect them with "
+                f'--env-kwargs \'{{"layouts": "{ours}"}}\' (or train with --layouts {theirs})'
+            )
         return {
             "dataset": {
                 key: info.get(key)

@@ -35,10 +35,12 @@ from pathlib import Path
 from typing import Any
 
 from polyenvs.core.extras import install_hint
-from polyenvs.errors import InputError, check_count
+from polyenvs.core.layouts import LAYOUTS
+from polyenvs.errors import InputError, check_count, shown
 from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
+from polyenvs.leaderboard import COUNTED_TRAINING_LAYOUTS as PROTOCOL_TRAINING_LAYOUTS
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
-from polyenvs.registry import bare_id
+from polyenvs.registry import ALL_IDS, bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
 __all__ = [
@@ -330,6 +332,7 @@ def train(
     seed: int = 0,
     n_envs: int | None = None,
     env_kwargs: dict | None = None,
+    layouts: str | None = None,
     out_dir: str | Path,
     progress_bar: bool = False,
     tensorboard: bool = True,
@@ -356,6 +359,10 @@ def train(
         seed: the training seed (torch, the action sampling and sub-environment i's episodes, seeded seed + i).
         n_envs: parallel environments instead of the config's n_envs.
         env_kwargs: the environment's constructor keywords (``{"floor_plan": "office"}``).
+        layouts: the layouts the episodes are drawn from, recorded in run.json's ``env_kwargs``: ``"train"`` (the
+            Procgen protocol, by default: the leaderboard judges agents on the held-out ``"test"`` layouts and
+            counts only those trained so), ``"default"`` or ``"test"``. Default: ``env_kwargs``' ``layouts``, else
+            the config's ``env_kwargs``' (RL Zoo's key), else ``"train"``.
         out_dir: the output directory: must not exist, be empty, or hold a finished run of the same (env_id,
             algo, seed), which is returned without training (or, with ``resume`` / ``overwrite``, a run to
             continue / to replace).
@@ -388,7 +395,7 @@ def train(
     request = _check_request(
         _Request(
             env_id=env_id, algo=algo, config=config, timesteps=timesteps, seed=seed, n_envs=n_envs,
-            env_kwargs=env_kwargs, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
+            env_kwargs=env_kwargs, layouts=layouts, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
             command=command, vec_env=vec_env, device=device, verbose=verbose, callbacks=callbacks, resume=resume,
             overwrite=overwrite, checkpoint_every=checkpoint_every, pretrain=pretrain, residual=residual,
             residual_log_std=residual_log_std,
@@ -431,6 +438,7 @@ class _Request:
     pretrain: Any = None
     residual: Any = None
     residual_log_std: float | None = None
+    layouts: str | None = None
 
 
 @dataclass
@@ -466,6 +474,7 @@ def _check_request(request: _Request) -> _Request:
     if env_kwargs is not None and not isinstance(env_kwargs, dict):
         raise InputError(f"env_kwargs must be a dict, got {env_kwargs!r}")
     env_kwargs = dict(env_kwargs or {})
+    _check_layouts(request.layouts, env_kwargs)
     if request.vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {request.vec_env!r}")
     _check_residual_request(request.residual, request.residual_log_std)
@@ -479,6 +488,26 @@ def _check_request(request: _Request) -> _Request:
         env_kwargs=env_kwargs,
         out_dir=Path(request.out_dir),
     )
+
+
+def _check_layouts(layouts, env_kwargs: dict) -> None:
+    """``layouts`` is None or one of the environments' layouts, and says what ``env_kwargs`` says, if anything."""
+    if layouts is None:
+        return
+    if layouts not in LAYOUTS:
+        raise InputError(f"layouts must be one of {', '.join(map(repr, LAYOUTS))}, got {shown(layouts)}")
+    if env_kwargs.get("layouts", layouts) != layouts:
+        raise InputError(f"layouts is {layouts!r} but env_kwargs' layouts is {env_kwargs['layouts']!r}: give one")
+
+
+def training_layouts(request_layouts: str | None, request_kwargs: dict, config_kwargs: dict, env_id: str) -> str | None:
+    """The layouts a run trains on: the caller's (``layouts``, else ``env_kwargs``' own), else the config's
+    ``env_kwargs``', else the Procgen protocol's training layouts for a polyenvs id (None for another
+    Gymnasium id, which takes no ``layouts``)."""
+    for given in (request_layouts, request_kwargs.get("layouts"), config_kwargs.get("layouts")):
+        if given is not None:
+            return given
+    return PROTOCOL_TRAINING_LAYOUTS if bare_id(env_id) in ALL_IDS else None
 
 
 def check_same_residual(out_dir: Path, residual) -> None:
@@ -518,8 +547,9 @@ def _plan(request: _Request, action: str) -> _Job:
     check_action_space(algo, env_id, target.action_space)  # a parallel env's: one robot's
     config_path = Path(request.config) if request.config is not None else default_config_path(algo)
     cfg = load_config(config_path, env_id, algo)
-    env_kwargs = {**cfg.env_kwargs, **request.env_kwargs}
-    if cfg.env_kwargs:
+    layouts = training_layouts(request.layouts, request.env_kwargs, cfg.env_kwargs, env_id)
+    env_kwargs = {**cfg.env_kwargs, **request.env_kwargs, **({"layouts": layouts} if layouts is not None else {})}
+    if env_kwargs != request.env_kwargs:
         target = resolve_env(env_id, env_kwargs)
         check_action_space(algo, env_id, target.action_space)
     _check_extras(request.progress_bar, request.tensorboard)
