@@ -403,5 +403,6 @@ def generate(app) -> None:
 
 
 def setup(app):
+    app.setup_extension("polyenvs_layouts")  # the layouts guide's pictures, drawn like these pages at build time
     app.connect("builder-inited", generate)
     return {"version": "2", "parallel_read_safe": True, "parallel_write_safe": True}

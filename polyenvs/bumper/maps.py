@@ -16,7 +16,8 @@ Built-in maps (``MAPS``):
 
 Held-out layouts (``layouts=`` of the cart ids, :data:`LAYOUT_SPLIT`): random rooms with boxes
 (:func:`random_room_map`), a rectangle 70-120 cm deep, one corner cut at 45° half the time, and up to two boxes;
-"train" rooms are 90-140 cm wide, "test" rooms 150-200 cm. The default map (``paper``) is not a test room.
+"train" rooms are 90-140 cm wide, "test" rooms 150-200 cm. The default map (``paper``) is not a test room. Both sides
+draw the same kinds of feature (:data:`LAYOUT_KINDS`, found by :func:`map_kinds`): a 45° wall, boxes.
 
 A user map is a sequence of polygons, each a sequence of ``(x, y)`` vertices (or a single polygon). Bad maps raise
 ``ValueError`` naming ``map``: fewer than 3 vertices, non-finite or huge coordinates, edges under ``MIN_EDGE_CM``,
@@ -33,9 +34,10 @@ import numpy as np
 
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.jit import njit
-from polyenvs.core.layouts import LayoutSplit, SplitParameter
+from polyenvs.core.layouts import DIAGONAL_WALL, LayoutKind, LayoutSplit, SplitParameter, wall_direction_kinds
 
 __all__ = [
+    "LAYOUT_KINDS",
     "LAYOUT_MAX_SEGMENTS",
     "LAYOUT_ROOM_BOUNDS",
     "LAYOUT_SPLIT",
@@ -44,9 +46,11 @@ __all__ = [
     "MAX_SEGMENTS",
     "MIN_EDGE_CM",
     "BumperMap",
+    "episode_kinds",
     "free_at",
     "layout_map",
     "make_map",
+    "map_kinds",
     "random_room_map",
 ]
 
@@ -333,6 +337,21 @@ _BOX_GAP_CM = 25.0
 _MAX_BOXES = 2
 #: The most edges a layout room has: a five-sided outline and two boxes.
 LAYOUT_MAX_SEGMENTS = 5 + 4 * _MAX_BOXES
+
+
+#: The kinds of feature the layout rooms hold (:func:`map_kinds` finds them in a map).
+BOX = LayoutKind("box", "an obstacle polygon inside the outline, which the cart bumps from every side")
+LAYOUT_KINDS = (DIAGONAL_WALL, BOX)
+
+
+def map_kinds(world: BumperMap) -> frozenset[str]:
+    """The names of the :data:`LAYOUT_KINDS` that ``world`` holds."""
+    return frozenset(wall_direction_kinds(world.segments) | ({BOX.name} if len(world.polygons) > 1 else set()))
+
+
+def episode_kinds(env) -> frozenset[str]:
+    """:func:`map_kinds` of the map of a cart environment's (row 0's) episode."""
+    return map_kinds(env.world)
 
 
 def _uniform(rng: np.random.Generator, interval) -> float:

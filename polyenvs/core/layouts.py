@@ -14,6 +14,11 @@ layout has every split parameter in its training interval, a test layout every o
 cannot share a layout; :meth:`LayoutSplit.classify` says which side a drawn layout is on (each environment reports its
 episode's values through ``episode_layout()``), which is how the tests check the split. The docstring's Arguments row
 comes from the declaration (:meth:`LayoutSplit.argument_row`, filled in by :func:`documents_layouts`).
+
+Beside its split a family declares the kinds of feature its layouts hold (:class:`LayoutKind`: a pillar, a 45° wall,
+an obstacle in the way) and a function that finds them in a drawn layout, so that the tests can check that the
+training side draws every kind the test side does (a held-out layout should be new in its split parameter, not in
+what an agent meets there) and the layouts guide can show them.
 """
 
 from __future__ import annotations
@@ -25,7 +30,17 @@ import numpy as np
 from polyenvs.core.parameters import fill_placeholder
 from polyenvs.core.validation import check_choice
 
-__all__ = ["LAYOUTS", "LayoutSplit", "SplitParameter", "check_layouts", "documents_layouts"]
+__all__ = [
+    "DIAGONAL_WALL",
+    "LAYOUTS",
+    "SLANTED_WALL",
+    "LayoutKind",
+    "LayoutSplit",
+    "SplitParameter",
+    "check_layouts",
+    "documents_layouts",
+    "wall_direction_kinds",
+]
 
 #: The values of every environment's ``layouts`` keyword.
 LAYOUTS = ("default", "train", "test")
@@ -112,6 +127,39 @@ class LayoutSplit:
             f'reset, {train}; "test" (held out, disjoint from "train" and from "default"): the same with {test}'
             f"{held_out} (:mod:`polyenvs.core.layouts`) |"
         )
+
+
+@dataclass(frozen=True)
+class LayoutKind:
+    """A kind of feature that a family's layouts hold.
+
+    Attributes:
+        name: what the guide and the tests call it (``"pillar"``).
+        meaning: how its family's kind finder tells it in a drawn layout, in words.
+    """
+
+    name: str
+    meaning: str
+
+
+#: Wall directions (*ours*) within this many degrees of a multiple of 45° count as that multiple: a layout's
+#: coordinates rounded to 1 mm turn a 20 cm cut by up to 0.3°.
+ANGLE_TOLERANCE_DEG = 1.0
+DIAGONAL_WALL = LayoutKind("45° wall", "a wall at 45° to the room's axes (a cut corner, an octagon's side)")
+SLANTED_WALL = LayoutKind("slanted wall", "a wall at an angle that is no multiple of 45° (a trapezoid's side)")
+
+
+def wall_direction_kinds(segments) -> set[str]:
+    """The kinds that the directions of ``segments`` ``(S, 4)`` hold: :data:`DIAGONAL_WALL`, :data:`SLANTED_WALL`."""
+    seg = np.asarray(segments, dtype=np.float64)
+    degrees = np.degrees(np.arctan2(seg[:, 3] - seg[:, 1], seg[:, 2] - seg[:, 0])) % 90.0
+    from_multiple = np.minimum(degrees % 45.0, 45.0 - degrees % 45.0)
+    kinds = set()
+    if (np.abs(degrees - 45.0) <= ANGLE_TOLERANCE_DEG).any():
+        kinds.add(DIAGONAL_WALL.name)
+    if (from_multiple > ANGLE_TOLERANCE_DEG).any():
+        kinds.add(SLANTED_WALL.name)
+    return kinds
 
 
 def documents_layouts(split: LayoutSplit):

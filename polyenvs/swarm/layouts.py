@@ -1,4 +1,5 @@
-"""Geometry the tasks share: boxes of walls, start blocks, the hexagonal lattice and seeded obstacle fields."""
+"""Geometry the tasks share: boxes of walls, start blocks, the hexagonal lattice, seeded obstacle fields, and the
+kinds of feature a swarm's layouts hold (:data:`LAYOUT_KINDS`, found by :func:`layout_kinds`)."""
 
 from __future__ import annotations
 
@@ -7,10 +8,31 @@ import math
 import numpy as np
 
 from polyenvs.core import libm
-from polyenvs.core.layouts import check_layouts
+from polyenvs.core.geometry2d import SegmentTable, nearest_wall_points
+from polyenvs.core.layouts import LayoutKind, check_layouts
 from polyenvs.core.validation import check_int
 
-__all__ = ["box_walls", "hex_lattice", "lattice_pairs", "layout_obstacle_slots", "random_obstacles", "start_block"]
+__all__ = [
+    "LAYOUT_KINDS",
+    "box_walls",
+    "episode_kinds",
+    "hex_lattice",
+    "lattice_pairs",
+    "layout_kinds",
+    "layout_obstacle_slots",
+    "random_obstacles",
+    "start_block",
+]
+
+#: The kinds of feature the swarm tasks' layouts hold (:func:`layout_kinds` finds them in an episode): what AP-lite's
+#: obstacle avoidance is there to handle.
+IN_THE_WAY = LayoutKind(
+    "obstacle in the way", "an obstacle that a robot driving straight from the swarm's start centre to the goal hits"
+)
+BY_A_WALL = LayoutKind(
+    "obstacle by a wall", "an obstacle less than a robot's width from a wall: the way past it is on one side only"
+)
+LAYOUT_KINDS = (IN_THE_WAY, BY_A_WALL)
 
 
 def box_walls(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:
@@ -75,3 +97,25 @@ def layout_obstacle_slots(n_obstacles, layouts, default: int, most: int) -> int:
             f"layouts='default' with n_obstacles={n_obstacles}"
         )
     return most
+
+
+def layout_kinds(walls, circles, starts, goal, robot_radius_m: float) -> frozenset[str]:
+    """The names of the :data:`LAYOUT_KINDS` that an episode holds: its ``walls`` ``(W, 4)``, obstacle ``circles``
+    ``(C, 3)`` (x, y, r), robots' ``starts`` ``(N, 2)`` and ``goal`` (m), for robots of ``robot_radius_m``."""
+    circles = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+    centre = np.asarray(starts, dtype=np.float64).reshape(-1, 2).mean(axis=0)
+    way = SegmentTable(np.array([[*centre, *np.asarray(goal, dtype=np.float64)]]))
+    kinds = set()
+    if (nearest_wall_points(way, circles[None, :, :2])[0][0] < circles[:, 2] + robot_radius_m).any():
+        kinds.add(IN_THE_WAY.name)
+    rim_to_wall = nearest_wall_points(SegmentTable(walls), circles[None, :, :2])[0][0] - circles[:, 2]
+    if (rim_to_wall < 2.0 * robot_radius_m).any():
+        kinds.add(BY_A_WALL.name)
+    return frozenset(kinds)
+
+
+def episode_kinds(env) -> frozenset[str]:
+    """:func:`layout_kinds` of a swarm task's episode at its reset (``env`` a swarm task, or the ``unwrapped`` of a
+    single-robot id, which holds a swarm of one as ``swarm``)."""
+    swarm = getattr(env, "swarm", env)
+    return layout_kinds(swarm.layout.walls, swarm.circles, swarm.pose[:, :2], swarm.goal, swarm.platform.radius_m)
