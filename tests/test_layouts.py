@@ -224,21 +224,10 @@ KIND_MODULES = {"buckybot": floor_plans, "bumper": maps, "swarm": swarm_layouts}
 KIND_SEEDS = 60
 #: A kind of the test side that training draws in fewer of its episodes than this is not one it teaches.
 MIN_TRAINING_SHARE = 0.05
-#: Rows whose training side still lacks a kind its test side draws: their obstacles keep 0.6 m from the walls on
-#: both sides, so only the test side's larger rocks (the split parameter) come within a robot's width of a wall.
-#: The fix is in the task modules' ``_field`` (a region nearer the walls for "train"), outside the layout modules.
-KIND_GAPS = {
-    "polyenvs/APLiteObstacleField-v0",
-    "polyenvs.swarm.obstacle_field_v0",
-    "polyenvs.swarm.formation_v0",
-}
 
 
 def _kind_rows():
-    for row in ROWS:
-        if row.family in KIND_MODULES:
-            gap = pytest.mark.xfail(strict=True, reason="its training obstacles never stand by a wall (KIND_GAPS)")
-            yield pytest.param(row, id=row.id, marks=[gap] if row.id in KIND_GAPS else [])
+    return [pytest.param(row, id=row.id) for row in ROWS if row.family in KIND_MODULES]
 
 
 @pytest.mark.parametrize("row", _kind_rows())

@@ -47,6 +47,11 @@ LAYOUT_SPLIT = LayoutSplit(
     (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.33, 0.45)),),
     varies="3-7 obstacles placed as in the default field, the goal at 35-65 % of the field's width",
 )
+#: Obstacle centres keep this far (m) from the side walls in the default and held-out fields (*ours*).
+WALL_MARGIN_M = 0.6
+#: ... and this far in the training fields, so that an obstacle by a wall, which a robot cannot pass on the
+#: wall's side and which the held-out fields' larger rocks make, is among what training draws (*ours*).
+TRAIN_WALL_MARGIN_M = 0.4
 LAYOUT_GOAL_SPAN = (0.35, 0.65)
 LAYOUT_COUNTS = (3, 7)
 N_OBSTACLES = 5
@@ -319,9 +324,10 @@ class FormationEnv(SwarmEnv):
 
     def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
         count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
-        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts))
+        margin = TRAIN_WALL_MARGIN_M if layouts == "train" else WALL_MARGIN_M
+        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts), margin)
 
-    def _field(self, rng: np.random.Generator, count: int, goal_span, radii) -> Episode:
+    def _field(self, rng: np.random.Generator, count: int, goal_span, radii, margin: float = WALL_MARGIN_M) -> Episode:
         """The lattice at the start, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``:
         mid-height) and ``count`` obstacles of radii in ``radii`` between them."""
         n = self.n_robots
@@ -334,7 +340,7 @@ class FormationEnv(SwarmEnv):
         else:
             goal = np.array([length - 1.5, width * (goal_span[0] + (goal_span[1] - goal_span[0]) * rng.random())])
         keep_out = [(goal[0], goal[1], self.goal_radius_m), (centre[0], centre[1], self._lattice_radius + 1.0)]
-        region = (centre[0] + self._lattice_radius + 1.0, 0.6, length - 2.0, width - 0.6)
+        region = (centre[0] + self._lattice_radius + 1.0, margin, length - 2.0, width - margin)
         circles = random_obstacles(rng, count, region, radii, GAP_M, keep_out)
         return Episode(circles=circles, starts=np.column_stack([xy, heading]), goal=goal)
 
