@@ -14,9 +14,11 @@ import argparse
 import json
 from pathlib import Path
 
-from polyenvs import charts
+from polyenvs.evaluation import charts
+from polyenvs.evaluation.agents import find_agents
+from polyenvs.evaluation.results import stored_results
+from polyenvs.evaluation.table import leaderboard_tables
 from polyenvs.files import write_text_atomic
-from polyenvs.leaderboard import find_agents, leaderboard_tables, stored_results
 from polyenvs.registry import ALL_IDS, entry, slug
 
 __all__ = ["main"]

@@ -23,7 +23,7 @@ import numpy as np
 from baselines.base import RandomPolicy
 from baselines.bumper import GreedySplit
 from polyenvs.bumper import cart as C
-from polyenvs.statistics import iqm_with_ci
+from polyenvs.evaluation.statistics import iqm_with_ci
 
 __all__ = ["ENV_ID", "EnvBeliefSplit", "cycles_to_localize", "main"]
 

@@ -4,7 +4,7 @@ PPO trains on ``polyenvs/BuckybotWallFollow-v0`` with its configs/ppo.yml entry 
 builds it (``make_training_vec_env``, VecNormalize, the entry's hyperparameters), in chunks of ``chunk`` timesteps
 continuing one model (``model.learn(..., reset_num_timesteps=False)``; a chunk ends on a whole rollout). After each
 chunk the model and its VecNormalize statistics are saved to a scratch training directory and evaluated by
-:func:`polyenvs.evaluation.evaluate` (which loads them through ``baselines.trained``: deterministic actions,
+:func:`polyenvs.evaluation.episodes.evaluate` (which loads them through ``baselines.trained``: deterministic actions,
 observations normalised with the saved statistics) on the published seeds ``EVAL_SEED, EVAL_SEED + 1, ...``. The
 paper's policy is evaluated once on the same seeds. The run stops at the first chunk whose PPO IQM of the episode
 returns exceeds the paper's, or at the budget.
@@ -77,7 +77,7 @@ class TimeToBeat:
 
 
 def _returns_iqm(document: Mapping[str, Any]) -> tuple[float, float]:
-    from polyenvs.statistics import interquartile_mean
+    from polyenvs.evaluation.statistics import interquartile_mean
 
     returns = [episode["return"] for episode in document["episodes"]]
     return interquartile_mean(returns), float(sum(returns) / len(returns))
@@ -109,8 +109,8 @@ def time_to_beat(
 
     import polyenvs  # noqa: F401  (registers the ids)
     from polyenvs.errors import check_count
-    from polyenvs.evaluation import evaluate
-    from polyenvs.leaderboard import EVAL_SEED
+    from polyenvs.evaluation.episodes import evaluate
+    from polyenvs.evaluation.protocol import EVAL_SEED
     from polyenvs.registry import bare_id
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.vec_adapter import make_training_vec_env

@@ -181,7 +181,7 @@ def measure_training(
     cases = [Case(env_id, PPO_SETTING, start=_starter(env_id, timesteps, seed)) for env_id in [CARTPOLE, *ids]]
     notes: list[str] = []
     if vec:
-        from polyenvs.evaluation import resolve_env
+        from polyenvs.evaluation.episodes import resolve_env
 
         per_round = vec_timesteps if vec_timesteps is not None else 4 * timesteps
         common = {"timesteps": per_round, "seed": seed, "config": config, "overrides": vec_overrides}

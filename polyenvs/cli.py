@@ -26,6 +26,7 @@ from polyenvs.commands import collect, evaluate, leaderboard, localize, record, 
 from polyenvs.commands import list as list_command
 from polyenvs.commands.flags import CliError
 from polyenvs.errors import InputError
+from polyenvs.evaluation.protocol import old_versions_quietly
 from polyenvs.registry import bare_id, entry
 
 __all__ = ["ID_ARGUMENTS", "build_parser", "main", "superseded_notes"]
@@ -56,8 +57,6 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from polyenvs.leaderboard import old_versions_quietly  # once parsed: it loads the evaluation stack
-
     try:
         with old_versions_quietly():
             code = args.func(args)

@@ -77,8 +77,8 @@ class Score:
     #: ``"mean"`` for a proportion (a success rate: its IQM is 1 once three quarters of the episodes succeed).
     aggregate: str = "iqm"
     #: Episodes per policy in the leaderboard's protocol for this row; ``None`` for the protocol's usual count
-    #: (``polyenvs.leaderboard.PROTOCOL_EPISODES``, 50). More only where the score's spread needs them to tell the
-    #: anchor from random at 95%, decided on seeds other than the leaderboard's.
+    #: (``polyenvs.evaluation.protocol.PROTOCOL_EPISODES``, 50). More only where the score's spread needs them to
+    #: tell the anchor from random at 95%, decided on seeds other than the leaderboard's.
     episodes: int | None = None
 
     def __post_init__(self):

@@ -4,7 +4,7 @@
 [--address ADDR] [--jobs N] [--out DIR] [--episodes N]``
 
 A job is :func:`polyenvs.training.train.train` into ``<out>/agents/<env id with / as __>/<algo>/seed<N>/`` (the
-layout of ``benchmarks/agents``) followed by :func:`polyenvs.evaluation.evaluate` of that model on the leaderboard's
+layout of ``benchmarks/agents``) followed by :func:`polyenvs.evaluation.episodes.evaluate` of that model on the leaderboard's
 evaluation seeds, written atomically to ``<out>/results/<env id with / as __>__agent__<algo>__seed<N>.json`` (the
 leaderboard's result file for that agent). The jobs run on a local process pool (``--jobs`` workers, one torch thread
 each) or, with ``--backend ray``, as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a
@@ -96,11 +96,13 @@ def run_job(job: Job) -> dict[str, Any]:
     Runs in a worker process. Returns ``{"job", "trained", "train_s", "evaluated", "iqm", "mean", "episodes"}``,
     or ``{"job", "error"}`` with the error in one line; Ctrl-C propagates.
     """
-    from polyenvs.evaluation import evaluate
+    from polyenvs.evaluation.agents import training_layouts
+    from polyenvs.evaluation.episodes import evaluate
+    from polyenvs.evaluation.protocol import EVAL_SEED
+    from polyenvs.evaluation.results import load_result, provenance
+    from polyenvs.evaluation.statistics import interquartile_mean
     from polyenvs.files import write_json_atomic
-    from polyenvs.leaderboard import EVAL_SEED, load_result, provenance, training_layouts
     from polyenvs.pool import single_threaded_torch
-    from polyenvs.statistics import interquartile_mean
     from polyenvs.training.train import finished_run, read_run, train
 
     single_threaded_torch()  # also where a Ray task runs it, which has no pool initializer
@@ -174,9 +176,9 @@ def plan_jobs(
     """
     import polyenvs  # noqa: F401  (registers the ids)
     from baselines.algorithms import check_action_space, get_algo
-    from polyenvs.evaluation import make_env
+    from polyenvs.evaluation.episodes import make_env
+    from polyenvs.evaluation.rollout import agent_spaces, unknown_id_help
     from polyenvs.registry import ALL_IDS
-    from polyenvs.rollout import agent_spaces, unknown_id_help
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.train import check_out_dir
 
@@ -316,8 +318,8 @@ def describe_result(result: dict) -> str:
 
 def done_before(job: Job) -> dict[str, Any] | None:
     """:func:`run_job`'s result for a job whose run is finished and whose result file is usable, else None."""
-    from polyenvs.leaderboard import load_result
-    from polyenvs.statistics import interquartile_mean
+    from polyenvs.evaluation.results import load_result
+    from polyenvs.evaluation.statistics import interquartile_mean
     from polyenvs.training.train import finished_run
 
     if finished_run(job.out_dir, job.env_id, job.algo, job.seed) is None:

@@ -131,8 +131,8 @@ class ParallelResidualPolicy(BaseParallelWrapper):
     One baseline for the swarm, each robot with its own row of its memory, restarted on the observations a reset
     returns (a robot's episode restarts only with the swarm's). The baseline acts for the robots still in the
     episode as one batch, in the order of ``env.agents``: exactly the batch a shared policy gets in an evaluation
-    (:mod:`polyenvs.rollout`), so a zero correction is the baseline's episode bit for bit. A robot that leaves gets
-    its base action (appended to its last observation) from a call of its own.
+    (:mod:`polyenvs.evaluation.rollout`), so a zero correction is the baseline's episode bit for bit. A robot that
+    leaves gets its base action (appended to its last observation) from a call of its own.
 
     ## Arguments
     | argument | default | meaning |

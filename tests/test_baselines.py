@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from baselines import available_policies, make_policy
-from polyenvs.evaluation import evaluate
+from polyenvs.evaluation.episodes import evaluate
 
 WALL = "polyenvs/BuckybotWallFollow-v0"
 

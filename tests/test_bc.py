@@ -13,10 +13,11 @@ from tests.cli_helpers import run_main
 pytest.importorskip("minari")
 pytest.importorskip("stable_baselines3")
 
-from polyenvs.datasets import collect  # noqa: E402
 from polyenvs.errors import InputError  # noqa: E402
-from polyenvs.evaluation import evaluate  # noqa: E402
-from polyenvs.leaderboard import find_agents, load_result, result_path  # noqa: E402
+from polyenvs.evaluation.agents import find_agents  # noqa: E402
+from polyenvs.evaluation.datasets import collect  # noqa: E402
+from polyenvs.evaluation.episodes import evaluate  # noqa: E402
+from polyenvs.evaluation.results import load_result, result_path  # noqa: E402
 from polyenvs.registry import slug  # noqa: E402
 
 CORRIDOR = "polyenvs/APLiteCorridor-v0"
@@ -70,8 +71,8 @@ def _cloned_model(dataset, env_id=CORRIDOR):
 def test_cloning_the_papers_demonstrations_reaches_most_of_its_score(demos):
     """BC alone (no reinforcement learning): the corridor's success rate on the leaderboard's seeds."""
     from baselines.trained import TrainedPolicy
-    from polyenvs.evaluation import make_env
-    from polyenvs.rollout import run_episode
+    from polyenvs.evaluation.episodes import make_env
+    from polyenvs.evaluation.rollout import run_episode
 
     model, normalization, record = _cloned_model(demos)
     agent = TrainedPolicy(model, "ppo", "bc", normalization=normalization)
@@ -89,8 +90,8 @@ def test_cloning_the_papers_demonstrations_reaches_most_of_its_score(demos):
 def test_cloning_a_discrete_policy(tmp_path):
     """Categorical actions: Buckybot's goal seeker (committed success 0.98, random 0.06) from 20 episodes."""
     from baselines.trained import TrainedPolicy
-    from polyenvs.evaluation import make_env
-    from polyenvs.rollout import run_episode
+    from polyenvs.evaluation.episodes import make_env
+    from polyenvs.evaluation.rollout import run_episode
 
     goal = "polyenvs/BuckybotGoal-v0"
     collect(goal, "paper", episodes=20, seed=0, out_dir=tmp_path / "demos", results_dir="benchmarks/results")
@@ -106,7 +107,7 @@ def test_cloning_a_discrete_policy(tmp_path):
 
 
 def test_the_statistics_are_the_demonstrations(demos):
-    from polyenvs.datasets import load_demonstrations
+    from polyenvs.evaluation.datasets import load_demonstrations
 
     _, normalization, _ = _cloned_model(demos)
     observations = np.concatenate([obs for obs, _, _ in load_demonstrations(demos).episodes])
@@ -158,7 +159,7 @@ def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
     """A training directory is a policy for collect as for evaluate: its episodes replay in the recovered env."""
     import minari
 
-    from polyenvs.evaluation import make_agent
+    from polyenvs.evaluation.episodes import make_agent
     from tests.test_datasets import _replay
 
     config = tmp_path / "ppo.yml"
@@ -170,7 +171,7 @@ def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
     identifier = collect(CORRIDOR, str(run_dir), episodes=2, seed=3, out_dir=tmp_path / "agent",
                          env_kwargs={"max_episode_steps": 30})  # fmt: skip
     assert identifier == "polyenvs/APLiteCorridor-v0/trained_ppo-v0"
-    from polyenvs.datasets import _minari_root
+    from polyenvs.evaluation.datasets import _minari_root
 
     with _minari_root(tmp_path / "agent"):
         dataset = minari.load_dataset(identifier)

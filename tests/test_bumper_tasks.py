@@ -15,7 +15,7 @@ from baselines.base import RandomPolicy
 from baselines.bumper import FixedTurn, GreedySplit
 from polyenvs.bumper.explore_v1 import BumperCartExploreV1Env, coverage_bound
 from polyenvs.bumper.localize import BELIEF_STRUCTURE, BumperCartLocalizeEnv
-from polyenvs.statistics import interquartile_mean
+from polyenvs.evaluation.statistics import interquartile_mean
 
 LOCALIZE = "polyenvs/BumperCartLocalize-v0"
 EXPLORE_V1 = "polyenvs/BumperCartExplore-v1"

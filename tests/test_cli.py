@@ -381,12 +381,12 @@ def test_record_mp4_without_imageio_ffmpeg_is_one_line(tmp_path, monkeypatch, ca
 
 def test_record_checks_the_output_path_before_running(tmp_path, monkeypatch, capsys):
     pytest.importorskip("imageio.v3")
-    import polyenvs.evaluation
+    import polyenvs.evaluation.episodes
 
     def no_env(*args, **kwargs):
         raise AssertionError("the episode ran before the output path was checked")
 
-    monkeypatch.setattr(polyenvs.evaluation, "make_env", no_env)
+    monkeypatch.setattr(polyenvs.evaluation.episodes, "make_env", no_env)
     blocker = tmp_path / "a_file"
     blocker.write_text("")
     for output, fragment in [(blocker / "x.gif", "not a directory"), (tmp_path, ".gif or .mp4")]:

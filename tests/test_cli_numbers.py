@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-import polyenvs.evaluation
+import polyenvs.evaluation.episodes
+import polyenvs.evaluation.rollout
 import polyenvs.localization.runner
-import polyenvs.rollout
 import polyenvs.sweep
 from baselines.residual import MAX_HOLD
 from polyenvs.cli import build_parser
@@ -68,7 +68,7 @@ OTHER_FLAGS = {
     "help", "json", "policy", "env_kwargs", "policy_kwargs", "quick", "only", "results_dir", "output", "redo",
     "agents_dir", "update_reference", "reproduce", "fps", "algo", "config", "out", "progress", "resume", "overwrite", "envs",
     "algos", "config_dir", "backend", "address", "estimator", "map", "env", "estimator_kwargs", "bc_from",
-    "bc_log_std", "residual", "residual_scale", "residual_log_std",
+    "bc_log_std", "residual", "residual_scale", "residual_log_std", "layouts",
 }  # fmt: skip
 
 
@@ -79,8 +79,8 @@ def no_work(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("work started before the flags were checked")
 
-    monkeypatch.setattr(polyenvs.evaluation, "run_episode", refuse)
-    monkeypatch.setattr(polyenvs.rollout, "episode_frames", refuse)
+    monkeypatch.setattr(polyenvs.evaluation.episodes, "run_episode", refuse)
+    monkeypatch.setattr(polyenvs.evaluation.rollout, "episode_frames", refuse)
     monkeypatch.setattr(polyenvs.localization.runner, "rollout_logs", refuse)
     monkeypatch.setattr(polyenvs.sweep, "run_sweep", refuse)
     try:

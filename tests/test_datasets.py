@@ -19,9 +19,9 @@ from tests.cli_helpers import run_main
 minari = pytest.importorskip("minari")
 
 from polyenvs import __version__  # noqa: E402
-from polyenvs.datasets import collect  # noqa: E402
-from polyenvs.evaluation import make_agent  # noqa: E402
-from polyenvs.rollout import policy_action  # noqa: E402
+from polyenvs.evaluation.datasets import collect  # noqa: E402
+from polyenvs.evaluation.episodes import make_agent  # noqa: E402
+from polyenvs.evaluation.rollout import policy_action  # noqa: E402
 
 #: One id of every family, its episodes cut short so that the whole file runs in seconds.
 FAMILIES = [
@@ -108,7 +108,7 @@ def test_a_dataset_round_trips_through_minari(env_id, env_kwargs, tmp_path, monk
 
 def test_reference_scores_come_from_the_committed_results(tmp_path, monkeypatch):
     """With the default keywords, random's and the paper's mean returns are read from benchmarks/results."""
-    from polyenvs.leaderboard import load_result, result_path
+    from polyenvs.evaluation.results import load_result, result_path
 
     results = "benchmarks/results"
     out = tmp_path / "demos"
@@ -146,7 +146,7 @@ def test_the_command_writes_once_and_refuses_an_existing_directory(tmp_path, cap
 
 def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monkeypatch):
     """Written under a temporary name: a failure before the rename keeps the old dataset and leaves no trace."""
-    import polyenvs.datasets as datasets
+    import polyenvs.evaluation.datasets as datasets
 
     out = tmp_path / "demos"
     kwargs = {"out_dir": out, "env_kwargs": {"max_episode_steps": 5}}

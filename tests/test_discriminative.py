@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
-from polyenvs.leaderboard import leaderboard_tables, stored_results
+from polyenvs.evaluation.results import stored_results
+from polyenvs.evaluation.table import leaderboard_tables
 from polyenvs.registry import REGISTRY
 
 ROOT = Path(__file__).resolve().parents[1]

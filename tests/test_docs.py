@@ -30,7 +30,7 @@ def left_out() -> list[str]:
 
 @pytest.fixture(scope="module")
 def tables(left_out):
-    from polyenvs.leaderboard import leaderboard_tables
+    from polyenvs.evaluation.table import leaderboard_tables
 
     return leaderboard_tables(pages.reference_documents(ROOT, progress=left_out.append))
 
@@ -129,8 +129,8 @@ def test_the_index_opens_each_family_with_a_grid_of_recordings_linking_every_pag
 
 
 def test_a_corridor_recording_follows_its_robots_and_keeps_its_key():
-    from polyenvs.evaluation import make_agent
-    from polyenvs.rollout import episode_frames, make_env
+    from polyenvs.evaluation.episodes import make_agent
+    from polyenvs.evaluation.rollout import episode_frames, make_env
 
     env = make_env("polyenvs.swarm.corridor_v0", render_mode="rgb_array")
     try:

@@ -12,7 +12,7 @@ import pytest
 
 import polyenvs  # noqa: F401 - registers the ids
 from baselines import make_policy
-from polyenvs.rollout import policy_action
+from polyenvs.evaluation.rollout import policy_action
 from tests.cli_helpers import run_main
 
 sb3 = pytest.importorskip("stable_baselines3")

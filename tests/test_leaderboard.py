@@ -14,10 +14,13 @@ import numpy as np
 import pytest
 
 import polyenvs
+import polyenvs.evaluation.agents
+import polyenvs.evaluation.protocol
+import polyenvs.evaluation.results
+import polyenvs.evaluation.run
 import polyenvs.files
-import polyenvs.leaderboard
 from polyenvs.cli import main
-from polyenvs.leaderboard import load_result, result_path
+from polyenvs.evaluation.results import load_result, result_path
 from polyenvs.registry import REGISTRY
 from tests.cli_helpers import run_main
 
@@ -63,7 +66,7 @@ def no_evaluation(monkeypatch):
     def evaluate(*args, **kwargs):
         raise AssertionError("an evaluation ran before the arguments were checked")
 
-    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", evaluate)
+    monkeypatch.setattr(polyenvs.evaluation.run, "evaluate", evaluate)
 
 
 def test_leaderboard_writes_results_and_table(tmp_path: Path):
@@ -231,7 +234,7 @@ def test_default_directory_is_gitignored():
 
 def test_update_reference_refreshes_the_committed_files(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(polyenvs.leaderboard, "PROTOCOL_EPISODES", 2)  # the protocol's 50, made fast
+    monkeypatch.setattr(polyenvs.evaluation.protocol, "PROTOCOL_EPISODES", 2)  # the protocol's 50, made fast
     reference = tmp_path / "benchmarks" / "results"
     reference.mkdir(parents=True)
     stale = _fake_result(GOAL, "goal_seeker", [1.0, 2.0])
@@ -275,7 +278,7 @@ def test_update_reference_outside_the_repository_is_refused(tmp_path, monkeypatc
 def _reference_of_goal(tmp_path, monkeypatch, capsys, episodes: int = 3) -> Path:
     """A reference of BuckybotGoal in ``tmp_path`` (the current directory): ``episodes`` per policy and layouts."""
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(polyenvs.leaderboard, "PROTOCOL_EPISODES", episodes)
+    monkeypatch.setattr(polyenvs.evaluation.protocol, "PROTOCOL_EPISODES", episodes)
     reference = tmp_path / "benchmarks" / "results"
     reference.mkdir(parents=True)
     code, _, err = run_main(["leaderboard", "--update-reference", "--only", "Goal", "--jobs", "1"], capsys)
@@ -314,11 +317,11 @@ def test_reproduce_matches_an_agent_by_its_row_and_seed_wherever_it_was_found():
         doc("benchmarks/agents/polyenvs__BuckybotGoal-v0/ppo/seed0", [1.0, 2.0, 3.0]),
         doc("benchmarks/agents/polyenvs__BuckybotGoal-v0/ppo_residual_paper/seed0", [4.0] * 3, "ppo_residual_paper"),
     ]
-    same = polyenvs.leaderboard.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.0])], reference)
+    same = polyenvs.evaluation.results.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.0])], reference)
     assert (same.same, same.differ, same.absent) == (2, [], [])
-    other = polyenvs.leaderboard.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.5])], reference)
+    other = polyenvs.evaluation.results.compare_with_reference([doc("/elsewhere/ppo/seed0", [1.0, 2.5])], reference)
     assert other.same == 1 and other.differ == [f"{GOAL} ppo seed0: seeds 1001 differ from the reference"]
-    longer = polyenvs.leaderboard.compare_with_reference([doc("x", [1.0, 2.0, 3.0, 4.0])], reference)
+    longer = polyenvs.evaluation.results.compare_with_reference([doc("x", [1.0, 2.0, 3.0, 4.0])], reference)
     assert longer.same == 0 and "the reference has 3 episodes" in longer.absent[0]
 
 
@@ -335,7 +338,9 @@ def test_reproduce_refuses_flags_that_change_what_the_reference_holds(
 
 def test_reproduce_without_a_reference_says_where_it_looked(tmp_path, monkeypatch, capsys, no_evaluation):
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(polyenvs.leaderboard, "checkout_dirs", lambda relative: [Path(relative)])  # an installed copy
+    monkeypatch.setattr(
+        polyenvs.evaluation.agents, "checkout_dirs", lambda relative: [Path(relative)]
+    )  # an installed copy
     code, _, err = run_main(["leaderboard", "--reproduce"], capsys)
     assert_one_line_error(code, err, f"no reference results ({tmp_path / 'benchmarks' / 'results'})")
     assert list(tmp_path.iterdir()) == []
@@ -455,7 +460,7 @@ def test_the_leaderboard_says_why_it_found_no_agents(tmp_path, monkeypatch, caps
     assert code == 0, err
     assert f"trained agents: none in {empty} for the 1 environment run (it has no <env id" in err
     # An installed package without a checkout beside it (the fresh-venv case): nowhere to look but here.
-    monkeypatch.setattr(polyenvs.leaderboard, "default_agents_dirs", lambda: [Path("benchmarks/agents")])
+    monkeypatch.setattr(polyenvs.evaluation.agents, "default_agents_dirs", lambda: [Path("benchmarks/agents")])
     code, out, err = run_main(argv, capsys)
     assert code == 0, err
     assert (
@@ -510,6 +515,6 @@ def test_the_pool_takes_the_longest_evaluations_first(tmp_path, monkeypatch):
         submitted.extend(job[1] for job in jobs)
 
     monkeypatch.setattr(polyenvs.pool, "run_local", record)
-    polyenvs.leaderboard.run_leaderboard([GOAL, WALL], 1, results_dir=tmp_path, progress=lambda _: None, workers=2)
+    polyenvs.evaluation.run.run_leaderboard([GOAL, WALL], 1, results_dir=tmp_path, progress=lambda _: None, workers=2)
     assert submitted[0] == WALL and submitted[-1] == GOAL
-    assert submitted == sorted(submitted, key=lambda env_id: -polyenvs.leaderboard.step_budget(env_id))
+    assert submitted == sorted(submitted, key=lambda env_id: -polyenvs.evaluation.run.step_budget(env_id))

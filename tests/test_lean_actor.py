@@ -15,9 +15,9 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from baselines.trained import LeanActor  # noqa: E402
-from polyenvs.evaluation import make_agent, make_env  # noqa: E402
-from polyenvs.leaderboard import old_versions_quietly  # noqa: E402
-from polyenvs.rollout import is_parallel  # noqa: E402
+from polyenvs.evaluation.episodes import make_agent, make_env  # noqa: E402
+from polyenvs.evaluation.protocol import old_versions_quietly  # noqa: E402
+from polyenvs.evaluation.rollout import is_parallel  # noqa: E402
 
 AGENTS = Path(__file__).resolve().parents[1] / "benchmarks" / "agents"
 STEPS = 200

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401  (registers the ids)
-from polyenvs import charts
 from polyenvs.commands.localize import add_parser
 from polyenvs.errors import InputError
+from polyenvs.evaluation import charts
 from polyenvs.localization import Estimator, estimator_class, estimators, make_estimator
 from polyenvs.localization.report import convergence_plot, convergence_table
 from polyenvs.localization.runner import CONVERGED_CM, rollout_logs, score_estimator, summarize

@@ -16,8 +16,8 @@ from gymnasium import spaces
 import polyenvs  # noqa: F401  (registers the ids)
 from baselines import make_policy
 from baselines.residual import ResidualComposer, ResidualSpec
-from polyenvs.evaluation import evaluate
-from polyenvs.rollout import run_episode
+from polyenvs.evaluation.episodes import evaluate
+from polyenvs.evaluation.rollout import run_episode
 from polyenvs.wrappers import ResidualPolicy
 from tests.cli_helpers import run_main
 
@@ -96,7 +96,7 @@ def test_the_baseline_memory_restarts_at_every_reset():
 def test_each_sub_env_of_a_vector_env_runs_its_own_baseline(env_id):
     """SB3's DummyVecEnv of wrapped envs (what ``train --residual`` builds) gives each sub-env what one wrapper
     gives alone: its own baseline, memory and (the cart's random bounce) generator."""
-    from polyenvs.evaluation import resolve_env
+    from polyenvs.evaluation.episodes import resolve_env
     from polyenvs.training.residual import residual_wrapper
     from polyenvs.training.vec_adapter import make_training_vec_env
 
@@ -168,7 +168,7 @@ def _untrained_residual_agent(env_id: str, out, log_std: float = -3.0):
     """A residual agent's training directory as ``train --residual`` leaves it before any update."""
     from stable_baselines3 import PPO
 
-    from polyenvs.evaluation import resolve_env
+    from polyenvs.evaluation.episodes import resolve_env
     from polyenvs.training.residual import residual_wrapper, start_at_the_base
     from polyenvs.training.vec_adapter import make_training_vec_env
 
@@ -230,7 +230,7 @@ def test_bad_residual_flags_are_one_line_before_training(flags, message, tmp_pat
 
 
 def test_the_leaderboard_finds_a_residual_agent_in_its_own_row(tmp_path):
-    from polyenvs.leaderboard import find_agents
+    from polyenvs.evaluation.agents import find_agents
     from polyenvs.registry import slug
 
     rows = tmp_path / "agents" / slug(CART)

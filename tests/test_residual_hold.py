@@ -18,7 +18,7 @@ import polyenvs  # noqa: F401  (registers the ids)
 from baselines import make_policy
 from baselines.residual import ResidualSpec
 from baselines.trained import load_trained_policy
-from polyenvs.rollout import policy_action
+from polyenvs.evaluation.rollout import policy_action
 from polyenvs.wrappers import ResidualPolicy
 from tests.cli_helpers import run_main
 from tests.test_residual import _baseline_episode, _make
@@ -101,7 +101,7 @@ def _random_residual_agent(env_id: str, out, hold: int):
     import torch
     from stable_baselines3 import PPO
 
-    from polyenvs.evaluation import resolve_env
+    from polyenvs.evaluation.episodes import resolve_env
     from polyenvs.training.residual import residual_wrapper, start_at_the_base
     from polyenvs.training.vec_adapter import make_training_vec_env
 

@@ -12,7 +12,7 @@ import pytest
 
 from baselines import make_policy
 from baselines.residual import ResidualSpec
-from polyenvs.rollout import agent_spaces, make_env, run_episode
+from polyenvs.evaluation.rollout import agent_spaces, make_env, run_episode
 from polyenvs.wrappers import ParallelResidualPolicy
 from tests.cli_helpers import run_main
 
@@ -77,7 +77,7 @@ def test_bad_arguments_raise_naming_the_parameter(kwargs, name):
 def _untrained_swarm_agent(env_id: str, out):
     from stable_baselines3 import PPO
 
-    from polyenvs.evaluation import resolve_env
+    from polyenvs.evaluation.episodes import resolve_env
     from polyenvs.training.residual import residual_wrapper, start_at_the_base
     from polyenvs.training.vec_adapter import make_training_vec_env
 

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import pytest
 
-from polyenvs.statistics import (
+from polyenvs.evaluation.statistics import (
     Difference,
     aggregate_with_two_level_ci,
     compare,

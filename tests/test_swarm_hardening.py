@@ -13,8 +13,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from polyenvs.evaluation.rollout import make_env
 from polyenvs.registry import REGISTRY
-from polyenvs.rollout import make_env
 from polyenvs.swarm import corridor_v0, formation_v0, obstacle_field_v0, single
 from polyenvs.swarm.batched import SwarmVectorEnv
 

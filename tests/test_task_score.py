@@ -10,14 +10,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import polyenvs.leaderboard
-import polyenvs.rollout
-from polyenvs import charts
+import polyenvs.evaluation.protocol
+import polyenvs.evaluation.results
+import polyenvs.evaluation.rollout
+import polyenvs.evaluation.run
+import polyenvs.evaluation.table
+import polyenvs.evaluation.verdict
 from polyenvs.cli import main
-from polyenvs.evaluation import make_env
-from polyenvs.leaderboard import leaderboard_markdown, leaderboard_tables, result_path, write_leaderboard
+from polyenvs.evaluation import charts
+from polyenvs.evaluation.episodes import make_env
+from polyenvs.evaluation.page import leaderboard_markdown, write_leaderboard
+from polyenvs.evaluation.results import result_path
+from polyenvs.evaluation.rollout import is_parallel
+from polyenvs.evaluation.table import leaderboard_tables
 from polyenvs.registry import REGISTRY, Score
-from polyenvs.rollout import is_parallel
 
 GOAL, TURN, WALL = "polyenvs/BuckybotGoal-v0", "polyenvs/BeastTurn-v0", "polyenvs/BuckybotWallFollow-v0"
 
@@ -112,7 +118,7 @@ def test_held_out_results_are_evaluated_and_shown_with_the_gap(tmp_path, monkeyp
         return _doc(env_id, policy, values, "success", "test" if held_out else "default",
                     steps_to_goal=[30] * episodes)  # fmt: skip
 
-    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", fake_evaluate)
+    monkeypatch.setattr(polyenvs.evaluation.run, "evaluate", fake_evaluate)
     (tmp_path / "agents").mkdir()
     args = ["leaderboard", "--only", "Goal", "--episodes", "2", "--jobs", "1", "--agents-dir", str(tmp_path / "agents"),
             "--results-dir", str(tmp_path / "results"), "--output", str(tmp_path / "LB.md")]  # fmt: skip
@@ -139,12 +145,12 @@ def test_a_row_whose_score_needs_more_episodes_runs_them_by_default(tmp_path, mo
         return _doc(env_id, policy, [float(policy != "random")] * episodes, "success", "test" if held_out else "default",
                     steps_to_goal=[30] * episodes)  # fmt: skip
 
-    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", fake_evaluate)
-    monkeypatch.setattr(polyenvs.leaderboard, "PROTOCOL_EPISODES", 2)  # the protocol's 50, made fast
-    real_entry = polyenvs.leaderboard.entry
+    monkeypatch.setattr(polyenvs.evaluation.run, "evaluate", fake_evaluate)
+    monkeypatch.setattr(polyenvs.evaluation.protocol, "PROTOCOL_EPISODES", 2)  # the protocol's 50, made fast
+    real_entry = polyenvs.evaluation.protocol.entry
     score = Score("success", "max", ceiling=1.0, tie_break="steps_to_goal", episodes=60)
     monkeypatch.setattr(
-        polyenvs.leaderboard, "entry", lambda env_id: dataclasses.replace(real_entry(env_id), score=score)
+        polyenvs.evaluation.protocol, "entry", lambda env_id: dataclasses.replace(real_entry(env_id), score=score)
     )
     (tmp_path / "agents").mkdir()
     args = ["leaderboard", "--only", "Goal", "--jobs", "1", "--agents-dir", str(tmp_path / "agents"),
@@ -164,7 +170,7 @@ def test_the_committed_reference_holds_each_rows_protocol_count():
     from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
 
     root = Path(__file__).resolve().parents[1]
-    rows = {row.id: polyenvs.leaderboard.protocol_episodes(row.id) for row in REGISTRY}
+    rows = {row.id: polyenvs.evaluation.protocol.protocol_episodes(row.id) for row in REGISTRY}
     for path in sorted((root / REFERENCE_RESULTS_DIR).glob("*.json")):
         doc = json.loads(path.read_text())
         assert doc["n_episodes"] == rows[doc["env_id"]], f"{path.name}: {doc['n_episodes']} episodes"
@@ -182,18 +188,18 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
     random = _doc(WALL, "random", list(rng.uniform(0.0, 0.1, 30)), "perimeter_fraction")
     better = _agent(_doc(WALL, "x", list(rng.uniform(0.7, 0.8, 30)), "perimeter_fraction"))
     overlapping = _agent(_doc(WALL, "x", list(rng.uniform(0.5, 0.6, 30)), "perimeter_fraction", layouts="test"))
-    verdict = polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random, better, overlapping])[WALL])
+    verdict = polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables([*paper, random, better, overlapping])[WALL])
     assert verdict["reference"]["label"] == "wall_follower" and verdict["agent"]["label"] == "ppo"
     assert verdict["default"] is True and verdict["held_out"] is False
     # Lower is better on the turn: an agent with a larger heading error does not beat it.
     turn = [_doc(TURN, "sharp_turn_cone", [1.0, 1.1, 0.9] * 10, "heading_error_deg"),
             _agent(_doc(TURN, "x", [2.0, 2.1, 1.9] * 10, "heading_error_deg"))]  # fmt: skip
-    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is False
+    assert polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is False
     turn[1] = _agent(_doc(TURN, "x", [0.2, 0.3, 0.1] * 10, "heading_error_deg"))
-    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is True
+    assert polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables(turn)[TURN])["default"] is True
     # An interval that only reaches below the paper's is no win (its worse end, the upper one, is above).
     turn[1] = _agent(_doc(TURN, "x", list(rng.uniform(0.0, 2.2, 30)), "heading_error_deg"))
-    verdict = polyenvs.leaderboard.agent_verdict(leaderboard_tables(turn)[TURN])
+    verdict = polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables(turn)[TURN])
     assert verdict["agent"]["score"]["low"] < 0.9 < verdict["agent"]["score"]["high"] and verdict["default"] is False
 
     # Both at the ceiling: the tie-break decides (fewer steps to the goal), on each layouts' own episodes.
@@ -202,12 +208,12 @@ def test_the_verdict_says_whether_an_agent_beats_the_paper_default_and_held_out(
                 for layouts in ("default", "test")]  # fmt: skip
         docs += [_agent(_doc(GOAL, "x", [1.0] * 30, "success", "default", steps_to_goal=[agent_steps] * 30)),
                  _agent(_doc(GOAL, "x", [1.0] * 30, "success", "test", steps_to_goal=[agent_held_out_steps] * 30))]  # fmt: skip
-        return polyenvs.leaderboard.agent_verdict(leaderboard_tables(docs)[GOAL])
+        return polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables(docs)[GOAL])
 
     assert [goal(25, 35)[k] for k in ("default", "held_out")] == [True, False]
     assert [goal(35, 25)[k] for k in ("default", "held_out")] == [False, True]
     # Without an agent there is no verdict, and the page says so.
-    assert polyenvs.leaderboard.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
+    assert polyenvs.evaluation.verdict.agent_verdict(leaderboard_tables([*paper, random])[WALL]) is None
     page = leaderboard_markdown([*paper, random, better])
     assert (
         "a trained agent beats the paper's algorithm on the held-out layouts on 0 of the 1 environments the "
@@ -302,15 +308,17 @@ def test_the_committed_reference_is_read_with_its_scores():
     """Reading the committed results needs no re-evaluation: every row with results gets a table."""
     from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
 
-    root = Path(polyenvs.leaderboard.__file__).resolve().parents[1]
-    docs = polyenvs.leaderboard.stored_results([r.id for r in REGISTRY], root / REFERENCE_RESULTS_DIR, lambda _: None)
+    root = Path(polyenvs.evaluation.results.__file__).resolve().parents[2]
+    docs = polyenvs.evaluation.results.stored_results(
+        [r.id for r in REGISTRY], root / REFERENCE_RESULTS_DIR, lambda _: None
+    )
     assert {d["env_id"] for d in docs} <= {r.id for r in REGISTRY}
     assert all(t["score"] is not None for t in leaderboard_tables(docs).values())
 
 
 def _formation_episode(policy: str, steps: int = 200) -> dict:
     from baselines import make_policy
-    from polyenvs.rollout import agent_spaces, run_episode
+    from polyenvs.evaluation.rollout import agent_spaces, run_episode
 
     env = make_env("polyenvs.swarm.formation_v0", {"max_cycles": steps})
     try:
@@ -343,7 +351,7 @@ def test_formation_progress_counts_only_progress_in_formation(monkeypatch):
 
 def test_the_goal_tie_break_counts_the_steps_to_the_goal():
     from baselines import make_policy
-    from polyenvs.rollout import agent_spaces, run_episode
+    from polyenvs.evaluation.rollout import agent_spaces, run_episode
 
     env = make_env(GOAL)
     result = run_episode(env, make_policy("paper", GOAL, *agent_spaces(env)), 1000)
@@ -357,7 +365,7 @@ def test_success_scores_rank_by_their_rate_not_its_iqm():
     successes = [row for row in REGISTRY if row.score is not None and "success" in row.score.metric]
     assert successes and all(row.score.aggregate == "mean" for row in successes)
     runs = [np.r_[np.ones(38), np.zeros(12)]]
-    stats = polyenvs.leaderboard._interval(runs, successes[0].score)
+    stats = polyenvs.evaluation.table._interval(runs, successes[0].score)
     assert stats["value"] == pytest.approx(0.76) and stats["high"] < 1.0
 
 
@@ -380,6 +388,6 @@ def test_a_training_seed_that_fails_widens_the_agents_interval_and_can_flip_the_
     assert [len(a["seed_scores"]) for a in agent] == [3, 4]
     widths = [a["held_out"]["high"] - a["held_out"]["low"] for a in agent]
     assert widths[1] > 5 * widths[0]
-    verdicts = [polyenvs.leaderboard.agent_verdict(t) for t in (three, four)]
+    verdicts = [polyenvs.evaluation.verdict.agent_verdict(t) for t in (three, four)]
     assert [v["held_out"] for v in verdicts] == [True, False] and [v["default"] for v in verdicts] == [True, False]
     assert verdicts[0]["improvement"][0] == 1.0 and verdicts[1]["improvement"][0] == 0.75

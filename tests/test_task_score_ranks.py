@@ -20,9 +20,9 @@ import pytest
 from baselines import make_policy
 from baselines.beast import RollingGait
 from baselines.bumper import FixedTurn
-from polyenvs.evaluation import make_env
+from polyenvs.evaluation.episodes import make_env
+from polyenvs.evaluation.rollout import agent_spaces, run_episode
 from polyenvs.registry import REGISTRY, entry
-from polyenvs.rollout import agent_spaces, run_episode
 
 
 @dataclass(frozen=True)

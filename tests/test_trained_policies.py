@@ -18,12 +18,15 @@ import numpy as np
 import pytest
 
 import polyenvs
-import polyenvs.evaluation
-import polyenvs.leaderboard
+import polyenvs.evaluation.episodes
+import polyenvs.evaluation.page
+import polyenvs.evaluation.results
+import polyenvs.evaluation.run
+import polyenvs.evaluation.table
 from polyenvs.cli import main
-from polyenvs.evaluation import evaluate
-from polyenvs.rollout import policy_action
-from polyenvs.statistics import interquartile_mean, iqm_with_ci, iqm_with_stratified_ci
+from polyenvs.evaluation.episodes import evaluate
+from polyenvs.evaluation.rollout import policy_action
+from polyenvs.evaluation.statistics import interquartile_mean, iqm_with_ci, iqm_with_stratified_ci
 from tests.cli_helpers import run_main
 
 sb3 = pytest.importorskip("stable_baselines3")
@@ -379,7 +382,7 @@ def no_episodes(monkeypatch):
     def run_episode(*args, **kwargs):
         raise AssertionError("an episode ran before the model was checked")
 
-    monkeypatch.setattr(polyenvs.evaluation, "run_episode", run_episode)
+    monkeypatch.setattr(polyenvs.evaluation.episodes, "run_episode", run_episode)
 
 
 @pytest.mark.parametrize("kind", BAD_MODELS)
@@ -517,7 +520,7 @@ def test_agents_found_by_another_path_reuse_their_results(agents_dir, tmp_path, 
     assert code == 0 and "ppo seed0: done before" in err and "ppo seed1: done before" in err, err
     result = tmp_path / "results" / f"{WALL_SLUG}__agent__ppo__seed0.json"
     sha = json.loads(result.read_text())["policy_description"]["sha256"]
-    load = polyenvs.leaderboard.load_result
+    load = polyenvs.evaluation.results.load_result
     assert load(result, WALL, f"/elsewhere/agents/{WALL_SLUG}/ppo/seed0", sha256=sha)[0] is not None
     others = ("polyenvs__BuckybotGoal-v0/ppo/seed0", f"{WALL_SLUG}/maskable_ppo/seed0", f"{WALL_SLUG}/ppo/seed1")
     for other in (f"/elsewhere/agents/{part}" for part in others):
@@ -557,7 +560,7 @@ def test_a_broken_agent_directory_stops_the_leaderboard_before_any_evaluation(
     def no_evaluation(*args, **kwargs):
         raise AssertionError("an evaluation ran before the agents were checked")
 
-    monkeypatch.setattr(polyenvs.leaderboard, "evaluate", no_evaluation)
+    monkeypatch.setattr(polyenvs.evaluation.run, "evaluate", no_evaluation)
     seed0 = agents_dir / WALL_SLUG / "ppo" / "seed0"
     run = json.loads((seed0 / "run.json").read_text())
     if breakage == "env":
@@ -662,13 +665,13 @@ def test_normalised_score_and_rows_for_synthetic_agents():
         doc("a/seed0", [20.0] * 4, 0.6, {"algo": "ppo", "label": "ppo", "training_seed": 0, "timesteps": 1e6}),
         doc("a/seed1", [30.0] * 4, 1.0, {"algo": "ppo", "label": "ppo", "training_seed": 1, "timesteps": 2e6}),
     ]
-    rows = polyenvs.leaderboard.leaderboard_rows(documents)[WALL]
+    rows = polyenvs.evaluation.table.leaderboard_rows(documents)[WALL]
     assert [r["label"] for r in rows] == ["ppo", "wall_follower", "random"]  # ranked by the task score
     ppo = rows[0]
     assert ppo["iqm"] == pytest.approx(25.0)  # the return's IQM, shown beside the score
     assert ppo["score"]["value"] == pytest.approx(0.8) and ppo["normalised"] == pytest.approx(2.0)
     assert ppo["n_timesteps"] == 1.5e6 and ppo["seeds"] == [0, 1] and ppo["episodes"] == 8
-    text = polyenvs.leaderboard.leaderboard_markdown(documents)
+    text = polyenvs.evaluation.page.leaderboard_markdown(documents)
     # The run is the unit: its seeds score 0.6 and 1 (each seed's own listed), so the interval spans them.
     assert "| ppo | 0.8 [0.6, 1] | 2.00 | 25.00 [25.00, 25.00] | - | - | 0.6, 1 |" in text
     assert f"| ppo | {WALL} | 25.00 | 5.00 | 1.5M | 8 | 2 | 25.00 [25.00, 25.00] | 0.8 |" in text

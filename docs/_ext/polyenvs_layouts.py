@@ -42,7 +42,7 @@ WHITE = 255
 def episode_frames_and_kinds(env_id: str, layouts: str) -> tuple[list[np.ndarray], list[frozenset[str]], Counter]:
     """The frames of the first :data:`PICTURED_SEEDS` resets of ``env_id`` with ``layouts``, their kinds, and how
     many of :data:`COUNTED_SEEDS` resets hold each kind."""
-    from polyenvs.rollout import make_env
+    from polyenvs.evaluation.rollout import make_env
 
     finder = KIND_MODULES[entry(env_id).family].episode_kinds
     env = make_env(env_id, {"layouts": layouts}, render_mode="rgb_array")

@@ -3,7 +3,7 @@
 Each page is made from what the code already holds, so no text is copied into ``docs/``: the row of
 :data:`polyenvs.registry.REGISTRY` (its kind, episode limit, baselines, extra and task score), the environment
 built with its defaults (its spaces) and its class's Gymnasium-style docstring (its ``##`` sections are Markdown
-already), the leaderboard section written by :func:`polyenvs.leaderboard.environment_section` from the committed
+already), the leaderboard section written by :func:`polyenvs.evaluation.table.environment_section` from the committed
 reference results in ``benchmarks/results/`` (default and held-out layouts) with the interval chart that
 ``polyenvs leaderboard --update-reference`` drew beside ``benchmarks/LEADERBOARD.md``, the paper's BibTeX from
 ``CITATION.cff``, and a GIF of the paper's policy recorded by ``polyenvs record`` at build time. The index opens
@@ -96,8 +96,8 @@ def docstring_markdown(text: str) -> str:
 def built_env(row) -> tuple[str, object, object]:
     """``(docstring, observation space, action space)`` of the row's environment built with its defaults (a
     parallel environment's spaces are one robot's, as ``polyenvs list`` shows them)."""
-    from polyenvs.leaderboard import old_versions_quietly
-    from polyenvs.rollout import agent_spaces, make_env
+    from polyenvs.evaluation.protocol import old_versions_quietly
+    from polyenvs.evaluation.rollout import agent_spaces, make_env
 
     with old_versions_quietly():  # a superseded -v0 is documented on purpose
         env = make_env(row.id)
@@ -173,7 +173,8 @@ def facts_table(row, spaces: tuple[object, object], reference: dict) -> list[str
 def reference_documents(root: Path, progress) -> list[dict]:
     """The committed reference results (default and held-out layouts, the committed agents' included), as
     ``polyenvs leaderboard --reproduce`` reads them: ``progress`` is told of every file left out, and why."""
-    from polyenvs.leaderboard import DEFAULT_AGENTS_DIR, stored_results
+    from polyenvs.evaluation.agents import DEFAULT_AGENTS_DIR
+    from polyenvs.evaluation.results import stored_results
     from polyenvs.registry import ALL_IDS
 
     return stored_results(
@@ -184,7 +185,7 @@ def reference_documents(root: Path, progress) -> list[dict]:
 def leaderboard_section(env_id: str, table: dict | None, chart: str | None) -> list[str]:
     """The environment's part of the leaderboard, as ``polyenvs leaderboard`` writes it (ranked by the task score,
     normalised where the paper's algorithm is clear of random, the held-out layouts beside), with its chart."""
-    from polyenvs.leaderboard import environment_section
+    from polyenvs.evaluation.table import environment_section
 
     lines = ["## Leaderboard", ""]
     if table is None:
@@ -362,7 +363,7 @@ def _write_if_changed(path: Path, data: str | bytes) -> None:
 def leaderboard_chart(env_id: str, root: Path) -> Path:
     """The interval chart of ``env_id`` that ``polyenvs leaderboard --update-reference`` drew beside the committed
     table (it may not exist)."""
-    from polyenvs.leaderboard import plot_path
+    from polyenvs.evaluation.page import plot_path
 
     return plot_path(root / REFERENCE_TABLE, env_id)
 
@@ -386,7 +387,7 @@ def publish_media(row, has_results: bool, root: Path, out: Path, cache: Path) ->
 def generate(app) -> None:
     from sphinx.util import logging
 
-    from polyenvs.leaderboard import leaderboard_tables
+    from polyenvs.evaluation.table import leaderboard_tables
 
     root = Path(app.srcdir).parent
     out = Path(app.srcdir) / "environments"

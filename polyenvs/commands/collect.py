@@ -23,9 +23,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "commit (code_permalink), and ref_min_score / ref_max_score: the mean return of random and of the paper's "
         f"algorithm, from the committed results in {REFERENCE_RESULTS_DIR}/ where they exist for these keywords, "
         "else evaluated on 10 episodes. A PettingZoo swarm gives a per-robot dataset: each robot's trajectory is an "
-        "episode (options {'robot': NAME}), the spec is polyenvs.datasets.RobotView (the swarm as that robot sees "
-        "it, its teammates driven by the same policy). DIR is written under a temporary name beside it and renamed "
-        "into place when done (the next run removes what a killed one left there).",
+        "episode (options {'robot': NAME}), the spec is polyenvs.evaluation.datasets.RobotView (the swarm as that "
+        "robot sees it, its teammates driven by the same policy). DIR is written under a temporary name beside it and "
+        "renamed into place when done (the next run removes what a killed one left there).",
     )
     p.add_argument(
         "env_id", help="a Gymnasium id (polyenvs/BuckybotGoal-v0) or a PettingZoo module (polyenvs.swarm.corridor_v0)"
@@ -44,7 +44,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from polyenvs.datasets import check_out_dir, collect
+    from polyenvs.evaluation.datasets import check_out_dir, collect
 
     episodes, seed, env_kwargs, policy_kwargs = episode_flags(args)
     out = Path(args.out)

@@ -28,7 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from polyenvs.evaluation import evaluate
+    from polyenvs.evaluation.episodes import evaluate
 
     episodes, seed, env_kwargs, policy_kwargs = episode_flags(args)
     bar = ProgressBar("episodes")

@@ -10,8 +10,9 @@ from pathlib import Path
 
 from polyenvs.commands.flags import CliError, ProgressBar, check_output_file, int_flag
 from polyenvs.core.extras import install_hint
+from polyenvs.evaluation.agents import DEFAULT_AGENTS_DIR
+from polyenvs.evaluation.protocol import REPRODUCE_EPISODES
 from polyenvs.files import check_writable_directory
-from polyenvs.leaderboard import DEFAULT_AGENTS_DIR, REPRODUCE_EPISODES
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS
 
 __all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
@@ -160,7 +161,7 @@ def _refuse_with_reproduce(args: argparse.Namespace) -> None:
 
 def _reference_dirs() -> tuple[Path, Path]:
     """The reference results --reproduce checks and the agents evaluated for them, from the same checkout."""
-    from polyenvs.leaderboard import checkout_dirs
+    from polyenvs.evaluation.agents import checkout_dirs
 
     candidates = list(zip(checkout_dirs(REFERENCE_RESULTS_DIR), checkout_dirs(DEFAULT_AGENTS_DIR), strict=True))
     for results, agents in candidates:
@@ -185,7 +186,7 @@ def _outputs(args: argparse.Namespace) -> tuple[Path, Path]:
 
 def _agents(args: argparse.Namespace) -> tuple[Path | None, list[Path]]:
     """The agents directory (None: none found) and the directories looked in."""
-    from polyenvs.leaderboard import default_agents_dirs
+    from polyenvs.evaluation.agents import default_agents_dirs
 
     if args.agents_dir is not None:
         agents_dir, looked = Path(args.agents_dir), [Path(args.agents_dir)]
@@ -201,7 +202,8 @@ def _agents(args: argparse.Namespace) -> tuple[Path | None, list[Path]]:
 
 def _plan(args: argparse.Namespace) -> _Plan:
     """Check every flag (CliError, one line) and say what is evaluated and where it is written."""
-    from polyenvs.leaderboard import agents_line, plot_path, profile_path
+    from polyenvs.evaluation.agents import agents_line
+    from polyenvs.evaluation.page import plot_path, profile_path
     from polyenvs.registry import ALL_IDS
 
     episodes = _episodes(args)
@@ -237,7 +239,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
 
 def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
     """Evaluate what ``plan`` says (reusing stored results unless --redo) on ``bar``, which it closes."""
-    from polyenvs.leaderboard import run_leaderboard
+    from polyenvs.evaluation.run import run_leaderboard
 
     def on_plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
         if plan.missing:
@@ -264,7 +266,7 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
 
 def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
     """Write the table (and its plots) of ``selected`` and every other environment's stored results; print it."""
-    from polyenvs.leaderboard import stored_results
+    from polyenvs.evaluation.results import stored_results
     from polyenvs.registry import ALL_IDS
 
     # The table shows every environment with results in the directory, not only the ones just evaluated.
@@ -280,7 +282,7 @@ def _write_table(plan: _Plan, selected: list[dict], bar: ProgressBar) -> None:
 def _check_reproduction(plan: _Plan, sample: list[dict], bar: ProgressBar) -> int:
     """Compare ``sample`` with the reference, write and print the reference's table, say what differs: 1 if any
     episode does, else 0."""
-    from polyenvs.leaderboard import compare_with_reference, stored_results
+    from polyenvs.evaluation.results import compare_with_reference, stored_results
     from polyenvs.registry import ALL_IDS
 
     assert plan.reference_dir is not None
@@ -295,7 +297,7 @@ def _check_reproduction(plan: _Plan, sample: list[dict], bar: ProgressBar) -> in
 
 def _print_table(output: Path, documents: list[dict], source: Path, bar: ProgressBar) -> None:
     """Write the table of ``documents`` to ``output`` with its charts beside it, and print it."""
-    from polyenvs.leaderboard import write_leaderboard
+    from polyenvs.evaluation.page import write_leaderboard
     from polyenvs.registry import ALL_IDS
 
     order = {env_id: i for i, env_id in enumerate(ALL_IDS)}
@@ -315,8 +317,8 @@ def _missing_extras(env_ids: list[str]) -> dict[str, str]:
     from gymnasium.error import DependencyNotInstalled
 
     from polyenvs.errors import InputError
-    from polyenvs.evaluation import make_env
-    from polyenvs.leaderboard import old_versions_quietly
+    from polyenvs.evaluation.episodes import make_env
+    from polyenvs.evaluation.protocol import old_versions_quietly
     from polyenvs.registry import entry
 
     missing = {}

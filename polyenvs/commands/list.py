@@ -46,7 +46,7 @@ def _row(entry) -> tuple:
     """``FIELDS`` of one registry row: its spaces from a copy built here, or why it cannot be built."""
     from gymnasium.error import DependencyNotInstalled
 
-    from polyenvs.rollout import agent_spaces, make_env
+    from polyenvs.evaluation.rollout import agent_spaces, make_env
 
     try:
         env = make_env(entry.id)

@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
 def _write_outputs(document: dict, out_dir: Path) -> list[Path]:
     """Write ``localization.json`` and, with matplotlib, the chart ``convergence.png`` into ``out_dir``; without
     matplotlib say on stderr why the chart is left out (as the leaderboard does). Returns the paths written."""
-    from polyenvs import charts
+    from polyenvs.evaluation import charts
     from polyenvs.files import write_json_atomic
     from polyenvs.localization.report import convergence_plot
 

@@ -47,9 +47,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from polyenvs.evaluation import make_agent, make_env
+    from polyenvs.evaluation.episodes import make_agent, make_env
+    from polyenvs.evaluation.rollout import episode_frames
     from polyenvs.files import atomic_path
-    from polyenvs.rollout import episode_frames
 
     seed = int_flag("--seed", args.seed, 0, MAX_SEED)
     max_steps = int_flag("--max-steps", args.max_steps, 1, MAX_STEPS)

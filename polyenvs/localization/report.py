@@ -1,5 +1,5 @@
 """The localization benchmark's outputs: the convergence table (text) and the convergence curves (a matplotlib
-figure, written as a PNG by :func:`polyenvs.charts.save`)."""
+figure, written as a PNG by :func:`polyenvs.evaluation.charts.save`)."""
 
 from __future__ import annotations
 
@@ -41,8 +41,9 @@ def convergence_table(document: dict) -> str:
 
 
 def convergence_plot(document: dict):
-    """A matplotlib ``Figure`` (the ``plots`` extra, :mod:`polyenvs.charts`): the median position error against the
-    bump count, one line per estimator with its quartile band, and the convergence distance as a dotted line."""
+    """A matplotlib ``Figure`` (the ``plots`` extra, :mod:`polyenvs.evaluation.charts`): the median position error
+    against the bump count, one line per estimator with its quartile band, and the convergence distance as a dotted
+    line."""
     from matplotlib.figure import Figure  # no pyplot: a figure for a file, no global state
 
     bumps, within = document["bumps"], document["converged_within"]

@@ -58,8 +58,8 @@ def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: 
     environment that cannot produce localization logs.
     """
     from polyenvs.errors import InputError
-    from polyenvs.evaluation import make_agent, make_env
-    from polyenvs.rollout import policy_action
+    from polyenvs.evaluation.episodes import make_agent, make_env
+    from polyenvs.evaluation.rollout import policy_action
 
     env = make_env(env_id, env_kwargs)
     raw = env.unwrapped  # no time limit: a run ends at its bump count

@@ -30,7 +30,7 @@ from polyenvs.limits import MAX_BC_EPOCHS
 from polyenvs.registry import bare_id
 
 if TYPE_CHECKING:  # the datasets need gymnasium and minari: imported when a dataset is read
-    from polyenvs.datasets import Demonstrations
+    from polyenvs.evaluation.datasets import Demonstrations
 
 __all__ = ["BC_ALGOS", "DEFAULT_BC_EPOCHS", "BehaviourCloning"]
 
@@ -72,7 +72,7 @@ class BehaviourCloning:
 
     def demonstrations(self) -> Demonstrations:
         """The dataset's episodes (read once); an :class:`InputError` naming :attr:`flag` if it cannot be."""
-        from polyenvs.datasets import load_demonstrations
+        from polyenvs.evaluation.datasets import load_demonstrations
 
         if self._demonstrations is None:
             try:
@@ -83,7 +83,7 @@ class BehaviourCloning:
 
     def check(self, algo: str, target, frame_stack: int | None = None) -> dict[str, Any]:
         """The run.json record of the pretraining, once the dataset fits ``algo`` and the training environment
-        ``target`` (:class:`polyenvs.evaluation.EnvTarget`); else an :class:`InputError`, before any training."""
+        ``target`` (:class:`polyenvs.evaluation.episodes.EnvTarget`); else an :class:`InputError`, before any training."""
         from gymnasium import spaces
 
         from baselines.trained import _same_space

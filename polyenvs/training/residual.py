@@ -30,7 +30,7 @@ MIN_LOG_STD, MAX_LOG_STD = -10.0, 1.0
 
 
 def check_residual(spec: ResidualSpec, target, vec_env: str, log_std: float | None) -> None:
-    """A residual of ``spec`` can train on ``target`` (an :class:`~polyenvs.evaluation.EnvTarget`); else InputError."""
+    """A residual of ``spec`` can train on ``target`` (an :class:`~polyenvs.evaluation.episodes.EnvTarget`); else InputError."""
     if target.parallel and spec.hold != 1:
         raise InputError(f"{target.env_id} is a PettingZoo swarm: its residual is not held (hold 1), got {spec.hold}")
     if vec_env == "native":

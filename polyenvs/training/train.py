@@ -37,8 +37,8 @@ from typing import Any
 from polyenvs.core.extras import install_hint
 from polyenvs.core.layouts import LAYOUTS
 from polyenvs.errors import InputError, check_count, shown
+from polyenvs.evaluation.protocol import COUNTED_TRAINING_LAYOUTS as PROTOCOL_TRAINING_LAYOUTS
 from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
-from polyenvs.leaderboard import COUNTED_TRAINING_LAYOUTS as PROTOCOL_TRAINING_LAYOUTS
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.registry import ALL_IDS, bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
@@ -537,7 +537,7 @@ def _check_residual_request(residual, log_std) -> None:
 def _plan(request: _Request, action: str) -> _Job:
     """Check the environment, the config and (``action == "resume"``) the run to resume; the run.json to write."""
     from baselines.algorithms import check_action_space
-    from polyenvs.evaluation import resolve_env
+    from polyenvs.evaluation.episodes import resolve_env
     from polyenvs.training.config import default_config_path, load_config
 
     env_id, algo, out_dir = request.env_id, request.algo, request.out_dir

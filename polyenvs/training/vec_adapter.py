@@ -44,7 +44,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
 from polyenvs.errors import InputError
-from polyenvs.evaluation import EnvTarget, resolve_env
+from polyenvs.evaluation.episodes import EnvTarget, resolve_env
 from polyenvs.registry import bare_id
 
 __all__ = [
@@ -256,7 +256,7 @@ def make_training_vec_env(
 ) -> VecEnv:
     """The SB3 ``VecEnv`` that training uses, with per-episode returns and lengths in ``infos[i]["episode"]``.
 
-    ``env``: an id or module path with its ``env_kwargs``, or an :class:`~polyenvs.evaluation.EnvTarget` resolved
+    ``env``: an id or module path with its ``env_kwargs``, or an :class:`~polyenvs.evaluation.episodes.EnvTarget` resolved
     already (``polyenvs train`` resolves the name once; ``env_kwargs`` are then the target's). ``vec_env``:
     ``"native"`` (:class:`NativeVecEnvAdapter` under ``VecMonitor``), ``"dummy"`` (SB3's ``make_vec_env``:
     ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``; a PettingZoo environment's copies are wrapped
@@ -265,7 +265,7 @@ def make_training_vec_env(
     is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first
     reset seeds sub-env ``i`` with ``seed + i``. Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
     """
-    from polyenvs.evaluation import make_env
+    from polyenvs.evaluation.episodes import make_env
 
     target = env if isinstance(env, EnvTarget) else resolve_env(env, env_kwargs)
     env_id, env_kwargs = target.env_id, target.env_kwargs
@@ -328,7 +328,7 @@ class ParallelVecEnvAdapter(VecEnv):
     """
 
     def __init__(self, envs: list):
-        from polyenvs.rollout import agent_spaces
+        from polyenvs.evaluation.rollout import agent_spaces
 
         self.envs = list(envs)
         self.robots = list(self.envs[0].possible_agents)

@@ -5,8 +5,9 @@ The same seeds for every policy make comparisons paired; per-episode returns and
 
 User input that cannot work raises :class:`~polyenvs.errors.InputError` (a ``ValueError``) before any episode runs
 (a trained model's path is checked against the environment then too); policies whose ``predict`` takes
-``action_masks`` (MaskablePPO models) get ``info["action_mask"]`` at every step (:func:`polyenvs.rollout.policy_action`),
-others never see it. Statistics are in :mod:`polyenvs.statistics`, atomic result files in :mod:`polyenvs.files`.
+``action_masks`` (MaskablePPO models) get ``info["action_mask"]`` at every step
+(:func:`polyenvs.evaluation.rollout.policy_action`), others never see it. Statistics are in
+:mod:`polyenvs.evaluation.statistics`, atomic result files in :mod:`polyenvs.files`.
 """
 
 from __future__ import annotations
@@ -22,22 +23,22 @@ import numpy as np
 
 from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, check_count, shown
+from polyenvs.evaluation.rollout import run_episode, unknown_id_help
 from polyenvs.limits import MAX_EPISODE_STEPS
 from polyenvs.registry import bare_id
-from polyenvs.rollout import run_episode, unknown_id_help
 
 __all__ = ["EnvTarget", "evaluate", "make_agent", "make_env", "resolve_env"]
 
 
 def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
-    """Build a Gymnasium id or a PettingZoo module path (:func:`polyenvs.rollout.make_env`) with the user's
+    """Build a Gymnasium id or a PettingZoo module path (:func:`polyenvs.evaluation.rollout.make_env`) with the user's
     ``env_kwargs``; an unknown name or a rejected keyword raises :class:`InputError`.
 
     ``extra`` holds the caller's own fixed arguments (``render_mode``); an error building the environment with no
     user keywords at all is not the user's doing and propagates unchanged.
     """
-    from polyenvs.rollout import UnknownEnvironment
-    from polyenvs.rollout import make_env as build
+    from polyenvs.evaluation.rollout import UnknownEnvironment
+    from polyenvs.evaluation.rollout import make_env as build
 
     env_kwargs = dict(env_kwargs or {})
     steps = env_kwargs.get("max_episode_steps")
@@ -84,7 +85,7 @@ class EnvTarget:
 
 def resolve_env(env_id: str, env_kwargs: dict | None = None) -> EnvTarget:
     """Build ``env_id`` once with ``env_kwargs`` (:func:`make_env`'s errors) and keep what its users need."""
-    from polyenvs.rollout import agent_spaces, is_parallel
+    from polyenvs.evaluation.rollout import agent_spaces, is_parallel
 
     env = make_env(env_id, env_kwargs)
     try:
@@ -109,7 +110,7 @@ def make_agent(policy: str, env_id: str, env: gym.Env, seed: int | None = None, 
     model raises :class:`InputError` too.
     """
     from baselines import make_policy
-    from polyenvs.rollout import agent_spaces
+    from polyenvs.evaluation.rollout import agent_spaces
 
     try:
         return make_policy(policy, env_id, *agent_spaces(env), seed=seed, **dict(policy_kwargs or {}))

@@ -14,8 +14,8 @@ polyenvs' own under the ``polyenvs`` key (the id, keywords, policy and its descr
 scores come from).
 
 Reference scores are read from the committed reference results (``benchmarks/results/``, 50 episodes from seed
-1000: :func:`polyenvs.leaderboard.load_result`) when they exist for the id with the default keywords; otherwise
-they are evaluated here, :data:`REFERENCE_EPISODES` episodes from :data:`polyenvs.leaderboard.EVAL_SEED`.
+1000: :func:`polyenvs.evaluation.results.load_result`) when they exist for the id with the default keywords; otherwise
+they are evaluated here, :data:`REFERENCE_EPISODES` episodes from :data:`polyenvs.evaluation.protocol.EVAL_SEED`.
 
 Minari stores Gymnasium environments only; a PettingZoo swarm becomes a per-robot dataset: every robot's
 trajectory of a swarm episode is an episode of its own (its seed, and ``options={"robot": name}``), and the
@@ -45,11 +45,11 @@ import numpy as np
 
 from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, check_count
-from polyenvs.evaluation import make_agent, make_env
+from polyenvs.evaluation.episodes import make_agent, make_env
+from polyenvs.evaluation.rollout import SharedPolicy, agent_spaces, is_parallel, policy_action
 from polyenvs.files import temp_path_for
 from polyenvs.limits import MAX_EPISODES, MAX_SEED
 from polyenvs.registry import bare_id
-from polyenvs.rollout import SharedPolicy, agent_spaces, is_parallel, policy_action
 
 __all__ = [
     "DATASET_FORMAT",
@@ -108,9 +108,9 @@ class RobotView(gym.Env):
     """One robot of a PettingZoo swarm as a Gymnasium environment: the environment of a per-robot dataset.
 
     The agent acts for one robot; its teammates are driven by ``teammates`` (a policy name, as ``polyenvs
-    evaluate`` takes it), one shared policy as in :func:`polyenvs.rollout.run_episode`. The episode ends for the
-    agent when its robot leaves the swarm (``terminated`` or ``truncated`` as the swarm says), or truncated when
-    the swarm's episode ends without it.
+    evaluate`` takes it), one shared policy as in :func:`polyenvs.evaluation.rollout.run_episode`. The episode ends
+    for the agent when its robot leaves the swarm (``terminated`` or ``truncated`` as the swarm says), or truncated
+    when the swarm's episode ends without it.
 
     Args:
         module: the swarm's module path (``"polyenvs.swarm.corridor_v0"``).
@@ -170,7 +170,7 @@ def _robot_view_spec(module: str, policy: str, env_kwargs: dict, policy_kwargs: 
     kwargs = {"module": module, "teammates": policy, "env_kwargs": env_kwargs,
               "policy_kwargs": policy_kwargs}  # fmt: skip
     return gym.envs.registration.EnvSpec(
-        id=f"polyenvs/{_env_name(module)}-robot", entry_point="polyenvs.datasets:RobotView", kwargs=kwargs,
+        id=f"polyenvs/{_env_name(module)}-robot", entry_point="polyenvs.evaluation.datasets:RobotView", kwargs=kwargs,
         disable_env_checker=True,
     )  # fmt: skip
 
@@ -204,7 +204,7 @@ class _Trajectory:
 
 
 def _single_episode(env, agent, seed: int) -> list[_Trajectory]:
-    """A Gymnasium episode, step by step as :func:`polyenvs.rollout.run_episode` runs it."""
+    """A Gymnasium episode, step by step as :func:`polyenvs.evaluation.rollout.run_episode` runs it."""
     obs, info = env.reset(seed=seed)
     trajectory = _Trajectory(seed, [obs], [], [])
     state, start = None, True
@@ -221,7 +221,7 @@ def _single_episode(env, agent, seed: int) -> list[_Trajectory]:
 
 
 def _swarm_episode(env, agent, seed: int) -> list[_Trajectory]:
-    """A swarm episode (:func:`polyenvs.rollout.run_episode`'s), cut into one trajectory per robot."""
+    """A swarm episode (:func:`polyenvs.evaluation.rollout.run_episode`'s), cut into one trajectory per robot."""
     observations, infos = env.reset(seed=seed)
     shared = SharedPolicy(env, agent)
     robots = {a: _Trajectory(seed, [observations[a]], [], [], options={"robot": a}) for a in env.agents}
@@ -252,14 +252,15 @@ def _rollouts(env, agent, seeds: list[int], on_episode: Callable[[], None] | Non
 
 def _reference_return(env_id: str, policy: str, env_kwargs: dict, results_dir: Path | None) -> tuple[float, str]:
     """The mean return of ``policy`` (``"random"`` or the paper's baseline) and where it comes from."""
-    from polyenvs.leaderboard import EVAL_SEED, load_result, result_path
+    from polyenvs.evaluation.protocol import EVAL_SEED
+    from polyenvs.evaluation.results import load_result, result_path
 
     if results_dir is not None and not env_kwargs:
         path = result_path(results_dir, env_id, policy)
         doc, _ = load_result(path, env_id, policy)
         if doc is not None:
             return float(doc["summary"]["return"]), f"{path} ({doc['n_episodes']} episodes)"
-    from polyenvs.evaluation import evaluate
+    from polyenvs.evaluation.episodes import evaluate
 
     doc = evaluate(env_id, policy, episodes=REFERENCE_EPISODES, seed=EVAL_SEED, env_kwargs=env_kwargs)
     return float(doc["summary"]["return"]), f"evaluated: {REFERENCE_EPISODES} episodes from seed {EVAL_SEED}"
@@ -382,7 +383,7 @@ def collect(
 
     Args:
         env_id: a Gymnasium id or a PettingZoo module path (a per-robot dataset).
-        policy: any name :func:`polyenvs.evaluation.make_agent` takes.
+        policy: any name :func:`polyenvs.evaluation.episodes.make_agent` takes.
         episodes: episodes (swarm episodes, for a swarm: one dataset episode per robot of each).
         seed: the first episode's seed.
         out_dir: the directory to write (a Minari datasets root holding this one dataset); it must not exist or be
@@ -436,7 +437,7 @@ def collect(
 def _write(minari, out_dir, identifier, trajectories, spec, observation_space, action_space, metadata, references):
     """Create the dataset in a hidden work directory beside ``out_dir`` (:func:`_work_dir`), then rename it into
     place."""
-    from polyenvs.leaderboard import provenance
+    from polyenvs.evaluation.results import provenance
 
     facts = provenance()
     commit = facts["git_commit"]

@@ -8,7 +8,7 @@
   bootstrap band, per kind of policy (random, the paper's algorithm, each trained algorithm), as rliable's
   ``plot_performance_profiles``.
 
-Both take the tables of :func:`polyenvs.leaderboard.leaderboard_tables` and return a matplotlib ``Figure``;
+Both take the tables of :func:`polyenvs.evaluation.table.leaderboard_tables` and return a matplotlib ``Figure``;
 :func:`save` writes one as a PNG atomically and closes it.
 
 - :func:`learning_curve_plot`: per environment, the task score of the training episodes against training steps,
@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from polyenvs.core.extras import install_hint
+from polyenvs.evaluation.statistics import performance_profile
 from polyenvs.files import atomic_path
-from polyenvs.statistics import performance_profile
 
 __all__ = ["INSTALL_HINT", "available", "interval_plot", "learning_curve_plot", "performance_profile_plot", "save"]
 
