@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from polyenvs.core import libm
 from polyenvs.core.parameters import fill_placeholder
 from polyenvs.core.validation import check_choice
 
@@ -152,7 +153,7 @@ SLANTED_WALL = LayoutKind("slanted wall", "a wall at an angle that is no multipl
 def wall_direction_kinds(segments) -> set[str]:
     """The kinds that the directions of ``segments`` ``(S, 4)`` hold: :data:`DIAGONAL_WALL`, :data:`SLANTED_WALL`."""
     seg = np.asarray(segments, dtype=np.float64)
-    degrees = np.degrees(np.arctan2(seg[:, 3] - seg[:, 1], seg[:, 2] - seg[:, 0])) % 90.0
+    degrees = np.degrees(libm.arctan2(seg[:, 3] - seg[:, 1], seg[:, 2] - seg[:, 0])) % 90.0
     from_multiple = np.minimum(degrees % 45.0, 45.0 - degrees % 45.0)
     kinds = set()
     if (np.abs(degrees - 45.0) <= ANGLE_TOLERANCE_DEG).any():
