@@ -235,3 +235,33 @@ def test_kill_9_then_resume_continues_from_the_last_checkpoint_and_overwrite_sta
     assert main([*argv, "--timesteps", "256", "--overwrite"]) == 0
     run = json.loads((out / "run.json").read_text())
     assert run["completed"] is True and run["timesteps"] == 256 and "resumed_at" not in run
+
+
+_DIE_BETWEEN_THE_RENAMES = """
+import os, sys
+from polyenvs.cli import main
+rename, renamed = os.replace, []
+def replace(source, target):  # the process dies between a checkpoint's two renames, the second time round
+    if str(target).endswith("vecnormalize.pkl") and len(renamed) == 1:
+        os._exit(9)
+    rename(source, target)
+    if str(target).endswith("vecnormalize.pkl"):
+        renamed.append(target)
+os.replace = replace
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_run_killed_between_a_checkpoints_two_renames_resumes_from_that_checkpoint(tmp_path, capsys):
+    """The model of the second checkpoint is in place, its statistics still under their temporary name: resuming
+    renames them too and goes on from that checkpoint (it used to refuse: the two were saved apart)."""
+    config, out = tmp_path / "tiny.yml", tmp_path / "run"
+    config.write_text(TINY_PPO_CONFIG)
+    argv = ["train", WALL, "--algo", "ppo", "--config", str(config), "--out", str(out), "--no-progress"]
+    died = subprocess.run([sys.executable, "-c", _DIE_BETWEEN_THE_RENAMES, *argv, "--timesteps", "2048",
+                           "--checkpoint-every", "128"], cwd=ROOT, capture_output=True, timeout=300)  # fmt: skip
+    assert died.returncode == 9, died.stderr.decode()
+    saved = train_module.saved_timesteps(out)
+    assert saved > json.loads((out / "run.json").read_text())["timesteps"]  # the model got ahead of run.json
+    assert main([*argv, "--timesteps", "2048", "--resume"]) == 0, capsys.readouterr().err
+    assert json.loads((out / "run.json").read_text())["resumed_at"] == [saved]

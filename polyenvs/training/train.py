@@ -68,6 +68,8 @@ LOCK_FILE = ".training.lock.tmp"
 _RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR, CURVE_FILE)
 #: Temporary files of atomic writes (polyenvs.files.temp_path_for) and the lock: not a run's content.
 _TEMPORARY = re.compile(r"\..+\.tmp(\..*)?")
+#: A checkpoint's statistics waiting for their rename into place, named by the model's timesteps (a temporary too).
+_PENDING_STATISTICS = re.compile(rf"\.{re.escape(VECNORMALIZE_FILE)}\.at-(\d+)\.tmp")
 
 
 class TrainingInterrupted(KeyboardInterrupt):
@@ -592,6 +594,7 @@ def _plan(request: _Request, action: str) -> _Job:
     if previous is not None and "bc" in previous:  # a resumed run goes on from the model it cloned then
         run["bc"] = previous["bc"]
     if previous is not None:
+        _finish_checkpoint(out_dir)
         _check_resumable(out_dir, previous, run)
         if cfg.normalize and not (out_dir / VECNORMALIZE_FILE).is_file():
             raise InputError(
@@ -766,12 +769,15 @@ def _read_curve(out_dir: Path, previous: dict[str, Any] | None) -> dict | None:
 def _save(model, out_dir: Path, run: dict[str, Any], trained_before: float, start: float, completed=False) -> None:
     """Save the model and its VecNormalize statistics, then run.json (timesteps, time; completed).
 
-    Both files are written and synced in full under temporary names before either is renamed into place, one
-    rename straight after the other, so a process killed at any moment leaves the two of one checkpoint (the
-    statistics are marked with the model's timesteps, which resuming checks)."""
+    Both files are written and synced in full under temporary names before either is renamed into place, the
+    model first; the statistics' temporary name holds the model's timesteps, so a process killed between the two
+    renames leaves them to be renamed when the run resumes (:func:`_finish_checkpoint`), and a process killed at any
+    other moment leaves the two of one checkpoint (the statistics are marked with the model's timesteps, which
+    resuming checks)."""
     normalizer = model.get_vec_normalize_env()
     targets = [out_dir / MODEL_FILE] + ([out_dir / VECNORMALIZE_FILE] if normalizer is not None else [])
-    temporary = [temp_path_for(targets[0], keep_suffix=True)] + [temp_path_for(t) for t in targets[1:]]
+    pending = out_dir / f".{VECNORMALIZE_FILE}.at-{int(model.num_timesteps)}.tmp"
+    temporary = [temp_path_for(targets[0], keep_suffix=True)] + ([pending] if normalizer is not None else [])
     try:
         model.save(temporary[0])
         if normalizer is not None:
@@ -791,6 +797,17 @@ def _save(model, out_dir: Path, run: dict[str, Any], trained_before: float, star
         completed=completed,
     )
     write_json_atomic(out_dir / RUN_FILE, run)
+
+
+def _finish_checkpoint(out_dir: Path) -> None:
+    """Rename into place the statistics of a checkpoint whose model was renamed when the process was killed (before
+    the statistics' own rename), so that the run resumes from that checkpoint; older pending ones are left to
+    :func:`_remove_temporaries`."""
+    saved = saved_timesteps(out_dir)
+    for path in out_dir.iterdir():
+        match = _PENDING_STATISTICS.fullmatch(path.name)
+        if match is not None and int(match[1]) == saved:
+            os.replace(path, out_dir / VECNORMALIZE_FILE)
 
 
 def saved_timesteps(out_dir: str | Path) -> int | None:
