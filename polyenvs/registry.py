@@ -173,6 +173,13 @@ _ARRIVED = Score("success_rate", "max", ceiling=1.0, tie_break="time_to_goal_s",
 _BEAST_SUCCESS = Score("success", "max", ceiling=1.0, tie_break="time_s", aggregate="mean")
 
 
+#: The cart's budgeted exploration (BumperCartExplore-v1 on): the paper's random bounce and the fixed turn, which
+#: anchors the score since random and the paper's random bounce coincide on the cart.
+_CART_BUDGET_BASELINES = (
+    Baseline("random_bounce", "baselines.bumper:RandomBounce"),
+    Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
+)
+_CART_COVERAGE = Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn")
 #: The localizers scored on the cart's logs (``polyenvs localize``), the paper's bump-space filter first.
 _CART_ESTIMATORS = (
     Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
@@ -343,13 +350,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         family="bumper",
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles; coverage is the "
         "wall fraction touched over the most 50 cycles can touch",
-        baselines=(
-            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
-            Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
-        ),
+        baselines=_CART_BUDGET_BASELINES,
         paper="random_bounce",
-        # Random and the paper's random bounce coincide on the cart: the deliberate fixed turn is the upper anchor.
-        score=Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn"),
+        score=_CART_COVERAGE,
         # A back-up that touches a wall after the bump gets that wall credited (issue 29): v2 credits the bumper's.
         superseded_by="polyenvs/BumperCartExplore-v2",
     ),
@@ -362,13 +365,10 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles, each bump "
         "credited to the wall its bumper touched; coverage is the wall fraction touched over the most 50 cycles "
         "can touch",
-        baselines=(
-            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
-            Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
-        ),
+        baselines=_CART_BUDGET_BASELINES,
         paper="random_bounce",
         # v1's baselines and score: the fix moved no baseline's IQM by more than 0.001 over seeds 0-49.
-        score=Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn"),
+        score=_CART_COVERAGE,
         estimators=_CART_ESTIMATORS,
     ),
     EnvEntry(
