@@ -144,6 +144,15 @@ def test_the_command_writes_once_and_refuses_an_existing_directory(tmp_path, cap
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demos"]  # no temporary folder left behind
 
 
+def test_the_command_creates_the_folders_above_its_directory(tmp_path, capsys):
+    out_dir = tmp_path / "not" / "yet" / "demos"
+    args = ["collect", "polyenvs/APLiteCorridor-v0", "--episodes", "1", "--out", str(out_dir), "--env-kwargs",
+            '{"max_episode_steps": 20}']  # fmt: skip
+    code, _, err = run_main(args, capsys)
+    assert code == 0, err
+    assert (out_dir / "polyenvs/APLiteCorridor-v0/aplite-v0/data/main_data.hdf5").is_file()
+
+
 def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monkeypatch):
     """Written under a temporary name: a failure before the rename keeps the old dataset and leaves no trace."""
     import polyenvs.evaluation.datasets as datasets

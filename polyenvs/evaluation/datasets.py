@@ -348,6 +348,7 @@ def _remove_abandoned(out_dir: Path) -> None:
 def _work_dir(out_dir: Path) -> Iterator[Path]:
     """A new hidden directory beside ``out_dir`` (``.NAME.<random>.tmp``) for this run's files, locked while the
     block runs and removed after it, even when it raises; the directories of killed runs are removed first."""
+    out_dir.parent.mkdir(parents=True, exist_ok=True)  # check_out_dir accepts a folder it can create
     _remove_abandoned(out_dir)
     work = temp_path_for(out_dir)
     work.mkdir()
