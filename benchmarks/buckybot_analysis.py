@@ -22,7 +22,7 @@ from polyenvs.buckybot.analysis import (
     render_figure8,
     write_png,
 )
-from polyenvs.buckybot.simulator import TipModel
+from polyenvs.buckybot.simulator import BuckybotParams
 
 
 def paper_explorer():
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     mc = commands.add_parser("monte-carlo", help="the paper's 100-tip dead-reckoning Monte Carlo")
     mc.add_argument("--runs", type=int, default=2000)
     mc.add_argument("--tips", type=int, default=100)
-    mc.add_argument("--heading-sd-deg", type=float, default=TipModel.heading_sd_deg)
+    mc.add_argument("--heading-sd-deg", type=float, default=BuckybotParams.heading_sd_deg)
     args = parser.parse_args(argv)
     if args.command == "figure8":
         run = figure8_maps(
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         print(figure8_summary(run))
     else:
         result = dead_reckoning_monte_carlo(
-            args.runs, args.tips, tip_model=TipModel(heading_sd_deg=args.heading_sd_deg)
+            args.runs, args.tips, robot=BuckybotParams(heading_sd_deg=args.heading_sd_deg)
         )
         print(result)
         print(f"paper: position sd {PAPER_MONTE_CARLO[0]} cm, heading sd {PAPER_MONTE_CARLO[1]} deg")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from polyenvs.buckybot import geometry as geo
-from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.buckybot.simulator import BuckybotParams, BuckybotSimulator
 from polyenvs.core.geometry2d import SegmentTable
 
 
@@ -195,7 +195,7 @@ def test_rolling_the_solid_shifts_the_tip_directions_by_60_and_the_simulator_agr
         assert _angle_gap(np.sort(shifted)[:, None], after[None]).min(axis=1).max() < 1e-9
         assert _angle_gap(after, frame[j] + 180.0).min() < 1e-9  # one edge leads straight back
 
-        sim = BuckybotSimulator(1, TipModel().scaled(0.0), range_noise_scale=0.0, body_radius_cm=13.0)
+        sim = BuckybotSimulator(1, BuckybotParams(noise_scale=0.0))
         sim.set_walls(SegmentTable(np.array([[1e7, -1.0, 1e7, 1.0]])))
         sim.place(0, np.zeros(2), face, heading)
         sim.tip(np.array([j]), np.zeros((1, 3)))

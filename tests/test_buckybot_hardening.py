@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401
-from polyenvs.buckybot.env import PARAMETER_RANGES, BuckybotAction, ground_truth_parts
+from polyenvs.buckybot.env import BuckybotAction, ground_truth_parts
 from polyenvs.buckybot.floor_plans import BUILTIN_PLANS
+from polyenvs.buckybot.simulator import PARAMETER_RANGES
 
 IDS = ["polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0", "polyenvs/BuckybotGoal-v0"]
 ROOT = Path(__file__).resolve().parents[1]

@@ -18,7 +18,7 @@ from polyenvs.buckybot.sensors import (
     measure_ranges,
     wall_from_pair,
 )
-from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.buckybot.simulator import BuckybotParams, BuckybotSimulator
 from polyenvs.core.floor_plan import polygon_walls, rectangle_walls
 from polyenvs.core.geometry2d import SegmentTable
 
@@ -144,8 +144,8 @@ def test_horizontal_range_and_heron_need_the_beam_tilt():
     assert 0.06 <= error <= 0.10
 
 
-def _open_space_sim(n, model, heading=0.0):
-    sim = BuckybotSimulator(n, model, range_noise_scale=0.0, body_radius_cm=13.0)
+def _open_space_sim(n, robot, heading=0.0):
+    sim = BuckybotSimulator(n, robot)
     sim.set_walls(SegmentTable(np.array([[1e7, -1.0, 1e7, 1.0]])))  # one wall far away: no tip is blocked
     sim.place(slice(None), np.zeros(2), 0, heading)
     return sim
@@ -159,7 +159,7 @@ def test_tipping_noise_matches_the_vicon_statistics(direction):
     n = 60_000
     rng = np.random.default_rng(2 + direction)
     heading = rng.uniform(0, 2 * np.pi, n)
-    sim = _open_space_sim(n, TipModel(), heading)
+    sim = _open_space_sim(n, BuckybotParams(), heading)
     sim.tip(np.full(n, direction, dtype=np.int64), rng.standard_normal((n, 3)))
     along = heading + np.radians(120.0 * direction)
     forward = sim.position[:, 0] * np.cos(along) + sim.position[:, 1] * np.sin(along)
@@ -176,7 +176,7 @@ def test_tipping_noise_matches_the_vicon_statistics(direction):
 
 
 def test_noise_scale_zero_is_the_ideal_lattice():
-    sim = _open_space_sim(10, TipModel().scaled(0.0))
+    sim = _open_space_sim(10, BuckybotParams(noise_scale=0.0))
     sim.tip(np.ones(10, dtype=np.int64), np.random.default_rng(3).standard_normal((10, 3)))
     np.testing.assert_allclose(np.hypot(*sim.position.T), geo.STEP_LENGTH_CM)
     np.testing.assert_allclose(np.degrees(np.arctan2(sim.position[:, 1], sim.position[:, 0])), 120.0)
@@ -194,7 +194,7 @@ def test_monte_carlo_after_100_tips_next_to_the_paper():
     assert stated.position_sd_cm == pytest.approx(35.1, rel=0.08)
     assert stated.position_sd_cm < 0.5 * PAPER_MONTE_CARLO[0]  # not the paper's number, and we say so
     matched = dead_reckoning_monte_carlo(
-        n_runs=4000, n_tips=100, walk="zigzag", tip_model=TipModel(heading_sd_deg=1.15), seed=0
+        n_runs=4000, n_tips=100, walk="zigzag", robot=BuckybotParams(heading_sd_deg=1.15), seed=0
     )
     assert matched.heading_sd_deg == pytest.approx(PAPER_MONTE_CARLO[1], rel=0.05)
     assert matched.position_sd_cm == pytest.approx(PAPER_MONTE_CARLO[0], rel=0.08)

@@ -18,6 +18,7 @@ from gymnasium.vector import AutoresetMode
 import polyenvs
 from polyenvs.core.rows import RowsEnv
 from polyenvs.registry import REGISTRY, import_attribute
+from tests.parameter_helpers import assert_physical_keywords_reach_their_fields, unknown_keyword_message
 from tests.vector_helpers import assert_native_matches_sync
 
 ENV_IDS = polyenvs.ENV_IDS
@@ -221,12 +222,28 @@ def test_unknown_and_malformed_options_raise_and_change_nothing(env_id):
         assert np.array_equal(env.step(action)[0], twin.step(action)[0])
 
 
+def _constructed_class(env_id: str) -> type:
+    """The class ``gym.make(env_id, **kwargs)`` builds with the keywords: the entry point's, or for a single-robot
+    swarm id the swarm task's inside it."""
+    cls = _env_class(env_id)
+    return getattr(cls, "swarm_class", cls)
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_unknown_keyword_raises_the_standard_type_error(env_id):
     """Tools probe constructors for keywords (TorchRL's ``GymEnv`` tries ``frameskip``) and catch Python's own
-    wording: an unknown keyword must raise ``TypeError: ... unexpected keyword argument 'NAME'``."""
-    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
+    wording: an unknown keyword must raise ``TypeError: X.__init__() got an unexpected keyword argument 'NAME'``."""
+    with pytest.raises(TypeError, match=unknown_keyword_message(_constructed_class(env_id), "frameskip")):
         gym.make(env_id, frameskip=4)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_each_physical_parameter_is_a_keyword_that_reaches_its_field(env_id, monkeypatch):
+    """Each physical parameter is named once, in its family's dataclass: ``gym.make(id, name=value)`` takes every
+    one, whichever task subclass is in between, and a misspelled one raises Python's own ``TypeError``."""
+    assert_physical_keywords_reach_their_fields(
+        _constructed_class(env_id), lambda **kwargs: gym.make(env_id, **kwargs), monkeypatch
+    )
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

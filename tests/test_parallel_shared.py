@@ -18,6 +18,7 @@ import pytest
 from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test
 
 from polyenvs.registry import REGISTRY
+from tests.parameter_helpers import assert_physical_keywords_reach_their_fields, unknown_keyword_message
 
 ENTRIES = [e for e in REGISTRY if e.kind == "pettingzoo"]
 pytestmark = pytest.mark.parametrize("entry", ENTRIES, ids=lambda e: e.id)
@@ -240,6 +241,23 @@ def test_bad_constructor_arguments_name_the_parameter(entry):
         for value in (0, True, "3", 2.5, 10**9):
             with pytest.raises(ValueError, match="n_robots"):
                 module.parallel_env(n_robots=value)
+
+
+def test_unknown_keyword_raises_the_standard_type_error(entry):
+    """As the Gymnasium suite's: every constructor of the module raises Python's own ``TypeError`` for an unknown
+    keyword, naming the environment's class."""
+    module, cls = _module(entry), type(_make(entry))
+    for constructor in (module.parallel_env, module.raw_env, module.env):
+        with pytest.raises(TypeError, match=unknown_keyword_message(cls, "frameskip")):
+            constructor(frameskip=4)
+
+
+def test_each_physical_parameter_is_a_keyword_that_reaches_its_field(entry, monkeypatch):
+    """As the Gymnasium suite's: ``parallel_env(name=value)`` takes each physical parameter of the family's
+    dataclass, whichever task subclass is in between."""
+    assert_physical_keywords_reach_their_fields(
+        type(_make(entry)), lambda **kwargs: _make(entry, **kwargs), monkeypatch
+    )
 
 
 def test_pickles_mid_episode(entry):

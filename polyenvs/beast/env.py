@@ -36,7 +36,7 @@ from polyenvs.beast.layouts import LAYOUT_PARAMETERS, LAYOUT_SPLIT, ModelFields,
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.beast.mujoco_extra import MujocoEnv, mujoco
 from polyenvs.core.layouts import check_layouts
-from polyenvs.core.parameters import check_parameters, parameter
+from polyenvs.core.parameters import check_parameters, parameter, physical_parameters
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
 __all__ = ["BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
@@ -228,6 +228,9 @@ class BeastEnv(MujocoEnv):
     command: tuple[float, ...] = ()
     #: How ``layouts=`` splits the physics (:data:`polyenvs.beast.layouts.LAYOUT_SPLIT`).
     layout_split = LAYOUT_SPLIT
+    #: The sensing, servo, reward and control-period parameters the constructor takes as keywords (``**physical``)
+    #: and their defaults: :class:`SensorParams`, or :class:`RobotContactParams` for the -v1 ids.
+    params_class: type[SensorParams] = SensorParams
 
     def __init__(
         self,
@@ -236,24 +239,17 @@ class BeastEnv(MujocoEnv):
         privileged: bool = False,
         disabled_limbs=(),
         control: str = "position",
-        backlash_deg: float = SensorParams.backlash_deg,
-        tilt_threshold_deg: float = SensorParams.tilt_threshold_deg,
-        ctrl_cost_weight: float = SensorParams.ctrl_cost_weight,
-        servo_deadband_deg: float = SensorParams.servo_deadband_deg,
-        switch_debounce_ms: float = SensorParams.switch_debounce_ms,
-        control_timestep: float = SensorParams.control_timestep,
         physics: dict | None = None,
         layouts: str = "default",
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
+        **physical,
     ):
         # Everything is checked before anything is built.
         check_choice("polyhedron", polyhedron, K.POLYHEDRA)
         self.privileged = check_bool("privileged", privileged)
-        sensing = SensorParams(
-            backlash_deg, tilt_threshold_deg, ctrl_cost_weight, servo_deadband_deg, switch_debounce_ms, control_timestep
-        )
+        sensing = physical_parameters(type(self), self.params_class, physical)
         self.backlash_deg, self.tilt_threshold_deg = sensing.backlash_deg, sensing.tilt_threshold_deg
         self.ctrl_cost_weight = sensing.ctrl_cost_weight
         self.servo_deadband_deg, self.switch_debounce_ms = sensing.servo_deadband_deg, sensing.switch_debounce_ms

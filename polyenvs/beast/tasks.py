@@ -402,14 +402,7 @@ class _RobotContact:
     """Mixin of the -v1 ids: the robot's contact model (:class:`polyenvs.beast.env.RobotContactParams`) as the
     defaults of the servo dead band and the foot-switch debounce."""
 
-    def __init__(
-        self,
-        *,
-        servo_deadband_deg: float = RobotContactParams.servo_deadband_deg,
-        switch_debounce_ms: float = RobotContactParams.switch_debounce_ms,
-        **kwargs,
-    ):
-        super().__init__(servo_deadband_deg=servo_deadband_deg, switch_debounce_ms=switch_debounce_ms, **kwargs)
+    params_class: type[SensorParams] = RobotContactParams
 
 
 _TIME_COST = """    - ``time``: minus ``time_cost`` per second (0.2: 6 over the 30 s limit, less than ``success_reward``, so

@@ -28,7 +28,7 @@ from polyenvs.buckybot.env import ground_truth_parts
 from polyenvs.buckybot.floor_plans import make_floor_plan
 from polyenvs.buckybot.mapping import OccupancyGrid, placement_error
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_QUANTUM_CM
-from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.buckybot.simulator import BuckybotParams, BuckybotSimulator
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import SegmentTable
 
@@ -63,7 +63,7 @@ def dead_reckoning_monte_carlo(
     n_runs: int = 2000,
     n_tips: int = 100,
     walk: str = "zigzag",
-    tip_model: TipModel | None = None,
+    robot: BuckybotParams | None = None,
     seed: int = 0,
 ) -> MonteCarloResult:
     """Replay one actuator sequence ``n_runs`` times with tipping noise, in open space.
@@ -71,9 +71,9 @@ def dead_reckoning_monte_carlo(
     Args:
         walk: ``"zigzag"``, the straight-ish armchair walk (alternating forward-right and forward-left tips,
             as a wall follower walks), or ``"random"`` (uniform among the two forward tips, never back).
-        tip_model: the per-tip model (default: the paper's measurements).
+        robot: the robot, whose tip model is used (default: the paper's measurements).
     """
-    model = tip_model or TipModel()
+    robot = robot or BuckybotParams()
     rng = np.random.default_rng(seed)
     if walk == "zigzag":
         actions = np.where(np.arange(n_tips) % 2 == 0, 1, 2)
@@ -82,9 +82,9 @@ def dead_reckoning_monte_carlo(
     else:
         raise ValueError(f"walk must be 'zigzag' or 'random', got {walk!r}")
     far = SegmentTable(np.array([[1e7, -1.0, 1e7, 1.0]]))  # a single wall far away: nothing is ever blocked
-    sim = BuckybotSimulator(n_runs, model, range_noise_scale=0.0, body_radius_cm=13.0)
+    sim = BuckybotSimulator(n_runs, robot)
     # Dead reckoning is the same actuator sequence replayed with the mean tip (the paper's "omitting noise").
-    ideal = BuckybotSimulator(1, model, range_noise_scale=0.0, body_radius_cm=13.0)
+    ideal = BuckybotSimulator(1, robot)
     for s in (sim, ideal):
         s.set_walls(far)
         s.place(slice(None), np.zeros(2), 0, 0.0)

@@ -45,13 +45,13 @@ from polyenvs.buckybot.floor_plans import (
     plan_width,
     random_room,
 )
-from polyenvs.buckybot.simulator import BuckybotSimulator, TipModel
+from polyenvs.buckybot.simulator import BuckybotParams, BuckybotSimulator
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.jit import compiled_for
 from polyenvs.core.layouts import check_layouts
-from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
+from polyenvs.core.parameters import SharedVersionHistory, physical_parameters
 from polyenvs.core.rows import RowsEnv, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
 from polyenvs.core.window import check_window_scale
@@ -111,52 +111,6 @@ _SENSOR_FACES = [
 _INT_TYPES = (int, np.int64, np.int32, np.intp)
 #: Points of the true and dead-reckoned paths kept for rendering (older points are dropped).
 TRAIL_POINTS = 2000
-
-_TEST_RESULTS = "paper, Test Results (Vicon, 10 repetitions of all 60 tips)"
-
-
-@documented
-@dataclass(frozen=True)
-class BuckybotParams:
-    """The physical parameters every Buckybot id takes as keywords (the tip model's defaults are
-    :class:`~polyenvs.buckybot.simulator.TipModel`'s, the paper's measurements).
-
-    {parameters}
-    """
-
-    noise_scale: float = parameter(1.0, 0.0, 1.0, "", "tipping noise: 0 = the ideal lattice, 1 = the paper's")
-    range_noise_scale: float = parameter(1.0, 0.0, 5.0, "", "multiplies the eq. 6 range noise sd")
-    step_forward_cm: float = parameter(
-        TipModel.forward_mean_cm, 5.0, 15.0, "cm", f"forward step per tip, {_TEST_RESULTS}"
-    )
-    step_forward_sd_cm: float = parameter(TipModel.forward_sd_cm, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
-    step_lateral_cm: float = parameter(
-        TipModel.lateral_mean_cm, -3.0, 3.0, "cm", f"lateral step per tip, {_TEST_RESULTS}"
-    )
-    step_lateral_sd_cm: float = parameter(TipModel.lateral_sd_cm, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
-    heading_change_deg: float = parameter(
-        TipModel.heading_mean_deg, -10.0, 10.0, "deg", f"heading change per tip, {_TEST_RESULTS}"
-    )
-    heading_sd_deg: float = parameter(TipModel.heading_sd_deg, 0.0, 10.0, "deg", f"its sd, {_TEST_RESULTS}")
-    body_radius_cm: float = parameter(geo.BODY_RADIUS_CM, 6.5, 26.0, "cm", "contact radius (the 26 cm diameter)")
-
-    def __post_init__(self):
-        check_parameters(self)
-
-    def tip_model(self) -> TipModel:
-        """The tip model these parameters describe (before ``noise_scale``)."""
-        return TipModel(
-            forward_mean_cm=self.step_forward_cm,
-            forward_sd_cm=self.step_forward_sd_cm,
-            lateral_mean_cm=self.step_lateral_cm,
-            lateral_sd_cm=self.step_lateral_sd_cm,
-            heading_mean_deg=self.heading_change_deg,
-            heading_sd_deg=self.heading_sd_deg,
-        )
-
-
-#: Physical parameters: (low, high) plausible range (from :class:`BuckybotParams`). Outside it: ValueError.
-PARAMETER_RANGES = parameter_ranges(BuckybotParams)
 
 
 class PathTrail:
@@ -221,35 +175,17 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
     default_floor_plan = "rectangle"
     #: How ``layouts=`` splits the plans (:data:`polyenvs.buckybot.floor_plans.LAYOUT_SPLIT`).
     layout_split = LAYOUT_SPLIT
+    #: The robot's physical parameters, which the constructor takes as keywords (``**physical``).
+    params_class: type[BuckybotParams] = BuckybotParams
 
-    def __init__(
-        self,
-        *,
-        floor_plan=default_floor_plan,
-        layouts: str = "default",
-        noise_scale: float = BuckybotParams.noise_scale,
-        range_noise_scale: float = BuckybotParams.range_noise_scale,
-        step_forward_cm: float = BuckybotParams.step_forward_cm,
-        step_forward_sd_cm: float = BuckybotParams.step_forward_sd_cm,
-        step_lateral_cm: float = BuckybotParams.step_lateral_cm,
-        step_lateral_sd_cm: float = BuckybotParams.step_lateral_sd_cm,
-        heading_change_deg: float = BuckybotParams.heading_change_deg,
-        heading_sd_deg: float = BuckybotParams.heading_sd_deg,
-        body_radius_cm: float = BuckybotParams.body_radius_cm,
-        render_mode: str | None = None,
-        window_scale: float = 1.0,
-        num_rows: int = 1,
-    ):
+    def __init__(self, *, floor_plan=default_floor_plan, layouts: str = "default", render_mode: str | None = None,
+                 window_scale: float = 1.0, num_rows: int = 1, **physical):  # fmt: skip
         self._use_rows(num_rows)
-        p = BuckybotParams(
-            noise_scale, range_noise_scale, step_forward_cm, step_forward_sd_cm, step_lateral_cm, step_lateral_sd_cm,
-            heading_change_deg, heading_sd_deg, body_radius_cm,
-        )  # fmt: skip
+        robot = physical_parameters(type(self), self.params_class, physical)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self.noise_scale, self.range_noise_scale = p.noise_scale, p.range_noise_scale
-        self.body_radius_cm = p.body_radius_cm
-        self.tip_model = p.tip_model().scaled(self.noise_scale)
+        self.noise_scale, self.range_noise_scale = robot.noise_scale, robot.range_noise_scale
+        self.body_radius_cm = robot.body_radius_cm
         # A start this far from every wall leaves all three tips free: each lands one step away, the body needs
         # its radius.
         self.start_clearance_cm = self.body_radius_cm + geo.STEP_LENGTH_CM + 1.0
@@ -262,7 +198,7 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         self.window_scale = check_window_scale(window_scale)
 
         n = self._batch_size
-        self.sim = BuckybotSimulator(n, self.tip_model, self.range_noise_scale, self.body_radius_cm)
+        self.sim = BuckybotSimulator(n, robot)
         self.action_space = spaces.Discrete(3)
         low = np.concatenate([np.zeros(S.N_SENSOR_OBS), self.task_observation_low]).astype(np.float32)
         high = np.concatenate([np.ones(S.N_SENSOR_OBS), self.task_observation_high]).astype(np.float32)

@@ -27,7 +27,7 @@ body's contact stops it at the mean landing point. So no accepted parameter lets
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -45,6 +45,7 @@ from polyenvs.core.geometry2d import (
     segment_crosses,
 )
 from polyenvs.core.jit import njit
+from polyenvs.core.parameters import check_parameters, documented, parameter, parameter_ranges
 from polyenvs.core.streams import RowStreams
 
 __all__ = [
@@ -54,8 +55,9 @@ __all__ = [
     "SENSOR_OBSERVATION_STRUCTURE",
     "SIM_ARRAYS",
     "TIP_ANGLES_RAD",
+    "BuckybotParams",
     "BuckybotSimulator",
-    "TipModel",
+    "PARAMETER_RANGES",
 ]
 
 #: Frame azimuths of the three tip directions.
@@ -143,61 +145,65 @@ BASE_METRICS = {"blocked_tips": BLOCKED_TIPS, "oscillation_events": OSCILLATIONS
 _BASE_METRIC_STATE = tuple(BASE_METRICS.values())
 
 
-@dataclass(frozen=True)
-class TipModel:
-    """Displacement of one tip in the robot frame (+y along the tip direction, +x to its right, z up).
+_TEST_RESULTS = "paper, Test Results (Vicon, 10 repetitions of all 60 tips)"
 
-    Defaults are the Buckybot paper's Vicon measurements ("Test Results": 10 repetitions of all 60 tip
-    combinations): forward 9.266 ± 0.105 cm, lateral -0.745 ± 0.149 cm, heading +0.31 ± 0.44°, uncorrelated.
+
+@documented
+@dataclass(frozen=True)
+class BuckybotParams:
+    """The robot: its tip model, range noise and body, the physical parameters every Buckybot id takes as keywords.
+
+    A tip displaces the robot by ``step_forward_cm`` along the tip direction and ``step_lateral_cm`` to its right
+    and turns it by ``heading_change_deg`` (counter-clockwise from above), each with its sd, uncorrelated; the
+    defaults are the paper's Vicon measurements ("Test Results": 10 repetitions of all 60 tip combinations,
+    forward 9.266 ± 0.105 cm, lateral -0.745 ± 0.149 cm, heading +0.31 ± 0.44°). ``noise_scale`` interpolates
+    between the ideal lattice (0: 9.129 cm straight steps, no spread) and that model (1): both the spread and the
+    systematic offsets scale, so 0 is the exact honeycomb. :meth:`packed` is what the simulator runs.
+
+    {parameters}
     """
 
-    forward_mean_cm: float = 9.266
-    forward_sd_cm: float = 0.105
-    lateral_mean_cm: float = -0.745
-    lateral_sd_cm: float = 0.149
-    heading_mean_deg: float = 0.31
-    heading_sd_deg: float = 0.44
+    noise_scale: float = parameter(1.0, 0.0, 1.0, "", "tipping noise: 0 = the ideal lattice, 1 = the paper's")
+    range_noise_scale: float = parameter(1.0, 0.0, 5.0, "", "multiplies the eq. 6 range noise sd")
+    step_forward_cm: float = parameter(9.266, 5.0, 15.0, "cm", f"forward step per tip, {_TEST_RESULTS}")
+    step_forward_sd_cm: float = parameter(0.105, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
+    step_lateral_cm: float = parameter(-0.745, -3.0, 3.0, "cm", f"lateral step per tip, {_TEST_RESULTS}")
+    step_lateral_sd_cm: float = parameter(0.149, 0.0, 2.0, "cm", f"its sd, {_TEST_RESULTS}")
+    heading_change_deg: float = parameter(0.31, -10.0, 10.0, "deg", f"heading change per tip, {_TEST_RESULTS}")
+    heading_sd_deg: float = parameter(0.44, 0.0, 10.0, "deg", f"its sd, {_TEST_RESULTS}")
+    body_radius_cm: float = parameter(geo.BODY_RADIUS_CM, 6.5, 26.0, "cm", "contact radius (the 26 cm diameter)")
 
-    def scaled(self, noise_scale: float) -> TipModel:
-        """Interpolate between the ideal lattice (0: 9.129 cm straight steps, no spread) and this model (1).
+    def __post_init__(self):
+        check_parameters(self)
 
-        Both the spread and the systematic offsets scale, so ``noise_scale=0`` is the exact honeycomb.
-        """
-        s = float(noise_scale)
-        ideal = geo.STEP_LENGTH_CM
-        return replace(
-            self,
-            forward_mean_cm=ideal + s * (self.forward_mean_cm - ideal),
-            forward_sd_cm=s * self.forward_sd_cm,
-            lateral_mean_cm=s * self.lateral_mean_cm,
-            lateral_sd_cm=s * self.lateral_sd_cm,
-            heading_mean_deg=s * self.heading_mean_deg,
-            heading_sd_deg=s * self.heading_sd_deg,
-        )
-
-    def mean_offsets(self) -> np.ndarray:
-        """(3, 2) mean displacement of each of the three tips in the motion frame."""
-        c, s = _TIP_COS, _TIP_SIN
-        # Forward along (c, s); "right" of the tip direction is (s, -c).
-        return np.stack(
-            [self.forward_mean_cm * c + self.lateral_mean_cm * s, self.forward_mean_cm * s - self.lateral_mean_cm * c],
-            axis=-1,
-        )
+    def packed(self) -> np.ndarray:
+        """The simulator's parameter vector (entries ``P_*``): the tip model scaled by ``noise_scale``, the range
+        noise and the body radius."""
+        s, ideal = self.noise_scale, geo.STEP_LENGTH_CM
+        forward, lateral = ideal + s * (self.step_forward_cm - ideal), s * self.step_lateral_cm
+        offsets = _mean_offsets(forward, lateral)
+        turn = TIP_ANGLES_RAD + np.pi + np.radians(s * self.heading_change_deg)
+        params = np.zeros(N_PARAMS)
+        params[P_FORWARD], params[P_FORWARD_SD] = forward, s * self.step_forward_sd_cm
+        params[P_LATERAL], params[P_LATERAL_SD] = lateral, s * self.step_lateral_sd_cm
+        params[P_TURN_SD] = np.radians(s * self.heading_sd_deg)
+        params[P_BODY_RADIUS], params[P_RANGE_NOISE] = self.body_radius_cm, self.range_noise_scale
+        params[P_MEAN_OFFSETS : P_MEAN_OFFSETS + 6] = offsets.ravel()
+        params[P_FRAME_TURN : P_FRAME_TURN + 3] = turn
+        params[P_TURN_COS : P_TURN_COS + 3], params[P_TURN_SIN : P_TURN_SIN + 3] = libm.cos(turn), libm.sin(turn)
+        params[P_STEP_REACH] = float(np.hypot(*offsets[0]))
+        return params
 
 
-def pack_params(tip_model: TipModel, range_noise_scale: float, body_radius_cm: float) -> np.ndarray:
-    """The simulator's parameter vector (entries ``P_*``)."""
-    params = np.zeros(N_PARAMS)
-    params[P_FORWARD], params[P_FORWARD_SD] = tip_model.forward_mean_cm, tip_model.forward_sd_cm
-    params[P_LATERAL], params[P_LATERAL_SD] = tip_model.lateral_mean_cm, tip_model.lateral_sd_cm
-    params[P_TURN_SD] = np.radians(tip_model.heading_sd_deg)
-    params[P_BODY_RADIUS], params[P_RANGE_NOISE] = body_radius_cm, range_noise_scale
-    params[P_MEAN_OFFSETS : P_MEAN_OFFSETS + 6] = tip_model.mean_offsets().ravel()
-    turn = TIP_ANGLES_RAD + np.pi + np.radians(tip_model.heading_mean_deg)
-    params[P_FRAME_TURN : P_FRAME_TURN + 3] = turn
-    params[P_TURN_COS : P_TURN_COS + 3], params[P_TURN_SIN : P_TURN_SIN + 3] = libm.cos(turn), libm.sin(turn)
-    params[P_STEP_REACH] = float(np.hypot(*tip_model.mean_offsets()[0]))
-    return params
+#: Physical parameters: (low, high) plausible range (from :class:`BuckybotParams`). Outside it: ValueError.
+PARAMETER_RANGES = parameter_ranges(BuckybotParams)
+
+
+def _mean_offsets(forward_cm: float, lateral_cm: float) -> np.ndarray:
+    """(3, 2) mean displacement of each of the three tips in the motion frame."""
+    c, s = _TIP_COS, _TIP_SIN
+    # Forward along (c, s); "right" of the tip direction is (s, -c).
+    return np.stack([forward_cm * c + lateral_cm * s, forward_cm * s - lateral_cm * c], axis=-1)
 
 
 class BuckybotSimulator:
@@ -205,9 +211,7 @@ class BuckybotSimulator:
 
     Args:
         batch_size: number of robots.
-        tip_model: the per-tip motion model (already scaled by the environment's ``noise_scale``).
-        range_noise_scale: multiplies the range finders' eq. 6 standard deviation.
-        body_radius_cm: the body's contact radius.
+        robot: the robots' parameters (tip model, range noise, body radius).
 
     Attributes:
         state: ``(batch_size, STATE_COLUMNS)`` packed robot state (see the column constants).
@@ -216,11 +220,9 @@ class BuckybotSimulator:
         observation: ``(batch_size, 19)`` float32, the sensor part of the observation after the last sense.
     """
 
-    def __init__(self, batch_size: int, tip_model: TipModel, range_noise_scale: float, body_radius_cm: float):
+    def __init__(self, batch_size: int, robot: BuckybotParams):
         self.batch_size = b = int(batch_size)
-        self.tip_model = tip_model
-        self.body_radius_cm = float(body_radius_cm)
-        self.params = pack_params(tip_model, float(range_noise_scale), self.body_radius_cm)
+        self.params = robot.packed()
         self.state = np.zeros((b, STATE_COLUMNS))
         self.state[:, TRUE_RANGE : TRUE_RANGE + 6] = np.inf
         self.state[:, READING : READING + 6] = np.nan

@@ -19,12 +19,22 @@ class CartModel:
 :func:`check_parameters` refuses a value outside its range (or a bool, a string, NaN) with ``ValueError`` naming the
 field, as :func:`polyenvs.core.validation.check_in_range` does; :func:`parameter_table` writes the Markdown table a
 docstring's Arguments section shows; :func:`parameter_ranges` gives ``{name: (low, high)}`` to code that draws or
-sweeps parameters.
+sweeps parameters. An environment takes its family's parameters as ``**physical`` keywords of its constructor, each
+named once, in the dataclass (its ``params_class``: a task that changes a default or narrows a range subclasses the
+dataclass and sets its own), and builds the dataclass from them with :func:`physical_parameters`:
+
+```python
+params_class = CartModel
+
+def __init__(self, *, render_mode=None, **physical):
+    self.model = physical_parameters(type(self), self.params_class, physical)
+```
 """
 
 from __future__ import annotations
 
 import dataclasses
+from typing import TypeVar
 
 from polyenvs.core.validation import check_in_range
 
@@ -38,7 +48,11 @@ __all__ = [
     "parameter",
     "parameter_ranges",
     "parameter_table",
+    "physical_parameters",
 ]
+
+#: A family's parameter dataclass.
+P = TypeVar("P")
 
 
 def parameter(default: float, low: float, high: float, unit: str = "", source: str = "ours") -> dataclasses.Field:
@@ -62,6 +76,18 @@ def check_parameters(instance) -> None:
 def parameter_ranges(cls) -> dict[str, tuple[float, float]]:
     """``{name: (low, high)}`` of every declared parameter, in declaration order."""
     return {f.name: f.metadata["range"] for f in _declared(cls)}
+
+
+def physical_parameters(owner: type, params_class: type[P], physical: dict) -> P:
+    """``params_class(**physical)``, for an environment whose constructor takes ``params_class``'s parameters as
+    ``**physical``: each keyword must be a declared parameter (the others keep their defaults). Any other keyword
+    raises ``TypeError`` in Python's own wording for ``owner``'s constructor (``X.__init__() got an unexpected
+    keyword argument 'name'``), which tools probe for (TorchRL's ``GymEnv`` tries ``frameskip=``); a bad value raises
+    ``ValueError`` naming its parameter (:func:`check_parameters`)."""
+    unknown = sorted(set(physical) - set(parameter_ranges(params_class)))
+    if unknown:
+        raise TypeError(f"{owner.__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
+    return params_class(**physical)
 
 
 def parameter_table(cls) -> str:

@@ -132,9 +132,8 @@ class CorridorEnv(SwarmEnv):
 
     params_class = CorridorParams
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES,
-                 goal_radius_m: float = CorridorParams.goal_radius_m, **kwargs):  # fmt: skip
-        super().__init__(n_robots=n_robots, max_cycles=max_cycles, goal_radius_m=goal_radius_m, **kwargs)
+    def __init__(self, *, n_robots: int = N_ROBOTS, max_cycles: int = MAX_CYCLES, **kwargs):
+        super().__init__(n_robots=n_robots, max_cycles=max_cycles, **kwargs)
 
     def _rows(self) -> int:
         return -(-self.n_robots // 3)

@@ -25,7 +25,14 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from polyenvs.core import libm
 from polyenvs.core.layouts import LayoutSplit, check_layouts
-from polyenvs.core.parameters import SharedVersionHistory, check_parameters, documented, parameter, parameter_ranges
+from polyenvs.core.parameters import (
+    SharedVersionHistory,
+    check_parameters,
+    documented,
+    parameter,
+    parameter_ranges,
+    physical_parameters,
+)
 from polyenvs.core.validation import (
     check_action,
     check_bool,
@@ -186,31 +193,19 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
         n_robots: int = 1,
         platform: str | None = None,
         max_cycles: int = 500,
-        control_period_s: float = SwarmParams.control_period_s,
-        full_speed_mps: float = SwarmParams.full_speed_mps,
-        terrain_noise: float = SwarmParams.terrain_noise,
-        ir_noise: float = SwarmParams.ir_noise,
-        ir_raw_sd: float = SwarmParams.ir_raw_sd,
-        comm_range_m: float = SwarmParams.comm_range_m,
         n_neighbours: int = 6,
-        range_noise_m: float = SwarmParams.range_noise_m,
-        bearing_noise_deg: float = SwarmParams.bearing_noise_deg,
-        light_noise_deg: float = SwarmParams.light_noise_deg,
-        goal_radius_m: float = SwarmParams.goal_radius_m,
         sensor_angles_deg=SENSOR_ANGLES_DEG,
         terminate_on_collision: bool = False,
         flat_info: bool = False,
         render_mode: str | None = None,
         window_scale: float = 1.0,
+        **physical,
     ):
         self.layouts = check_layouts(layouts)
         self.n_robots = check_int("n_robots", n_robots, 1, 1024)
         self.platform = get_platform(self.default_platform if platform is None else platform)
         self.max_cycles = check_int("max_cycles", max_cycles, 1, 1_000_000)
-        params = self.params_class(
-            control_period_s, full_speed_mps, terrain_noise, ir_noise, ir_raw_sd, comm_range_m, range_noise_m,
-            bearing_noise_deg, light_noise_deg, goal_radius_m,
-        )  # fmt: skip
+        params = physical_parameters(type(self), self.params_class, physical)
         self.__dict__.update(dataclasses.asdict(params))
         self.n_neighbours = check_int("n_neighbours", n_neighbours, 1, 32)
         self.sensor_angles_deg = _check_sensor_angles(sensor_angles_deg)

@@ -117,13 +117,10 @@ class ObstacleFieldEnv(SwarmEnv):
 
     params_class = ObstacleFieldParams
 
-    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = N_OBSTACLES,
-                 terrain_noise: float = ObstacleFieldParams.terrain_noise, max_cycles: int = MAX_CYCLES,
-                 goal_radius_m: float = ObstacleFieldParams.goal_radius_m, layouts: str = "default",
-                 **kwargs):  # fmt: skip
+    def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = N_OBSTACLES, max_cycles: int = MAX_CYCLES,
+                 layouts: str = "default", **kwargs):  # fmt: skip
         self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
-        super().__init__(n_robots=n_robots, terrain_noise=terrain_noise, max_cycles=max_cycles,
-                         goal_radius_m=goal_radius_m, layouts=layouts, **kwargs)  # fmt: skip
+        super().__init__(n_robots=n_robots, max_cycles=max_cycles, layouts=layouts, **kwargs)
 
     def _block(self) -> tuple[int, float]:
         columns = math.ceil(math.sqrt(self.n_robots))
