@@ -15,11 +15,11 @@ import numpy as np
 from baselines.base import Policy
 from polyenvs.bumper.cart import CartModel
 from polyenvs.bumper.env import OBSERVATION_STRUCTURE, LocalizationContext
-from polyenvs.bumper.localizers import BumpSpaceMCL
 from polyenvs.bumper.maps import make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.jit import njit
 from polyenvs.core.validation import check_in_range, check_int
+from polyenvs.estimators.bumper import BumpSpaceMCL
 
 __all__ = ["FixedTurn", "GreedySplit", "RandomBounce"]
 
@@ -150,7 +150,7 @@ class GreedySplit(Policy):
     """Active localization's upper anchor: keep the paper's bump-space localizer on the logs, and turn where the next
     bump tells its hypotheses apart best.
 
-    The policy runs its own :class:`polyenvs.bumper.localizers.BumpSpaceMCL` on the cycle logs it observes (the
+    The policy runs its own :class:`polyenvs.estimators.bumper.BumpSpaceMCL` on the cycle logs it observes (the
     particles travel in the policy's state, a row per environment, cleared at an episode start; its motion noise
     comes from the policy's own seeded generator), knowing the map as the task's cart does: the belief summary in
     the observation cannot predict a bump, the particles can. Before each cycle it predicts, for each of

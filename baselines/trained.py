@@ -43,7 +43,7 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines.algorithms import ALGOS
-from baselines.residual import ResidualComposer, ResidualSpec, make_composer
+from baselines.residual.compose import ResidualComposer, ResidualSpec, make_composer
 from polyenvs.core.extras import install_hint
 from polyenvs.pool import single_threaded_torch
 from polyenvs.registry import bare_id

@@ -39,7 +39,7 @@ def _ensure_registered() -> None:
 
 
 class LocalizerRunner:
-    """Times :class:`polyenvs.bumper.localizers.BumpSpaceMCL` updates over a fixed set of logged cycles (the
+    """Times :class:`polyenvs.estimators.bumper.BumpSpaceMCL` updates over a fixed set of logged cycles (the
     filter is reset, untimed, whenever the logs run out)."""
 
     num_envs = 1
@@ -47,7 +47,7 @@ class LocalizerRunner:
 
     def __init__(self, particles: int = PARTICLES, *, min_seconds: float, seed: int = 0, runs: int = 20):
         from polyenvs.bumper.env import BumperCartExploreEnv
-        from polyenvs.bumper.localizers import BumpSpaceMCL
+        from polyenvs.estimators.bumper import BumpSpaceMCL
 
         env = BumperCartExploreEnv()
         self.context = env.localization_context()

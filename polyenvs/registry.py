@@ -19,7 +19,7 @@ score is the paper's task is said in the environment's docstring (its "Task scor
 
 A Gymnasium row may also list ``estimators``, the third kind of thing polyenvs scores: estimators (localizers)
 run on the logs its rollouts produce, scored against the true pose (``polyenvs localize``,
-:mod:`polyenvs.localization`), not policies scored on returns.
+:mod:`polyenvs.estimators`), not policies scored on returns.
 
 Variants are constructor keywords (``gym.make(id, floor_plan="office")``), not new rows. Entry points are strings,
 so nothing heavy is imported until an environment or a policy is made.
@@ -182,8 +182,8 @@ _CART_BUDGET_BASELINES = (
 _CART_COVERAGE = Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn")
 #: The localizers scored on the cart's logs (``polyenvs localize``), the paper's bump-space filter first.
 _CART_ESTIMATORS = (
-    Baseline("mcl", "polyenvs.bumper.localizers:BumpSpaceMCL"),
-    Baseline("dead_reckoning", "polyenvs.bumper.localizers:DeadReckoning"),
+    Baseline("mcl", "polyenvs.estimators.bumper:BumpSpaceMCL"),
+    Baseline("dead_reckoning", "polyenvs.estimators.bumper:DeadReckoning"),
 )
 
 

@@ -15,7 +15,7 @@ pytest.importorskip("stable_baselines3")
 
 from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.evaluation.agents import find_agents  # noqa: E402
-from polyenvs.evaluation.datasets import collect  # noqa: E402
+from polyenvs.evaluation.datasets import CollectRequest, collect  # noqa: E402
 from polyenvs.evaluation.episodes import evaluate  # noqa: E402
 from polyenvs.evaluation.results import load_result, result_path  # noqa: E402
 from polyenvs.registry import slug  # noqa: E402
@@ -41,7 +41,7 @@ polyenvs/APLiteCorridor-v0:
 def demos(tmp_path_factory):
     """15 of the paper's corridor episodes (seeds 0-14: none of the evaluation seeds)."""
     out = tmp_path_factory.mktemp("bc") / "demos"
-    collect(CORRIDOR, "paper", episodes=15, seed=0, out_dir=out, results_dir="benchmarks/results")
+    collect(CollectRequest(CORRIDOR, "paper", episodes=15, seed=0, out_dir=out, results_dir="benchmarks/results"))
     return out
 
 
@@ -94,7 +94,9 @@ def test_cloning_a_discrete_policy(tmp_path):
     from polyenvs.evaluation.rollout import run_episode
 
     goal = "polyenvs/BuckybotGoal-v0"
-    collect(goal, "paper", episodes=20, seed=0, out_dir=tmp_path / "demos", results_dir="benchmarks/results")
+    collect(
+        CollectRequest(goal, "paper", episodes=20, seed=0, out_dir=tmp_path / "demos", results_dir="benchmarks/results")
+    )
     model, normalization, record = _cloned_model(tmp_path / "demos", goal)
     agent = TrainedPolicy(model, "ppo", "bc", normalization=normalization)
     env = make_env(goal)
@@ -168,8 +170,9 @@ def test_a_trained_agent_collects_demonstrations_too(demos, tmp_path, capsys):
     code, _, err = run_main(["train", CORRIDOR, "--algo", "ppo", "--config", str(config), "--bc-from", str(demos),
                              "--layouts", "default", "--out", str(run_dir), "--no-progress"], capsys)  # fmt: skip
     assert code == 0, err
-    identifier = collect(CORRIDOR, str(run_dir), episodes=2, seed=3, out_dir=tmp_path / "agent",
-                         env_kwargs={"max_episode_steps": 30})  # fmt: skip
+    request = CollectRequest(CORRIDOR, str(run_dir), episodes=2, seed=3, out_dir=tmp_path / "agent",
+                             env_kwargs={"max_episode_steps": 30})  # fmt: skip
+    identifier = collect(request)
     assert identifier == "polyenvs/APLiteCorridor-v0/trained_ppo-v0"
     from polyenvs.evaluation.datasets import _minari_root
 

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 import polyenvs  # noqa: F401  (registers the ids)
-from polyenvs.bumper.localizers import BumpSpaceMCL, DeadReckoning
 from polyenvs.bumper.odometry import odometry_step
-from polyenvs.localization.runner import rollout_logs, score_estimator, summarize
+from polyenvs.estimators.bumper import BumpSpaceMCL, DeadReckoning
+from polyenvs.evaluation.localization import rollout_logs, score_estimator, summarize
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 RUNS, BUMPS = 100, 15

@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 import polyenvs.evaluation.episodes
+import polyenvs.evaluation.localization
 import polyenvs.evaluation.rollout
-import polyenvs.localization.runner
-import polyenvs.sweep
+import polyenvs.training.sweep
 from baselines.residual import MAX_HOLD
 from polyenvs.cli import build_parser
 from polyenvs.commands.flags import int_flag
@@ -81,8 +81,8 @@ def no_work(monkeypatch):
 
     monkeypatch.setattr(polyenvs.evaluation.episodes, "run_episode", refuse)
     monkeypatch.setattr(polyenvs.evaluation.rollout, "episode_frames", refuse)
-    monkeypatch.setattr(polyenvs.localization.runner, "rollout_logs", refuse)
-    monkeypatch.setattr(polyenvs.sweep, "run_sweep", refuse)
+    monkeypatch.setattr(polyenvs.evaluation.localization, "rollout_logs", refuse)
+    monkeypatch.setattr(polyenvs.training.sweep, "run_sweep", refuse)
     try:
         from polyenvs.training import vec_adapter
     except ImportError:  # pragma: no cover - no train extra

@@ -19,7 +19,7 @@ from tests.cli_helpers import run_main
 minari = pytest.importorskip("minari")
 
 from polyenvs import __version__  # noqa: E402
-from polyenvs.evaluation.datasets import collect  # noqa: E402
+from polyenvs.evaluation.datasets import CollectRequest, collect  # noqa: E402
 from polyenvs.evaluation.episodes import make_agent  # noqa: E402
 from polyenvs.evaluation.rollout import policy_action  # noqa: E402
 
@@ -73,7 +73,7 @@ def _replay(env, agent, seed, options):
 @pytest.mark.parametrize("env_id, env_kwargs", FAMILIES, ids=[f[0] for f in FAMILIES])
 def test_a_dataset_round_trips_through_minari(env_id, env_kwargs, tmp_path, monkeypatch):
     out = tmp_path / "demos"
-    identifier = collect(env_id, "paper", episodes=2, seed=SEED, out_dir=out, env_kwargs=env_kwargs)
+    identifier = collect(CollectRequest(env_id, "paper", episodes=2, seed=SEED, out_dir=out, env_kwargs=env_kwargs))
     dataset = _load(out, identifier, monkeypatch)
     metadata = dataset.storage.metadata
     facts = metadata["polyenvs"]
@@ -112,7 +112,9 @@ def test_reference_scores_come_from_the_committed_results(tmp_path, monkeypatch)
 
     results = "benchmarks/results"
     out = tmp_path / "demos"
-    identifier = collect("polyenvs/APLiteCorridor-v0", "random", episodes=1, out_dir=out, results_dir=results)
+    identifier = collect(
+        CollectRequest("polyenvs/APLiteCorridor-v0", "random", episodes=1, out_dir=out, results_dir=results)
+    )
     metadata = _load(out, identifier, monkeypatch).storage.metadata
     paper, _ = load_result(result_path(results, "polyenvs/APLiteCorridor-v0", "aplite"), "polyenvs/APLiteCorridor-v0",
                            "aplite")  # fmt: skip
@@ -159,7 +161,7 @@ def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monk
 
     out = tmp_path / "demos"
     kwargs = {"out_dir": out, "env_kwargs": {"max_episode_steps": 5}}
-    collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=1, **kwargs)
+    collect(CollectRequest("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=1, **kwargs))
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
 
     def broken(*args, **kwargs):
@@ -167,7 +169,7 @@ def test_an_interrupted_collection_leaves_the_directory_as_it_was(tmp_path, monk
 
     monkeypatch.setattr(datasets, "_replace_dir", broken)
     with pytest.raises(RuntimeError):
-        collect("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=2, overwrite=True, **kwargs)
+        collect(CollectRequest("polyenvs/APLiteCorridor-v0", "paper", episodes=1, seed=2, overwrite=True, **kwargs))
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
     assert [p.name for p in tmp_path.iterdir()] == ["demos"]
 
@@ -250,8 +252,9 @@ def test_unknown_environment_is_one_line(tmp_path, capsys):
 def test_the_robot_view_acts_for_its_robot_alone(tmp_path, monkeypatch):
     """The recovered swarm is driven by the agent for the named robot: other actions change that robot's episode,
     and its teammates keep their own policy's."""
-    identifier = collect("polyenvs.swarm.corridor_v0", "paper", episodes=1, out_dir=tmp_path / "d",
-                         env_kwargs={"max_cycles": 15})  # fmt: skip
+    request = CollectRequest("polyenvs.swarm.corridor_v0", "paper", episodes=1, out_dir=tmp_path / "d",
+                             env_kwargs={"max_cycles": 15})  # fmt: skip
+    identifier = collect(request)
     dataset = _load(tmp_path / "d", identifier, monkeypatch)
     env = dataset.recover_environment()
     try:

@@ -1,6 +1,6 @@
 """The house's floors: no import, at module level or inside a function, runs up a floor.
 
-core <- families (buckybot, beast, swarm, bumper) <- baselines and estimators <- evaluation <- training and sweep
+core <- families (buckybot, beast, swarm, bumper) <- baselines and estimators <- evaluation <- training
 <- command line. Every module under ``polyenvs/`` and ``baselines/`` is parsed with :mod:`ast` (nothing is
 imported), so a function-level import that would hide a cycle is caught too.
 """
@@ -27,14 +27,9 @@ FLOORS: dict[str, int] = {
     "polyenvs.pool": CORE,
     **{f"polyenvs.{family}": FAMILY for family in FAMILIES},
     "baselines": BASELINES,
-    "polyenvs.bumper.localizers": BASELINES,
-    "polyenvs.localization": BASELINES,  # the estimator protocol and table
-    "polyenvs.wrappers": BASELINES,  # the residual wrapper runs a hand baseline
+    "polyenvs.estimators": BASELINES,
     "polyenvs.evaluation": EVALUATION,
-    "polyenvs.localization.runner": EVALUATION,
-    "polyenvs.localization.report": EVALUATION,
     "polyenvs.training": TRAINING,
-    "polyenvs.sweep": TRAINING,
     "polyenvs.cli": COMMANDS,
     "polyenvs.commands": COMMANDS,
 }
@@ -64,15 +59,16 @@ def imports_of(path: Path) -> list[tuple[int, str]]:
         if isinstance(node, ast.Import):
             found += [(node.lineno, alias.name) for alias in node.names]
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            # ``from polyenvs import sweep`` imports polyenvs.sweep: count the names as submodules where they are
-            found += [(node.lineno, node.module)]
-            found += [
-                (node.lineno, f"{node.module}.{alias.name}")
-                for alias in node.names
-                if (ROOT / node.module.replace(".", "/") / alias.name).is_dir()
-                or (ROOT / node.module.replace(".", "/") / f"{alias.name}.py").is_file()
-            ]
+            found += [(node.lineno, imported_from(node.module, alias.name)) for alias in node.names]
     return found
+
+
+def imported_from(package: str, name: str) -> str:
+    """What ``from package import name`` imports: the submodule ``package.name`` where there is one (``from
+    polyenvs.evaluation import charts``), else the package, whose ``__init__`` defines or re-exports ``name``."""
+    folder = ROOT / package.replace(".", "/")
+    is_submodule = (folder / name).is_dir() or (folder / f"{name}.py").is_file()
+    return f"{package}.{name}" if is_submodule else package
 
 
 MODULES = sorted(p for package in ("polyenvs", "baselines") for p in (ROOT / package).rglob("*.py"))
@@ -105,15 +101,9 @@ def test_no_import_runs_up_a_floor(path: Path):
     assert upward == []
 
 
-def package_of(module: str) -> str:
-    """``polyenvs.swarm`` for ``polyenvs.swarm.env``: a family's modules may lean on each other. Any other module
-    is its own (``polyenvs.evaluation.table``), so that no cycle hides inside a floor's package."""
-    family = family_of(module)
-    return f"polyenvs.{family}" if family is not None else module
-
-
 def _graph() -> dict[str, set[str]]:
-    """module -> the house's modules it imports (a name resolved to its longest prefix that is a module)."""
+    """module -> the house's modules it imports (a name resolved to its longest prefix that is a module; a package
+    is its ``__init__``, so a package that re-exports a submodule imports it)."""
     names = {module_name(p) for p in MODULES}
     graph: dict[str, set[str]] = {}
     for path in MODULES:
@@ -121,13 +111,15 @@ def _graph() -> dict[str, set[str]]:
         for _, target in imports_of(path):
             parts = target.split(".")
             hit = next((".".join(parts[:n]) for n in range(len(parts), 0, -1) if ".".join(parts[:n]) in names), None)
-            if hit is not None and hit != module_name(path) and not hit.startswith(f"{module_name(path)}."):
-                edges.add(hit)  # a package importing its own submodules (re-exports) is not a cycle
+            if hit is not None and hit != module_name(path):
+                edges.add(hit)
     return graph
 
 
 def test_no_import_cycles():
-    """Within a floor too (the command line assembles its commands; no command imports it back)."""
+    """No module imports, at any level, one that imports it back: within a floor and a family too (the command line
+    assembles its commands, no command imports it back), and through a package's ``__init__`` (``baselines``
+    imports ``baselines.trained`` inside a function: nothing ``trained`` imports may import ``baselines``)."""
     graph = _graph()
     index: dict[str, int] = {}
     low: dict[str, int] = {}
@@ -150,7 +142,7 @@ def test_no_import_cycles():
                 component.append(member)
                 if member == node:
                     break
-            if len({package_of(m) for m in component}) > 1:  # a family's own modules may lean on each other
+            if len(component) > 1:
                 cycles.append(" <-> ".join(sorted(component)))
 
     for node in sorted(graph):

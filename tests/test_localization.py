@@ -12,10 +12,10 @@ import pytest
 import polyenvs  # noqa: F401  (registers the ids)
 from polyenvs.commands.localize import add_parser
 from polyenvs.errors import InputError
+from polyenvs.estimators import Estimator, estimator_class, estimators, make_estimator
 from polyenvs.evaluation import charts
-from polyenvs.localization import Estimator, estimator_class, estimators, make_estimator
-from polyenvs.localization.report import convergence_plot, convergence_table
-from polyenvs.localization.runner import CONVERGED_CM, rollout_logs, score_estimator, summarize
+from polyenvs.evaluation.localization import CONVERGED_CM, rollout_logs, score_estimator, summarize
+from polyenvs.evaluation.localization_report import convergence_plot, convergence_table
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 
@@ -187,8 +187,8 @@ def test_heading_in_scores_is_degrees(logs):
 def test_the_default_environment_is_a_current_id_whose_runs_go_past_its_task_budget():
     """``polyenvs localize`` defaults to the id the benchmark ranks on (not a superseded one), and a run ends at its
     bump count, not at the task's budget of 50 cycles."""
-    from polyenvs.localization import DEFAULT_ENV_ID
-    from polyenvs.localization.runner import rollout_logs
+    from polyenvs.estimators import DEFAULT_ENV_ID
+    from polyenvs.evaluation.localization import rollout_logs
     from polyenvs.registry import entry
 
     assert entry(DEFAULT_ENV_ID).superseded_by is None and entry(DEFAULT_ENV_ID).estimators

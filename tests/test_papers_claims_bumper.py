@@ -16,10 +16,10 @@ from baselines.base import RandomPolicy
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.bump_space import densest_cluster
 from polyenvs.bumper.env import BumperCartExploreEnv
-from polyenvs.bumper.localizers import BumpSpaceMCL
 from polyenvs.bumper.maps import make_map
 from polyenvs.bumper.odometry import TICK_CM, odometry_step
-from polyenvs.localization.runner import rollout_logs, score_estimator, summarize
+from polyenvs.estimators.bumper import BumpSpaceMCL
+from polyenvs.evaluation.localization import rollout_logs, score_estimator, summarize
 
 LOGS_ID = "polyenvs/BumperCartExplore-v0"
 

@@ -1,4 +1,4 @@
-"""Residual policies (:mod:`baselines.residual`, :class:`polyenvs.wrappers.ResidualPolicy`, ``train --residual``).
+"""Residual policies (:mod:`baselines.residual`, :class:`baselines.residual.ResidualPolicy`, ``train --residual``).
 
 The untrained residual agent is its baseline: a zero correction must reproduce the baseline's episodes exactly, in
 the wrapper (training) and in a loaded agent (evaluation), across resets and in a vector env.
@@ -15,10 +15,9 @@ from gymnasium import spaces
 
 import polyenvs  # noqa: F401  (registers the ids)
 from baselines import make_policy
-from baselines.residual import ResidualComposer, ResidualSpec
+from baselines.residual import ResidualComposer, ResidualPolicy, ResidualSpec
 from polyenvs.evaluation.episodes import evaluate
 from polyenvs.evaluation.rollout import run_episode
-from polyenvs.wrappers import ResidualPolicy
 from tests.cli_helpers import run_main
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

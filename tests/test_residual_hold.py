@@ -16,10 +16,9 @@ import pytest
 
 import polyenvs  # noqa: F401  (registers the ids)
 from baselines import make_policy
-from baselines.residual import ResidualSpec
+from baselines.residual import ResidualPolicy, ResidualSpec
 from baselines.trained import load_trained_policy
 from polyenvs.evaluation.rollout import policy_action
-from polyenvs.wrappers import ResidualPolicy
 from tests.cli_helpers import run_main
 from tests.test_residual import _baseline_episode, _make
 

@@ -1,4 +1,4 @@
-"""Residual agents over the PettingZoo swarms' robots (:class:`polyenvs.wrappers.ParallelResidualPolicy`,
+"""Residual agents over the PettingZoo swarms' robots (:class:`baselines.residual.ParallelResidualPolicy`,
 ``polyenvs train polyenvs.swarm.corridor_v0 --residual paper``): parameter sharing, a baseline memory row per robot,
 and a zero correction that is the paper's swarm episode bit for bit, in the wrapper and in a loaded agent.
 """
@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 
 from baselines import make_policy
-from baselines.residual import ResidualSpec
+from baselines.residual import ParallelResidualPolicy, ResidualSpec
 from polyenvs.evaluation.rollout import agent_spaces, make_env, run_episode
-from polyenvs.wrappers import ParallelResidualPolicy
 from tests.cli_helpers import run_main
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

@@ -89,7 +89,7 @@ def test_local_sweep_runs_two_jobs_then_skips_them(tmp_path, config_dir, capsys)
     ],
 )
 def test_bad_flags_are_one_line_before_any_job(tmp_path, config_dir, capsys, monkeypatch, change, message):
-    import polyenvs.sweep as sweep
+    import polyenvs.training.sweep as sweep
 
     monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: pytest.fail("a job started before the flags were checked"))
     argv = _argv(config_dir, tmp_path / "out")

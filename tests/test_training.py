@@ -22,7 +22,7 @@ contrib = pytest.importorskip("sb3_contrib")
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 
 from polyenvs.errors import InputError  # noqa: E402
-from polyenvs.training.train import TrainingInterrupted, train  # noqa: E402
+from polyenvs.training.train import TrainingInterrupted, TrainRequest, train  # noqa: E402
 
 WALL = "polyenvs/BuckybotWallFollow-v0"
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -68,10 +68,10 @@ def _run(out: Path) -> dict:
 @pytest.mark.parametrize(("algo", "cls"), [("ppo", sb3.PPO), ("maskable_ppo", contrib.MaskablePPO)])
 def test_train_writes_the_run_directory(tmp_path, algo, cls):
     out = tmp_path / "run"
-    result = train(
+    result = train(TrainRequest(
         WALL, algo, config=CONFIGS / f"{algo}.yml", timesteps=256, n_envs=2, seed=3, out_dir=out,
         env_kwargs={"floor_plan": "corner", "max_episode_steps": 50}, layouts="default", command="polyenvs train test",
-    )  # fmt: skip
+    ))  # fmt: skip
     assert result == out
     assert {p.name for p in out.iterdir()} == {"model.zip", "vecnormalize.pkl", "run.json", "curve.json", "tb"}
     assert list((out / "tb").rglob("events.out.tfevents.*"))
@@ -112,7 +112,11 @@ def test_train_writes_the_run_directory(tmp_path, algo, cls):
 def test_train_logs_the_task_metrics_to_tensorboard(tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    out = train(WALL, "ppo", timesteps=256, n_envs=2, out_dir=tmp_path / "run", env_kwargs={"max_episode_steps": 20})
+    out = train(
+        TrainRequest(
+            WALL, "ppo", timesteps=256, n_envs=2, out_dir=tmp_path / "run", env_kwargs={"max_episode_steps": 20}
+        )
+    )
     (events,) = (out / "tb").rglob("events.out.tfevents.*")
     acc = EventAccumulator(str(events.parent))
     acc.Reload()
@@ -123,25 +127,25 @@ def test_train_logs_the_task_metrics_to_tensorboard(tmp_path):
 def test_train_rerun_skips_a_finished_run_and_refuses_other_directories(tmp_path):
     out = tmp_path / "run"
     kwargs = {"timesteps": 64, "n_envs": 1, "tensorboard": False}
-    train(WALL, "dqn", out_dir=out, seed=1, **kwargs)
+    train(TrainRequest(WALL, "dqn", out_dir=out, seed=1, **kwargs))
     before = (out / "model.zip").stat().st_mtime_ns, (out / "run.json").read_text()
-    assert train(WALL, "dqn", out_dir=out, seed=1, **kwargs) == out  # finished: nothing to do
+    assert train(TrainRequest(WALL, "dqn", out_dir=out, seed=1, **kwargs)) == out  # finished: nothing to do
     assert ((out / "model.zip").stat().st_mtime_ns, (out / "run.json").read_text()) == before
     with pytest.raises(InputError, match="holds a finished run of polyenvs/BuckybotWallFollow-v0 dqn seed 1"):
-        train(WALL, "dqn", out_dir=out, seed=2, **kwargs)
+        train(TrainRequest(WALL, "dqn", out_dir=out, seed=2, **kwargs))
     with pytest.raises(InputError, match="holds a finished run"):
-        train(WALL, "ppo", out_dir=out, seed=1, **kwargs)
+        train(TrainRequest(WALL, "ppo", out_dir=out, seed=1, **kwargs))
     other = tmp_path / "other"
     other.mkdir()
     (other / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="holds files and no run.json; choose another --out or remove it"):
-        train(WALL, "dqn", out_dir=other, **kwargs)
+        train(TrainRequest(WALL, "dqn", out_dir=other, **kwargs))
     (tmp_path / "file").write_text("")
     with pytest.raises(InputError, match="is a file"):
-        train(WALL, "dqn", out_dir=tmp_path / "file", **kwargs)
+        train(TrainRequest(WALL, "dqn", out_dir=tmp_path / "file", **kwargs))
     empty = tmp_path / "empty"
     empty.mkdir()
-    assert train(WALL, "dqn", out_dir=empty, **kwargs) == empty  # an empty directory is fine
+    assert train(TrainRequest(WALL, "dqn", out_dir=empty, **kwargs)) == empty  # an empty directory is fine
 
 
 class _Interrupt(BaseCallback):
@@ -160,10 +164,10 @@ class _Interrupt(BaseCallback):
 def test_ctrl_c_saves_the_partial_model(tmp_path):
     out = tmp_path / "run"
     with pytest.raises(TrainingInterrupted) as info:
-        train(
+        train(TrainRequest(
             WALL, "ppo", timesteps=100_000, n_envs=2, out_dir=out, callbacks=[_Interrupt(after=300)],
             tensorboard=False,
-        )  # fmt: skip
+        ))  # fmt: skip
     assert isinstance(info.value, KeyboardInterrupt)
     assert info.value.out_dir == out and info.value.timesteps == 600  # 300 steps of 2 envs
     run = _run(out)
@@ -172,17 +176,17 @@ def test_ctrl_c_saves_the_partial_model(tmp_path):
     assert sb3.PPO.load(out / "model.zip", device="cpu").num_timesteps == 600
     # An interrupted run is not finished: a re-run refuses the directory instead of skipping it, and says how to go on.
     with pytest.raises(InputError, match=r"holds an interrupted run \(600 of 100000 timesteps saved\); --resume"):
-        train(WALL, "ppo", timesteps=64, n_envs=2, out_dir=out)
+        train(TrainRequest(WALL, "ppo", timesteps=64, n_envs=2, out_dir=out))
 
 
 def test_resume_continues_the_saved_model_and_its_statistics(tmp_path):
     out = tmp_path / "run"
     common = {"n_envs": 2, "out_dir": out, "tensorboard": False}
     with pytest.raises(TrainingInterrupted):
-        train(WALL, "ppo", timesteps=100_000, callbacks=[_Interrupt(after=300)], **common)
+        train(TrainRequest(WALL, "ppo", timesteps=100_000, callbacks=[_Interrupt(after=300)], **common))
     with pytest.raises(InputError, match="cannot resume .*: it trained with n_envs=2, this run asks for 4"):
-        train(WALL, "ppo", timesteps=1200, resume=True, **{**common, "n_envs": 4})
-    assert train(WALL, "ppo", timesteps=1200, resume=True, **common) == out
+        train(TrainRequest(WALL, "ppo", timesteps=1200, resume=True, **{**common, "n_envs": 4}))
+    assert train(TrainRequest(WALL, "ppo", timesteps=1200, resume=True, **common)) == out
     run = _run(out)
     assert run["completed"] is True and run["resumed_at"] == [600] and run["timesteps"] >= 1200
     model = sb3.PPO.load(out / "model.zip", device="cpu")
@@ -202,8 +206,8 @@ def test_resume_continues_the_saved_model_and_its_statistics(tmp_path):
 def test_native_and_dummy_training_give_the_same_model(tmp_path):
     """The adapter gives DummyVecEnv's experience bit for bit, so PPO learns the same weights on either."""
     common = {"timesteps": 256, "n_envs": 2, "seed": 4, "tensorboard": False, "env_kwargs": {"max_episode_steps": 30}}
-    a = train(WALL, "ppo", out_dir=tmp_path / "native", vec_env="native", **common)
-    b = train(WALL, "ppo", out_dir=tmp_path / "dummy", vec_env="dummy", **common)
+    a = train(TrainRequest(WALL, "ppo", out_dir=tmp_path / "native", vec_env="native", **common))
+    b = train(TrainRequest(WALL, "ppo", out_dir=tmp_path / "dummy", vec_env="dummy", **common))
     assert _run(a)["vec_env"] == "NativeVecEnvAdapter" and _run(b)["vec_env"] == "DummyVecEnv"
     params_a = sb3.PPO.load(a / "model.zip", device="cpu").policy.state_dict()
     params_b = sb3.PPO.load(b / "model.zip", device="cpu").policy.state_dict()
@@ -215,21 +219,21 @@ def test_action_space_mismatch_and_bad_arguments(tmp_path):
     out = tmp_path / "run"
     with pytest.raises(InputError, match=r"sac needs continuous actions \(Box\), but .* has Discrete\(3\); "
                        r"algorithms that fit: ppo, dqn, maskable_ppo"):  # fmt: skip
-        train(WALL, "sac", config=CONFIGS / "ppo.yml", out_dir=out)
+        train(TrainRequest(WALL, "sac", config=CONFIGS / "ppo.yml", out_dir=out))
     with pytest.raises(InputError, match="unknown algorithm 'a2c'; expected one of ppo, dqn, maskable_ppo, sac, td3"):
-        train(WALL, "a2c", out_dir=out)
+        train(TrainRequest(WALL, "a2c", out_dir=out))
     with pytest.raises(InputError, match="unknown environment id 'polyenvs/Nope-v0'"):
-        train("polyenvs/Nope-v0", "ppo", out_dir=out)
+        train(TrainRequest("polyenvs/Nope-v0", "ppo", out_dir=out))
     with pytest.raises(InputError, match="timesteps must be >= 1"):
-        train(WALL, "ppo", timesteps=0, out_dir=out)
+        train(TrainRequest(WALL, "ppo", timesteps=0, out_dir=out))
     with pytest.raises(InputError, match="seed must be an integer"):
-        train(WALL, "ppo", seed=1.5, out_dir=out)
+        train(TrainRequest(WALL, "ppo", seed=1.5, out_dir=out))
     with pytest.raises(InputError, match="bad environment keyword arguments .*floor_plan"):
-        train(WALL, "ppo", env_kwargs={"floor_plan": "nowhere"}, out_dir=out)
+        train(TrainRequest(WALL, "ppo", env_kwargs={"floor_plan": "nowhere"}, out_dir=out))
     bad = tmp_path / "bad.yml"
     bad.write_text(f"{WALL}:\n  n_timesteps: 100\n  batch_size: 1\n")
     with pytest.raises(InputError, match=r"bad\.yml: polyenvs/BuckybotWallFollow-v0: PPO rejected the hyper"):
-        train(WALL, "ppo", config=bad, out_dir=out)
+        train(TrainRequest(WALL, "ppo", config=bad, out_dir=out))
     assert not out.exists()  # nothing was written for any of these
 
 
@@ -239,11 +243,11 @@ def test_sac_trains_on_a_continuous_env(tmp_path):
     config.write_text("Pendulum-v1:\n  n_timesteps: 200\n  policy: 'MlpPolicy'\n  learning_starts: 50\n"
                       "  normalize: \"{'norm_obs': True, 'norm_reward': False}\"\n"
                       "  policy_kwargs: \"dict(net_arch=[16, 16])\"\n")  # fmt: skip
-    out = train("Pendulum-v1", "sac", config=config, out_dir=tmp_path / "run", tensorboard=False)
+    out = train(TrainRequest("Pendulum-v1", "sac", config=config, out_dir=tmp_path / "run", tensorboard=False))
     run = _run(out)
     assert run["completed"] and run["timesteps"] == 200 and run["vec_env"] == "DummyVecEnv"
     assert run["hyperparams"]["normalize"] == {"norm_obs": True, "norm_reward": False}
     model = sb3.SAC.load(out / "model.zip", device="cpu")
     assert model.predict(np.zeros(3, dtype=np.float32))[0].shape == (1,)
     with pytest.raises(InputError, match="dqn needs discrete actions"):
-        train("Pendulum-v1", "dqn", config=config, out_dir=tmp_path / "dqn")
+        train(TrainRequest("Pendulum-v1", "dqn", config=config, out_dir=tmp_path / "dqn"))

@@ -137,8 +137,8 @@ def test_train_draws_the_training_layouts_unless_told_otherwise_and_records_them
 
 
 def test_ctrl_c_exits_130_and_says_where_the_model_is(tmp_path, capsys, monkeypatch):
-    def interrupted(*args, out_dir, **kwargs):
-        raise train_module.TrainingInterrupted(Path(out_dir), 1234)
+    def interrupted(request):
+        raise train_module.TrainingInterrupted(request.out_dir, 1234)
 
     monkeypatch.setattr(train_module, "train", interrupted)
     assert main(["train", WALL, "--algo", "ppo", "--out", str(tmp_path / "run")]) == 130
@@ -155,6 +155,31 @@ def test_defaults():
     assert _parser().parse_args(["train", WALL, "--algo", "ppo", "--no-progress"]).progress is False
     with pytest.raises(SystemExit):
         _parser().parse_args(["train", WALL])  # --algo is required
+
+
+def test_the_flags_build_the_request_a_python_caller_builds():
+    """The command line names each setting once, as the request's field: its defaults are the request's, and each
+    flag lands in its own field."""
+    from baselines.residual import ResidualSpec
+    from polyenvs.commands.train import training_request
+    from polyenvs.training.train import TrainRequest
+
+    plain = training_request(_parser().parse_args(["train", WALL, "--algo", "ppo", "--no-progress"]))
+    assert plain == TrainRequest(WALL, "ppo", out_dir=default_out_dir(WALL, "ppo", 0))
+    flags = ["--config", "c.yml", "--timesteps", "640", "--seed", "7", "--n-envs", "3", "--env-kwargs",
+             '{"max_episode_steps": 9}', "--layouts", "default", "--out", "o", "--resume", "--checkpoint-every", "128",
+             "--progress"]  # fmt: skip
+    given = training_request(_parser().parse_args(["train", WALL, "--algo", "dqn", *flags]))
+    assert given == TrainRequest(
+        WALL, "dqn", out_dir=Path("o"), config="c.yml", timesteps=640, seed=7, n_envs=3,
+        env_kwargs={"max_episode_steps": 9}, layouts="default", resume=True, checkpoint_every=128, progress_bar=True,
+    )  # fmt: skip
+    residual = ["--residual", "paper", "--residual-scale", "0.25", "--residual-log-std", "-1", "--residual-hold", "2"]
+    given = training_request(_parser().parse_args(["train", WALL, "--algo", "ppo", *residual, "--no-progress"]))
+    assert given == TrainRequest(
+        WALL, "ppo", out_dir=default_out_dir(WALL, "ppo_residual_paper", 0), residual=ResidualSpec("paper", 0.25, hold=2),
+        residual_log_std=-1.0,
+    )  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------- interrupted runs

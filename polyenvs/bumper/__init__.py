@@ -13,7 +13,6 @@ Paper: Ken Dye, "Mapping with only a bumper" (``../shared/seeds/001_*.txt``).
 | ``localize`` | ``polyenvs/BumperCartLocalize-v0``: active localization with the paper's filter inside the environment |
 | ``vector`` | their native vector envs |
 | ``bump_space`` | the paper's bump-space filter as compiled kernels (the estimator and the localization task run it) |
-| ``localizers`` | dead reckoning and the paper's bump-space Monte Carlo localizer (estimators for ``polyenvs localize``) |
 | ``rendering`` | top-down frames |
 """
 

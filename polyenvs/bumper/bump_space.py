@@ -1,5 +1,5 @@
 """The paper's bump-space filter (Dye, Part 3) as compiled kernels over particle arrays: what the estimator
-:class:`polyenvs.bumper.localizers.BumpSpaceMCL` and the localization task (:mod:`polyenvs.bumper.localize`) both
+:class:`polyenvs.estimators.bumper.BumpSpaceMCL` and the localization task (:mod:`polyenvs.bumper.localize`) both
 run, one copy of the paper's algorithm on the family's floor.
 
 Seed particles ``(x, y, heading)`` over the map; for each cycle move every particle by the logged odometry plus

@@ -2,7 +2,7 @@
 running inside the environment on the cart's own logs.
 
 A task of the cart's family base (:class:`polyenvs.bumper.env.BumperCartEnv`): the base cycles the carts and
-writes the logs; this task runs one :class:`polyenvs.bumper.localizers.BumpSpaceMCL` per row on them (one compiled
+writes the logs; this task runs one :class:`polyenvs.estimators.bumper.BumpSpaceMCL` per row on them (one compiled
 call over every row's particles, :func:`polyenvs.bumper.bump_space.update_rows`, its motion noise drawn from each
 row's own seeded generator), judges its estimate against the true pose at the bump, appends a summary of the
 belief to the observation and scores the cycles it took. Reward terms, metrics and the belief's parts are declared
@@ -186,7 +186,7 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     cart knows. The paper's point is that a bump-only robot can localize itself: its Part 3 seeds particles over
     the map, moves them by each cycle's logged odometry with normal errors, keeps those in the bump space and
     refills by duplicating the survivors; the estimate is the densest cluster
-    (:class:`polyenvs.bumper.localizers.BumpSpaceMCL`, global: the start pose is not used; its defaults but
+    (:class:`polyenvs.estimators.bumper.BumpSpaceMCL`, global: the start pose is not used; its defaults but
     ``particles``).
     That localizer runs inside this environment, one per cart, and every cycle its estimate is judged against the
     true pose at the bump. The paper drives by random bounce; which turns make the bumps split the particle set

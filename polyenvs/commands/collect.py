@@ -44,26 +44,27 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from polyenvs.evaluation.datasets import check_out_dir, collect
+    from polyenvs.evaluation.datasets import CollectRequest, check_out_dir, collect
 
     episodes, seed, env_kwargs, policy_kwargs = episode_flags(args)
     out = Path(args.out)
     check_out_dir(out, args.overwrite, "--out")
     bar = ProgressBar("episodes", enabled=args.progress)
+    request = CollectRequest(
+        args.env_id,
+        args.policy,
+        episodes=episodes,
+        seed=seed,
+        out_dir=out,
+        env_kwargs=env_kwargs,
+        policy_kwargs=policy_kwargs,
+        overwrite=args.overwrite,
+        results_dir=REFERENCE_RESULTS_DIR if REFERENCE_RESULTS_DIR.is_dir() else None,
+        on_episode=bar.advance,
+    )
     bar.start(episodes, label=args.policy, draw=False)  # drawn once the inputs passed their checks
     try:
-        identifier = collect(
-            args.env_id,
-            args.policy,
-            episodes=episodes,
-            seed=seed,
-            out_dir=out,
-            env_kwargs=env_kwargs,
-            policy_kwargs=policy_kwargs,
-            overwrite=args.overwrite,
-            results_dir=REFERENCE_RESULTS_DIR if REFERENCE_RESULTS_DIR.is_dir() else None,
-            on_episode=bar.advance,
-        )
+        identifier = collect(request)
     finally:
         bar.close()
     print(f"wrote {identifier} ({episodes} episodes) to {out}")

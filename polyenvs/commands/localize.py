@@ -22,9 +22,9 @@ from pathlib import Path
 
 from polyenvs.commands.flags import ProgressBar, add_progress_flag, int_flag, is_terminal, parse_json_object
 from polyenvs.errors import InputError
+from polyenvs.estimators import DEFAULT_ENV_ID
 from polyenvs.files import check_writable_directory
 from polyenvs.limits import MAX_BUMPS, MAX_PARTICLES, MAX_RUNS, MAX_SEED
-from polyenvs.localization import DEFAULT_ENV_ID
 
 __all__ = ["DEFAULT_ENV_ID", "add_parser", "run"]
 
@@ -74,9 +74,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``polyenvs localize`` for parsed ``args``; 0 when done."""
-    from polyenvs.localization import estimator_kwargs, estimators, make_estimator
-    from polyenvs.localization.report import convergence_table
-    from polyenvs.localization.runner import CONVERGED_CM, CONVERGED_DEG, rollout_logs, score_estimator, summarize
+    from polyenvs.estimators import estimator_kwargs, estimators, make_estimator
+    from polyenvs.evaluation.localization import CONVERGED_CM, CONVERGED_DEG, rollout_logs, score_estimator, summarize
+    from polyenvs.evaluation.localization_report import convergence_table
 
     particles = int_flag("--particles", args.particles, 10, MAX_PARTICLES)
     runs = int_flag("--runs", args.runs, 1, MAX_RUNS)
@@ -136,8 +136,8 @@ def _write_outputs(document: dict, out_dir: Path) -> list[Path]:
     """Write ``localization.json`` and, with matplotlib, the chart ``convergence.png`` into ``out_dir``; without
     matplotlib say on stderr why the chart is left out (as the leaderboard does). Returns the paths written."""
     from polyenvs.evaluation import charts
+    from polyenvs.evaluation.localization_report import convergence_plot
     from polyenvs.files import write_json_atomic
-    from polyenvs.localization.report import convergence_plot
 
     written = [out_dir / "localization.json"]
     write_json_atomic(written[0], document)

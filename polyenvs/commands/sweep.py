@@ -1,4 +1,6 @@
-"""``polyenvs sweep``: its flags, checked before any job, and the summary it prints (the jobs: :mod:`polyenvs.sweep`).
+"""``polyenvs sweep``: its flags, checked before any job, and the summary it prints.
+
+The jobs, and how they run, are :mod:`polyenvs.training.sweep`'s.
 
 ``polyenvs sweep --envs ID... --algos ALGO... --seeds S... [--timesteps N] [--config-dir DIR] [--backend local|ray]
 [--address ADDR] [--jobs N] [--out DIR] [--episodes N]``
@@ -12,11 +14,10 @@ import sys
 import time
 from pathlib import Path
 
-from polyenvs import sweep
 from polyenvs.commands.flags import int_flag
 from polyenvs.errors import InputError
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS, MAX_SEED, MAX_TIMESTEPS
-from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
+from polyenvs.training import DEFAULT_CHECKPOINT_EVERY, sweep
 
 __all__ = ["add_parser", "run"]
 

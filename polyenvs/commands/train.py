@@ -4,8 +4,9 @@
 [--out DIR] [--resume | --overwrite] [--checkpoint-every N] [--progress/--no-progress] [--residual NAME
 [--residual-scale S] [--residual-log-std L] [--residual-hold K]] [--bc-from DATASET [--bc-epochs N] [--bc-log-std X]]``
 
-Every flag is checked before any work: a bad value raises :class:`~polyenvs.errors.InputError`, which the
-command line prints as one line (exit 2).
+The flags build one :class:`~polyenvs.training.train.TrainRequest`, which
+:func:`~polyenvs.training.train.train` runs. Every flag is checked before any work: a bad value raises
+:class:`~polyenvs.errors.InputError`, which the command line prints as one line (exit 2).
 """
 
 from __future__ import annotations
@@ -184,9 +185,11 @@ def _residual_flags(args: argparse.Namespace):
     return ResidualSpec(args.residual, 0.5 if scale is None else scale, hold=1 if hold is None else hold), log_std
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run ``polyenvs train`` for parsed ``args``; 0 when trained (or already finished), 130 after Ctrl-C."""
+def training_request(args: argparse.Namespace):
+    """The :class:`~polyenvs.training.train.TrainRequest` the flags ask for; InputError (naming the flag) for a bad
+    one, before any work."""
     from baselines.algorithms import get_algo
+    from polyenvs.training.train import TrainRequest
 
     get_algo(args.algo)
     timesteps = int_flag("--timesteps", args.timesteps, 1, MAX_TIMESTEPS)
@@ -195,11 +198,30 @@ def run(args: argparse.Namespace) -> int:
     checkpoint_every = int_flag("--checkpoint-every", args.checkpoint_every, 0, MAX_TIMESTEPS)
     env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
     residual, residual_log_std = _residual_flags(args)
-    resume, overwrite = getattr(args, "resume", False), getattr(args, "overwrite", False)
     algo_dir = args.algo if residual is None else f"{args.algo}_residual_{residual.baseline}"
-    out_dir = Path(args.out) if args.out is not None else default_out_dir(args.env_id, algo_dir, seed)
-    progress = args.progress if args.progress is not None else is_terminal(sys.stderr)
-    pretrain = behaviour_cloning(args)
+    return TrainRequest(
+        args.env_id,
+        args.algo,
+        out_dir=Path(args.out) if args.out is not None else default_out_dir(args.env_id, algo_dir, seed),
+        config=args.config,
+        timesteps=timesteps,
+        seed=seed,
+        n_envs=n_envs,
+        env_kwargs=env_kwargs,
+        layouts=args.layouts,
+        resume=getattr(args, "resume", False),
+        overwrite=getattr(args, "overwrite", False),
+        checkpoint_every=checkpoint_every,
+        pretrain=behaviour_cloning(args),
+        residual=residual,
+        residual_log_std=residual_log_std,
+        progress_bar=args.progress if args.progress is not None else is_terminal(sys.stderr),
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``polyenvs train`` for parsed ``args``; 0 when trained (or already finished), 130 after Ctrl-C."""
+    request = training_request(args)
 
     from polyenvs.training.train import (
         TrainingInterrupted,
@@ -210,36 +232,22 @@ def run(args: argparse.Namespace) -> int:
         train,
     )
 
+    out_dir, seed = request.out_dir, request.seed
     try:
-        action = check_out_dir(out_dir, args.env_id, args.algo, seed, resume=resume, overwrite=overwrite)
+        action = check_out_dir(
+            out_dir, args.env_id, args.algo, seed, resume=request.resume, overwrite=request.overwrite
+        )
     except InputError as exc:  # name the flags, as the command line spells them
         raise InputError(str(exc).replace("resume and overwrite", "--resume and --overwrite")) from None
     if action == "finished":
-        check_same_residual(out_dir, residual)
+        check_same_residual(out_dir, request.residual)
         print(f"{out_dir} already holds a finished run of {args.env_id} {args.algo} seed {seed}: nothing to do")
         return 0
     if action in ("resume", "restart"):
         print(f"{out_dir}: {interrupted_note(out_dir)}")
     start = time.monotonic()
     try:
-        train(
-            args.env_id,
-            args.algo,
-            config=args.config,
-            timesteps=timesteps,
-            seed=seed,
-            n_envs=n_envs,
-            env_kwargs=env_kwargs,
-            layouts=args.layouts,
-            out_dir=out_dir,
-            progress_bar=progress,
-            resume=resume,
-            overwrite=overwrite,
-            checkpoint_every=checkpoint_every,
-            pretrain=pretrain,
-            residual=residual,
-            residual_log_std=residual_log_std,
-        )
+        train(request)
     except TrainingInterrupted as stop:
         print(
             f"polyenvs train: interrupted after {stop.timesteps} timesteps; saved the partial model in "

@@ -17,4 +17,7 @@ has one subject, and imports only those listed before it:
 - :mod:`~polyenvs.evaluation.verdict`: whether a trained agent beats the paper's algorithm.
 - :mod:`~polyenvs.evaluation.page`: the leaderboard's Markdown page and its charts.
 - :mod:`~polyenvs.evaluation.datasets`: demonstration datasets in Minari's format (``polyenvs collect``).
+- :mod:`~polyenvs.evaluation.localization`: the localization benchmark, estimators scored on seeded logs
+  (``polyenvs localize``).
+- :mod:`~polyenvs.evaluation.localization_report`: its convergence table and chart.
 """

@@ -1,9 +1,9 @@
 """Demonstration datasets in Minari's format: a policy's seeded episodes, written and read back (``polyenvs collect``).
 
-:func:`collect` runs a policy (any name ``polyenvs evaluate`` takes: ``"random"``, a hand baseline, ``"paper"``, a
-trained model's path) on seeds ``seed, seed + 1, ...`` and writes one `Minari <https://minari.farama.org>`_ dataset
-(needs ``polyenvs[collect]``) into a directory of its own, laid out as a Minari datasets root:
-``DIR/polyenvs/<env>/<policy>-v0/data/``. Load it with ``MINARI_DATASETS_PATH=DIR`` and
+:func:`collect` runs the policy a :class:`CollectRequest` names (any name ``polyenvs evaluate`` takes:
+``"random"``, a hand baseline, ``"paper"``, a trained model's path) on seeds ``seed, seed + 1, ...`` and writes one
+`Minari <https://minari.farama.org>`_ dataset (needs ``polyenvs[collect]``) into a directory of its own, laid out as
+a Minari datasets root: ``DIR/polyenvs/<env>/<policy>-v0/data/``. Load it with ``MINARI_DATASETS_PATH=DIR`` and
 ``minari.load_dataset("polyenvs/<env>/<policy>-v0")``, or with :func:`load_dataset` (which takes DIR itself).
 Nothing is written into Minari's default root (``~/.minari``).
 
@@ -36,7 +36,7 @@ import re
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,7 @@ from polyenvs.registry import bare_id
 __all__ = [
     "DATASET_FORMAT",
     "REFERENCE_EPISODES",
+    "CollectRequest",
     "Demonstrations",
     "RobotView",
     "check_out_dir",
@@ -368,56 +369,96 @@ def _replace_dir(new: Path, out_dir: Path, work: Path) -> None:
     os.replace(new, out_dir)
 
 
-def collect(
-    env_id: str,
-    policy: str = "paper",
-    episodes: int = 10,
-    seed: int = 0,
-    out_dir: str | os.PathLike = "dataset",
-    env_kwargs: dict | None = None,
-    policy_kwargs: dict | None = None,
-    overwrite: bool = False,
-    results_dir: str | os.PathLike | None = None,
-    on_episode: Callable[[], None] | None = None,
-) -> str:
-    """Run ``policy`` for ``episodes`` episodes seeded ``seed, seed + 1, ...`` and write them as a Minari dataset.
+@dataclass(frozen=True)
+class CollectRequest:
+    """One dataset for :func:`collect`, each setting named once: its field, default and meaning below.
 
-    Args:
-        env_id: a Gymnasium id or a PettingZoo module path (a per-robot dataset).
-        policy: any name :func:`polyenvs.evaluation.episodes.make_agent` takes.
-        episodes: episodes (swarm episodes, for a swarm: one dataset episode per robot of each).
-        seed: the first episode's seed.
-        out_dir: the directory to write (a Minari datasets root holding this one dataset); it must not exist or be
-            empty, unless ``overwrite``.
-        env_kwargs: the environment's keyword arguments (stored in the spec).
-        policy_kwargs: the policy's parameters.
-        overwrite: replace ``out_dir``.
-        results_dir: the committed reference results (see the module docstring); ``None``: evaluate them here.
-        on_episode: called after each episode (progress bars).
+    ``CollectRequest("polyenvs/APLiteCorridor-v0", "paper", episodes=200, out_dir="runs/demos")``; ``polyenvs
+    collect`` builds one from its flags. The counts are checked when the request is made (InputError naming the
+    field); the environment, the policy and ``out_dir`` by :func:`collect`, before any episode runs.
+    """
 
-    Returns:
-        The dataset's Minari id.
+    #: A Gymnasium id or a PettingZoo module path (a per-robot dataset).
+    env_id: str
+    #: Any name :func:`polyenvs.evaluation.episodes.make_agent` takes (a trained model's path too).
+    policy: str = "paper"
+    _: KW_ONLY  # the rest by name only: two settings of one type cannot swap places unseen
+    #: Episodes, seeded ``seed, seed + 1, ...`` (swarm episodes for a swarm, one dataset episode per robot of each).
+    episodes: int = 10
+    #: The first episode's seed.
+    seed: int = 0
+    #: The directory to write (a Minari datasets root holding this one dataset); it must not exist or be empty,
+    #: unless ``overwrite``.
+    out_dir: Path = Path("dataset")
+    #: The environment's keyword arguments (stored in the spec).
+    env_kwargs: dict[str, Any] | None = None
+    #: The policy's parameters.
+    policy_kwargs: dict[str, Any] | None = None
+    #: Replace ``out_dir``.
+    overwrite: bool = False
+    #: The committed reference results (see the module docstring), or ``None`` to evaluate them here.
+    results_dir: Path | None = None
+    #: Called after each episode (progress bars).
+    on_episode: Callable[[], None] | None = None
+
+    def __post_init__(self):
+        episodes = check_count("episodes", self.episodes, 1, MAX_EPISODES)
+        seed = check_count("seed", self.seed, 0, MAX_SEED)
+        if seed + episodes - 1 > MAX_SEED:
+            raise InputError(f"seed + episodes - 1 must be <= {MAX_SEED}, got {seed + episodes - 1}")
+        checked = {
+            "episodes": episodes,
+            "seed": seed,
+            "out_dir": Path(self.out_dir),
+            "env_kwargs": dict(self.env_kwargs or {}),  # the request's own copies: the caller's are not kept
+            "policy_kwargs": dict(self.policy_kwargs or {}),
+            "results_dir": Path(self.results_dir) if self.results_dir is not None else None,
+        }
+        for name, value in checked.items():  # stored once all passed: a request that raises was never made
+            object.__setattr__(self, name, value)
+
+
+def collect(request: CollectRequest) -> str:
+    """Run ``request.policy`` for ``request.episodes`` seeded episodes and write them as a Minari dataset into
+    ``request.out_dir``; return the dataset's Minari id.
 
     Raises:
         InputError: before any episode runs, for anything the caller got wrong.
     """
-    episodes = check_count("episodes", episodes, 1, MAX_EPISODES)
-    seed = check_count("seed", seed, 0, MAX_SEED)
-    if seed + episodes - 1 > MAX_SEED:
-        raise InputError(f"seed + episodes - 1 must be <= {MAX_SEED}, got {seed + episodes - 1}")
-    out_dir = Path(out_dir)
-    check_out_dir(out_dir, overwrite)
-    minari = _minari()
-    env_kwargs, policy_kwargs = dict(env_kwargs or {}), dict(policy_kwargs or {})
-    env = make_env(env_id, env_kwargs)
-    env_id = bare_id(env_id)
+    check_out_dir(request.out_dir, request.overwrite)
+    _minari()  # its install hint before any episode runs
+    dataset = _gather(request)
+    _write(dataset, request.out_dir)
+    return dataset.identifier
+
+
+@dataclass
+class _Dataset:
+    """What :func:`collect` gathered, ready to write: the episodes, the spec and spaces, the metadata."""
+
+    identifier: str
+    trajectories: list[_Trajectory]
+    spec: gym.envs.registration.EnvSpec
+    observation_space: gym.Space
+    action_space: gym.Space
+    #: polyenvs' own metadata (stored under the ``polyenvs`` key).
+    metadata: dict[str, Any]
+    #: Minari's ``ref_min_score`` and ``ref_max_score``, if the id has a paper's baseline.
+    references: dict[str, float]
+
+
+def _gather(request: CollectRequest) -> _Dataset:
+    """Run the request's episodes and describe them (the reference scores read or evaluated)."""
+    env_kwargs, policy_kwargs, policy = request.env_kwargs or {}, request.policy_kwargs or {}, request.policy
+    env = make_env(request.env_id, env_kwargs)
+    env_id = bare_id(request.env_id)
     try:
-        agent = make_agent(policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
+        agent = make_agent(policy, env_id, env, seed=request.seed, policy_kwargs=policy_kwargs)
         description = agent.describe()
         name = _policy_name(env_id, os.fspath(policy), description)
         identifier = dataset_id(env_id, name)
-        seeds = list(range(seed, seed + episodes))
-        trajectories = _rollouts(env, agent, seeds, on_episode)
+        seeds = list(range(request.seed, request.seed + request.episodes))
+        trajectories = _rollouts(env, agent, seeds, request.on_episode)
         parallel = is_parallel(env)
         # a trained model's path made absolute, so that the recovered swarm finds its teammates from anywhere
         teammates = str(Path(policy).absolute()) if "path" in description else os.fspath(policy)
@@ -425,44 +466,48 @@ def collect(
         observation_space, action_space = agent_spaces(env)
     finally:
         env.close()
-    references = _reference_scores(env_id, env_kwargs, Path(results_dir) if results_dir is not None else None)
+    references = _reference_scores(env_id, env_kwargs, request.results_dir)
     metadata = {
         "env_id": env_id, "env_kwargs": env_kwargs, "kind": "per-robot" if parallel else "gymnasium",
         "policy": os.fspath(policy), "policy_name": name, "policy_kwargs": policy_kwargs,
         "policy_description": description, "seeds": seeds, "reference_scores": references.pop("sources", {}),
     }  # fmt: skip
-    _write(minari, out_dir, identifier, trajectories, spec, observation_space, action_space, metadata, references)
-    return identifier
+    return _Dataset(
+        identifier=identifier, trajectories=trajectories, spec=spec, observation_space=observation_space,
+        action_space=action_space, metadata=metadata, references=references,
+    )  # fmt: skip
 
 
-def _write(minari, out_dir, identifier, trajectories, spec, observation_space, action_space, metadata, references):
-    """Create the dataset in a hidden work directory beside ``out_dir`` (:func:`_work_dir`), then rename it into
+def _write(dataset: _Dataset, out_dir: Path) -> None:
+    """Create ``dataset`` in a hidden work directory beside ``out_dir`` (:func:`_work_dir`), then rename it into
     place."""
     from polyenvs.evaluation.results import provenance
 
+    minari = _minari()
     facts = provenance()
     commit = facts["git_commit"]
     version = facts["versions"]["polyenvs"]
+    metadata = dataset.metadata
     with _work_dir(out_dir) as work:
         root = work / "dataset"
         with _minari_root(root), warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # Minari's notes on fields we leave out (author_email)
-            dataset = minari.create_dataset_from_buffers(
-                dataset_id=identifier,
-                buffer=[t.buffer(i) for i, t in enumerate(trajectories)],
-                env=spec,
+            written = minari.create_dataset_from_buffers(
+                dataset_id=dataset.identifier,
+                buffer=[t.buffer(i) for i, t in enumerate(dataset.trajectories)],
+                env=dataset.spec,
                 algorithm_name=metadata["policy_name"],
                 author=AUTHOR,
                 code_permalink=f"polyenvs {version}" + (f", git commit {commit}" if commit else ""),
-                observation_space=observation_space,
-                action_space=action_space,
+                observation_space=dataset.observation_space,
+                action_space=dataset.action_space,
                 description=f"{metadata['policy_name']} on {metadata['env_id']}: {len(metadata['seeds'])} seeded "
                 f"episodes ({metadata['kind']}), written by polyenvs collect",
                 data_format=DATASET_FORMAT,
                 requirements=[f"polyenvs=={version}"],
-                **references,
+                **dataset.references,
             )
-            dataset.storage.update_metadata({"polyenvs": {**metadata, "versions": facts["versions"]}})
+            written.storage.update_metadata({"polyenvs": {**metadata, "versions": facts["versions"]}})
         _replace_dir(root, out_dir, work)
 
 

@@ -5,8 +5,11 @@
 - :mod:`polyenvs.training.config`: RL Zoo-format YAML configs (``configs/<algo>.yml``), parsed safely.
 - the algorithms ``train`` knows and the action spaces each accepts are :mod:`baselines.algorithms`'s table.
 - :mod:`polyenvs.training.callbacks`: TensorBoard logging of the task metrics of finished episodes.
-- :mod:`polyenvs.training.train`: :func:`~polyenvs.training.train.train`, one run into one output directory.
-- the ``polyenvs train`` subcommand is :mod:`polyenvs.commands.train`.
+- :mod:`polyenvs.training.train`: :func:`~polyenvs.training.train.train` of a
+  :class:`~polyenvs.training.train.TrainRequest`, one run into one output directory.
+- :mod:`polyenvs.training.sweep`: a sweep's jobs (train, then evaluate) on a local process pool or Ray.
+- the ``polyenvs train`` and ``polyenvs sweep`` subcommands are :mod:`polyenvs.commands.train` and
+  :mod:`polyenvs.commands.sweep`.
 
 Nothing here is imported by ``import polyenvs``; the modules import torch and Stable-Baselines3 only when used.
 
@@ -21,7 +24,7 @@ The output directory of a run (a contract the evaluator, the leaderboard and swe
 
 The model, its statistics and run.json's timesteps are saved every ``DEFAULT_CHECKPOINT_EVERY`` timesteps while a
 run trains (and on Ctrl-C), so an interrupted run (run.json: completed false) resumes from there
-(``train(resume=True)``, ``polyenvs train --resume``; a sweep's re-run does it by itself).
+(``TrainRequest(..., resume=True)``, ``polyenvs train --resume``; a sweep's re-run does it by itself).
 """
 
 #: Save the model this often (timesteps) while training, so that a killed run can resume; light to import.

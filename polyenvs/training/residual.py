@@ -1,10 +1,10 @@
 """Training a residual agent (``polyenvs train ID --residual NAME``): a correction of a hand baseline's actions.
 
-The agent trains on :class:`polyenvs.wrappers.ResidualPolicy` around each ``gym.make`` copy of the id, in SB3's
-``DummyVecEnv`` (a wrapper wraps one env, so never the native vector env, which is every copy at once): each
+The agent trains on :class:`~baselines.residual.wrappers.ResidualPolicy` around each ``gym.make`` copy of the id, in
+SB3's ``DummyVecEnv`` (a wrapper wraps one env, so never the native vector env, which is every copy at once): each
 sub-environment runs its own baseline with its own memory. The PettingZoo swarms train on their robots (parameter
 sharing, :class:`~polyenvs.training.vec_adapter.ParallelVecEnvAdapter`) with each copy wrapped in
-:class:`polyenvs.wrappers.ParallelResidualPolicy`: one baseline per copy, a memory row per robot. A swarm's
+:class:`~baselines.residual.wrappers.ParallelResidualPolicy`: one baseline per copy, a memory row per robot. A swarm's
 corrections are not held (``hold`` 1): its robots leave the episode at different steps.
 
 The model starts *at* the baseline: the last layer of its action mean is zeroed, so its deterministic action is a
@@ -19,9 +19,8 @@ import functools
 
 import numpy as np
 
-from baselines.residual import ResidualSpec, make_composer
+from baselines.residual import ParallelResidualPolicy, ResidualPolicy, ResidualSpec, make_composer
 from polyenvs.errors import InputError
-from polyenvs.wrappers import ParallelResidualPolicy, ResidualPolicy
 
 __all__ = ["MAX_LOG_STD", "MIN_LOG_STD", "check_residual", "residual_wrapper", "start_at_the_base"]
 

@@ -1,20 +1,21 @@
 """Train one agent with Stable-Baselines3 / sb3-contrib into one output directory.
 
-:func:`train` checks everything the caller could get wrong (algorithm, id, counts, keyword arguments, the config,
-the output directory, the action space) before it builds the training environments, then trains on the id's
-native vector env through :class:`~polyenvs.training.vec_adapter.NativeVecEnvAdapter` where it has one (SB3's
-``DummyVecEnv`` otherwise), and writes the directory described in :mod:`polyenvs.training`. ``run.json`` is written
-first with ``"completed": false`` and rewritten at the end, so a directory whose run.json says completed holds a
-finished model; a re-run into it returns at once, which is how sweeps skip finished jobs.
+A run is described by one :class:`TrainRequest` (``polyenvs train`` builds it from its flags), whose fields are
+checked when it is made (algorithm, counts, keyword arguments); :func:`train` checks the rest the caller could get
+wrong (the id, the config, the output directory, the action space) before it builds the training environments,
+then trains on the id's native vector env through :class:`~polyenvs.training.vec_adapter.NativeVecEnvAdapter`
+where it has one (SB3's ``DummyVecEnv`` otherwise), and writes the directory described in :mod:`polyenvs.training`.
+``run.json`` is written first with ``"completed": false`` and rewritten at the end, so a directory whose run.json
+says completed holds a finished model; a re-run into it returns at once, which is how sweeps skip finished jobs.
 
 Every ``checkpoint_every`` timesteps the model (and its VecNormalize statistics) is saved and run.json records the
 timesteps reached, so a run killed outright (``kill -9``, the machine lost) keeps its last checkpoint. Ctrl-C
 (``KeyboardInterrupt``) during training saves the model trained so far, with ``"completed": false`` and the
 timesteps reached, and raises :class:`TrainingInterrupted` (a ``KeyboardInterrupt``) naming the directory. Either
-way ``resume=True`` continues the run from its saved model up to the requested timesteps (``reset_num_timesteps``
-false, as SB3 continues a loaded model; an off-policy algorithm starts again with an empty replay buffer), and
-``overwrite=True`` trains it again from the start. While a run trains, its directory is locked (``flock``): a second
-run into it is refused, and the lock goes with the process however it ends.
+way a request with ``resume=True`` continues the run from its saved model up to the requested timesteps
+(``reset_num_timesteps`` false, as SB3 continues a loaded model; an off-policy algorithm starts again with an empty
+replay buffer), and ``overwrite=True`` trains it again from the start. While a run trains, its directory is locked
+(``flock``): a second run into it is refused, and the lock goes with the process however it ends.
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from polyenvs.core.extras import install_hint
 from polyenvs.core.layouts import LAYOUTS
@@ -43,9 +44,14 @@ from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.registry import ALL_IDS, bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
+if TYPE_CHECKING:
+    from baselines.residual import ResidualSpec
+    from polyenvs.training.bc import BehaviourCloning
+
 __all__ = [
     "DEFAULT_CHECKPOINT_EVERY",
     "RUN_FILE",
+    "TrainRequest",
     "TrainingInterrupted",
     "check_out_dir",
     "check_same_residual",
@@ -325,68 +331,98 @@ def _check_extras(progress_bar: bool, tensorboard: bool) -> None:
 # ------------------------------------------------------------------------------------------------------ train
 
 
-def train(
-    env_id: str,
-    algo: str,
-    *,
-    config: str | Path | None = None,
-    timesteps: int | None = None,
-    seed: int = 0,
-    n_envs: int | None = None,
-    env_kwargs: dict | None = None,
-    layouts: str | None = None,
-    out_dir: str | Path,
-    progress_bar: bool = False,
-    tensorboard: bool = True,
-    command: str | None = None,
-    vec_env: str = "auto",
-    device: str = "cpu",
-    verbose: int = 0,
-    callbacks: Sequence[Any] = (),
-    resume: bool = False,
-    overwrite: bool = False,
-    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY,
-    pretrain: Any = None,
-    residual=None,
-    residual_log_std: float | None = None,
-) -> Path:
-    """Train ``algo`` on ``env_id`` and write ``out_dir``; return ``out_dir``.
+@dataclass(frozen=True)
+class TrainRequest:
+    """One run for :func:`train`, each setting named once: its field, default and meaning below.
 
-    Args:
-        env_id: a registered id (``polyenvs/BuckybotWallFollow-v0``).
-        algo: ``"ppo"``, ``"dqn"``, ``"maskable_ppo"`` (discrete actions), ``"sac"``, ``"td3"`` (continuous).
-        config: an RL Zoo-format YAML file (default ``configs/<algo>.yml``); its entry for ``env_id`` gives
-            n_timesteps, n_envs, normalize, env_wrapper, policy and the hyperparameters.
-        timesteps: train this many steps instead of the config's n_timesteps.
-        seed: the training seed (torch, the action sampling and sub-environment i's episodes, seeded seed + i).
-        n_envs: parallel environments instead of the config's n_envs.
-        env_kwargs: the environment's constructor keywords (``{"floor_plan": "office"}``).
-        layouts: the layouts the episodes are drawn from, recorded in run.json's ``env_kwargs``: ``"train"`` (the
-            Procgen protocol, by default: the leaderboard judges agents on the held-out ``"test"`` layouts and
-            counts only those trained so), ``"default"`` or ``"test"``. Default: ``env_kwargs``' ``layouts``, else
-            the config's ``env_kwargs``' (RL Zoo's key), else ``"train"``.
-        out_dir: the output directory: must not exist, be empty, or hold a finished run of the same (env_id,
-            algo, seed), which is returned without training (or, with ``resume`` / ``overwrite``, a run to
-            continue / to replace).
-        progress_bar: show SB3's progress bar (tqdm and rich).
-        tensorboard: write TensorBoard logs under ``out_dir/tb``.
-        command: the command line recorded in run.json (default: ``sys.argv``).
-        vec_env: ``"auto"`` (the native vector env where the id has one and the config wraps no single env),
-            ``"native"`` or ``"dummy"`` (SB3's ``DummyVecEnv`` of ``gym.make``).
-        device: torch device (``"cpu"``: small MLPs train faster there).
-        verbose: SB3's verbosity (1 prints its table of training statistics).
-        callbacks: extra SB3 callbacks.
-        resume: continue an interrupted run of the same job in ``out_dir`` from its saved model (the last
-            checkpoint, or what Ctrl-C saved) up to the requested timesteps; with no saved model, train it again
-            from the start. The config, n_envs and env_kwargs must be those it trained with.
-        overwrite: replace any run in ``out_dir`` (finished or not, of any job): train again from the start.
-        checkpoint_every: save the model (and run.json's timesteps) every this many timesteps; 0: only at the
-            end and on Ctrl-C.
-        pretrain: a :class:`polyenvs.training.bc.BehaviourCloning` to fit a new model to demonstrations before it
-            learns (a resumed run keeps its model); run.json records it under ``"bc"``.
-        residual: a :class:`baselines.residual.ResidualSpec`: train a correction of that hand baseline
-            (:mod:`polyenvs.training.residual`), recorded in run.json's ``residual``.
-        residual_log_std: a residual agent's starting log standard deviation (default: the config's).
+    ``TrainRequest("polyenvs/BuckybotGoal-v0", "ppo", out_dir="runs/goal", timesteps=100_000)``; ``polyenvs train``
+    builds one from its flags. The fields are checked when the request is made: a bad value raises
+    :class:`~polyenvs.errors.InputError` naming the field (what needs the environment, the config or the output
+    directory is checked by :func:`train`, before it builds anything). ``env_id`` is kept without Gymnasium's
+    ``module:`` prefix, ``out_dir`` as a :class:`~pathlib.Path` and ``env_kwargs`` as a dict of its own.
+    """
+
+    #: A registered id (``polyenvs/BuckybotWallFollow-v0``).
+    env_id: str
+    #: ``"ppo"``, ``"dqn"``, ``"maskable_ppo"`` (discrete actions), ``"sac"``, ``"td3"`` (continuous).
+    algo: str
+    _: KW_ONLY  # the rest by name only: two settings of one type cannot swap places unseen
+    #: The output directory, which must not exist, be empty, or hold a finished run of the same (env_id, algo,
+    #: seed), returned without training (or, with ``resume`` / ``overwrite``, a run to continue / to replace).
+    out_dir: Path
+    #: An RL Zoo-format YAML file (by default ``configs/<algo>.yml``), whose entry for ``env_id`` gives
+    #: n_timesteps, n_envs, normalize, env_wrapper, frame_stack, policy and the hyperparameters.
+    config: str | Path | None = None
+    #: Train this many steps instead of the config's n_timesteps.
+    timesteps: int | None = None
+    #: The training seed (torch, the action sampling and sub-environment i's episodes, seeded seed + i).
+    seed: int = 0
+    #: Parallel environments instead of the config's n_envs.
+    n_envs: int | None = None
+    #: The environment's constructor keywords (``{"floor_plan": "office"}``).
+    env_kwargs: dict[str, Any] | None = None
+    #: The layouts the episodes are drawn from (recorded in run.json's ``env_kwargs``), ``"train"`` (the Procgen
+    #: protocol: the leaderboard judges agents on the held-out ``"test"`` layouts and counts only those trained
+    #: so), ``"default"`` or ``"test"``. ``None``: ``env_kwargs``' ``layouts``, else the config's ``env_kwargs``'
+    #: (RL Zoo's key), else ``"train"``.
+    layouts: str | None = None
+    #: Continue an interrupted run of the same job in ``out_dir`` from its saved model (the last checkpoint, or
+    #: what Ctrl-C saved) up to the requested timesteps; with no saved model, train it again from the start. The
+    #: config, n_envs and env_kwargs must be those it trained with.
+    resume: bool = False
+    #: Replace any run in ``out_dir`` (finished or not, of any job) and train again from the start.
+    overwrite: bool = False
+    #: Save the model (and run.json's timesteps) every this many timesteps; 0 saves only at the end and on Ctrl-C.
+    checkpoint_every: int = DEFAULT_CHECKPOINT_EVERY
+    #: A :class:`polyenvs.training.bc.BehaviourCloning` to fit a new model to demonstrations before it learns (a
+    #: resumed run keeps its model); run.json records it under ``"bc"``.
+    pretrain: BehaviourCloning | None = None
+    #: A :class:`baselines.residual.ResidualSpec`, to train a correction of that hand baseline
+    #: (:mod:`polyenvs.training.residual`), recorded in run.json's ``residual``.
+    residual: ResidualSpec | None = None
+    #: A residual agent's starting log standard deviation (by default the config's).
+    residual_log_std: float | None = None
+    #: ``"auto"`` (the native vector env where the id has one and the config wraps no single env), ``"native"``
+    #: or ``"dummy"`` (SB3's ``DummyVecEnv`` of ``gym.make``).
+    vec_env: str = "auto"
+    #: The torch device (``"cpu"``, where small MLPs train faster).
+    device: str = "cpu"
+    #: The command line recorded in run.json (by default ``sys.argv``).
+    command: str | None = None
+    #: Show SB3's progress bar (tqdm and rich).
+    progress_bar: bool = False
+    #: Write TensorBoard logs under ``out_dir/tb``.
+    tensorboard: bool = True
+    #: SB3's verbosity (1 prints its table of training statistics).
+    verbose: int = 0
+    #: Extra SB3 callbacks.
+    callbacks: Sequence[Any] = ()
+
+    def __post_init__(self):
+        from baselines.algorithms import get_algo
+
+        get_algo(self.algo)
+        if not isinstance(self.env_id, str):
+            raise InputError(f"env_id must be a string, got {self.env_id!r}")
+        checked = {
+            "env_id": bare_id(self.env_id),
+            "seed": check_count("seed", self.seed, 0, MAX_SEED),
+            "timesteps": _optional_count("timesteps", self.timesteps, 1, MAX_TIMESTEPS),
+            "n_envs": _optional_count("n_envs", self.n_envs, 1, MAX_N_ENVS),
+            "checkpoint_every": check_count("checkpoint_every", self.checkpoint_every, 0, MAX_TIMESTEPS),
+            "env_kwargs": _own_kwargs(self.env_kwargs),
+            "out_dir": Path(self.out_dir),
+        }
+        _check_layouts(self.layouts, checked["env_kwargs"])
+        if self.vec_env not in ("auto", "native", "dummy"):
+            raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {self.vec_env!r}")
+        _check_residual_request(self.residual, self.residual_log_std)
+        for name, value in checked.items():  # stored once all passed: a request that raises was never made
+            object.__setattr__(self, name, value)
+
+
+def train(request: TrainRequest) -> Path:
+    """Train ``request.algo`` on ``request.env_id`` and write ``request.out_dir``; return ``out_dir``.
 
     Raises:
         InputError: before any environment is built, for anything the caller got wrong.
@@ -394,17 +430,10 @@ def train(
     """
     import polyenvs  # noqa: F401  (registers the ids)
 
-    request = _check_request(
-        _Request(
-            env_id=env_id, algo=algo, config=config, timesteps=timesteps, seed=seed, n_envs=n_envs,
-            env_kwargs=env_kwargs, layouts=layouts, out_dir=out_dir, progress_bar=progress_bar, tensorboard=tensorboard,
-            command=command, vec_env=vec_env, device=device, verbose=verbose, callbacks=callbacks, resume=resume,
-            overwrite=overwrite, checkpoint_every=checkpoint_every, pretrain=pretrain, residual=residual,
-            residual_log_std=residual_log_std,
-        )
-    )  # fmt: skip
     out_dir = request.out_dir
-    action = check_out_dir(out_dir, request.env_id, algo, request.seed, resume=resume, overwrite=overwrite)
+    action = check_out_dir(
+        out_dir, request.env_id, request.algo, request.seed, resume=request.resume, overwrite=request.overwrite
+    )
     if action == "finished":
         check_same_residual(out_dir, request.residual)
         return out_dir
@@ -416,38 +445,10 @@ def train(
 
 
 @dataclass
-class _Request:
-    """:func:`train`'s arguments (checked by :func:`_check_request`)."""
-
-    env_id: str
-    algo: str
-    config: str | Path | None
-    timesteps: int | None
-    seed: int
-    n_envs: int | None
-    env_kwargs: dict | None
-    out_dir: Path
-    progress_bar: bool
-    tensorboard: bool
-    command: str | None
-    vec_env: str
-    device: str
-    verbose: int
-    callbacks: Sequence[Any]
-    resume: bool
-    overwrite: bool
-    checkpoint_every: int
-    pretrain: Any = None
-    residual: Any = None
-    residual_log_std: float | None = None
-    layouts: str | None = None
-
-
-@dataclass
 class _Job:
     """One run to train: the request, its config, the run.json to write and the interrupted run it resumes."""
 
-    request: _Request
+    request: TrainRequest
     cfg: Any
     wrappers: list
     run: dict[str, Any]
@@ -456,40 +457,16 @@ class _Job:
     target: Any
 
 
-def _check_request(request: _Request) -> _Request:
-    """The request with its arguments checked (InputError, one line) and normalised, before any work."""
-    from baselines.algorithms import get_algo
+def _optional_count(name: str, value, minimum: int, maximum: int) -> int | None:
+    """``value`` checked by :func:`~polyenvs.errors.check_count`, or None (the config's)."""
+    return None if value is None else check_count(name, value, minimum, maximum)
 
-    get_algo(request.algo)
-    env_id = request.env_id
-    if not isinstance(env_id, str):
-        raise InputError(f"env_id must be a string, got {env_id!r}")
-    env_id = bare_id(env_id)
-    seed = check_count("seed", request.seed, 0, MAX_SEED)
-    timesteps, n_envs = request.timesteps, request.n_envs
-    if timesteps is not None:
-        timesteps = check_count("timesteps", timesteps, 1, MAX_TIMESTEPS)
-    if n_envs is not None:
-        n_envs = check_count("n_envs", n_envs, 1, MAX_N_ENVS)
-    checkpoint_every = check_count("checkpoint_every", request.checkpoint_every, 0, MAX_TIMESTEPS)
-    env_kwargs = request.env_kwargs
+
+def _own_kwargs(env_kwargs) -> dict[str, Any]:
+    """A copy of ``env_kwargs`` (None: no keywords), so that the caller's dict is neither kept nor changed."""
     if env_kwargs is not None and not isinstance(env_kwargs, dict):
         raise InputError(f"env_kwargs must be a dict, got {env_kwargs!r}")
-    env_kwargs = dict(env_kwargs or {})
-    _check_layouts(request.layouts, env_kwargs)
-    if request.vec_env not in ("auto", "native", "dummy"):
-        raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {request.vec_env!r}")
-    _check_residual_request(request.residual, request.residual_log_std)
-    return replace(
-        request,
-        env_id=env_id,
-        seed=seed,
-        timesteps=timesteps,
-        n_envs=n_envs,
-        checkpoint_every=checkpoint_every,
-        env_kwargs=env_kwargs,
-        out_dir=Path(request.out_dir),
-    )
+    return dict(env_kwargs or {})
 
 
 def _check_layouts(layouts, env_kwargs: dict) -> None:
@@ -536,7 +513,7 @@ def _check_residual_request(residual, log_std) -> None:
         raise InputError("residual_log_std needs residual")
 
 
-def _plan(request: _Request, action: str) -> _Job:
+def _plan(request: TrainRequest, action: str) -> _Job:
     """Check the environment, the config and (``action == "resume"``) the run to resume; the run.json to write."""
     from baselines.algorithms import check_action_space
     from polyenvs.evaluation.episodes import resolve_env
@@ -604,7 +581,7 @@ def _plan(request: _Request, action: str) -> _Job:
     return _Job(request=request, cfg=cfg, wrappers=wrappers, run=run, previous=previous, target=target)
 
 
-def _residual_wrapper(request: _Request, target):
+def _residual_wrapper(request: TrainRequest, target):
     """The residual wrapper of ``request`` for ``target``, checked (InputError)."""
     from polyenvs.training.residual import check_residual, residual_wrapper
 
@@ -652,7 +629,7 @@ def _wrap_vec_env(job: _Job, venv):
     return venv
 
 
-def _tensorboard_log(request: _Request) -> str | None:
+def _tensorboard_log(request: TrainRequest) -> str | None:
     return str(request.out_dir / TENSORBOARD_DIR) if request.tensorboard else None
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from polyenvs.localization import DEFAULT_ENV_ID, make_estimator
+from polyenvs.estimators import DEFAULT_ENV_ID, make_estimator
 
 __all__ = ["CONVERGED_CM", "CONVERGED_DEG", "RunLog", "rollout_logs", "score_estimator", "summarize"]
 

@@ -1,10 +1,10 @@
-"""Gymnasium and PettingZoo wrappers over the polyenvs environments that need the baselines (so on the baselines'
-floor).
+"""The residual policy's environment half: Gymnasium and PettingZoo wrappers whose action corrects a hand
+baseline's.
 
 :class:`ResidualPolicy` turns an environment with Box actions into the environment of a residual agent: its action is
 a correction of a hand baseline's action (:mod:`baselines.residual`). It works from a plain script::
 
-    env = polyenvs.wrappers.ResidualPolicy(gym.make("polyenvs/APLiteCorridor-v0"), baseline="paper", scale=0.5)
+    env = baselines.residual.ResidualPolicy(gym.make("polyenvs/APLiteCorridor-v0"), baseline="paper", scale=0.5)
 
 and ``polyenvs train ID --residual paper`` trains on it (a ``DummyVecEnv`` of wrapped ``gym.make`` envs: each
 sub-environment wraps its own env and its own baseline, so each carries its own memory).
@@ -12,7 +12,7 @@ sub-environment wraps its own env and its own baseline, so each carries its own 
 :class:`ParallelResidualPolicy` does the same for every robot of a PettingZoo swarm (one policy for all robots,
 parameter sharing, each robot with its own row of the baseline's memory)::
 
-    env = polyenvs.wrappers.ParallelResidualPolicy(corridor_v0.parallel_env(), baseline="paper", scale=0.5)
+    env = baselines.residual.ParallelResidualPolicy(corridor_v0.parallel_env(), baseline="paper", scale=0.5)
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium.error import ResetNeeded
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
-from baselines.residual import ResidualSpec, make_composer
+from baselines.residual.compose import ResidualSpec, make_composer
 from polyenvs.core.validation import real_array, show
 
 __all__ = ["ParallelResidualPolicy", "ResidualPolicy"]

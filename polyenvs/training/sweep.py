@@ -3,17 +3,18 @@
 ``polyenvs sweep --envs ID... --algos ALGO... --seeds S... [--timesteps N] [--config-dir DIR] [--backend local|ray]
 [--address ADDR] [--jobs N] [--out DIR] [--episodes N]``
 
-A job is :func:`polyenvs.training.train.train` into ``<out>/agents/<env id with / as __>/<algo>/seed<N>/`` (the
-layout of ``benchmarks/agents``) followed by :func:`polyenvs.evaluation.episodes.evaluate` of that model on the leaderboard's
-evaluation seeds, written atomically to ``<out>/results/<env id with / as __>__agent__<algo>__seed<N>.json`` (the
-leaderboard's result file for that agent). The jobs run on a local process pool (``--jobs`` workers, one torch thread
-each) or, with ``--backend ray``, as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a
-running cluster; the pool or Ray schedules them. Jobs are reproducible from their seeds, and a re-run skips what is
-done: ``train`` returns a finished run without training, and a readable result file for the same number of episodes
-is kept. A job that was interrupted (Ctrl-C, or the sweep killed outright: its run.json says completed false) is
-resumed from its last saved model (``train(resume=True)``: the checkpoint every ``DEFAULT_CHECKPOINT_EVERY``
-timesteps, or what Ctrl-C saved), or trained again from the start if it saved none; its run.json lists the
-timesteps it resumed at (``resumed_at``).
+A job is :func:`polyenvs.training.train.train` of its :meth:`Job.request` into
+``<out>/agents/<env id with / as __>/<algo>/seed<N>/`` (the layout of ``benchmarks/agents``) followed by
+:func:`polyenvs.evaluation.episodes.evaluate` of that model on the leaderboard's evaluation seeds, written atomically
+to ``<out>/results/<env id with / as __>__agent__<algo>__seed<N>.json`` (the leaderboard's result file for that
+agent). The jobs run on a local process pool (``--jobs`` workers, one torch thread each) or, with ``--backend ray``,
+as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a running cluster; the pool or Ray
+schedules them. Jobs are reproducible from their seeds, and a re-run skips what is done: ``train`` returns a
+finished run without training, and a readable result file for the same number of episodes is kept. A job that was
+interrupted (Ctrl-C, or the sweep killed outright: its run.json says completed false) is resumed from its last saved
+model (the request's ``resume=True``: the checkpoint every ``DEFAULT_CHECKPOINT_EVERY`` timesteps, or what Ctrl-C
+saved), or trained again from the start if it saved none; its run.json lists the timesteps it resumed at
+(``resumed_at``).
 
 Every flag is checked before any job starts (one-line :class:`~polyenvs.errors.InputError`, exit 2; the flags are
 :mod:`polyenvs.commands.sweep`'s). A failing
@@ -24,16 +25,20 @@ exits 130.
 
 from __future__ import annotations
 
+import itertools
 import shlex
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, shown
 from polyenvs.files import check_writable_directory
 from polyenvs.registry import bare_id, slug
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
+
+if TYPE_CHECKING:
+    from polyenvs.training.train import TrainRequest
 
 __all__ = [
     "BACKENDS",
@@ -71,6 +76,23 @@ class Job:
     @property
     def name(self) -> str:
         return f"{self.env_id} {self.algo} seed{self.seed}"
+
+    def request(self) -> TrainRequest:
+        """What :func:`~polyenvs.training.train.train` is asked to do for this job."""
+        from polyenvs.training.train import TrainRequest
+
+        return TrainRequest(
+            self.env_id,
+            self.algo,
+            out_dir=Path(self.out_dir),
+            config=self.config,
+            timesteps=self.timesteps,
+            seed=self.seed,
+            checkpoint_every=self.checkpoint_every,
+            resume=True,  # an interrupted run (Ctrl-C, or the sweep killed) continues from its saved model
+            tensorboard=False,
+            command=self.command(),
+        )
 
     def command(self) -> str:
         """The ``polyenvs train`` command that trains this job alone (recorded in run.json)."""
@@ -110,18 +132,7 @@ def run_job(job: Job) -> dict[str, Any]:
     try:
         trained = finished_run(out_dir, job.env_id, job.algo, job.seed) is None
         before = read_run(out_dir) or {}
-        train(
-            job.env_id,
-            job.algo,
-            config=job.config,
-            timesteps=job.timesteps,
-            seed=job.seed,
-            out_dir=out_dir,
-            tensorboard=False,
-            command=job.command(),
-            checkpoint_every=job.checkpoint_every,
-            resume=True,  # an interrupted run (Ctrl-C, or the sweep killed) continues from its saved model
-        )
+        train(job.request())
         run_doc = read_run(out_dir) or {}
         resumed = run_doc.get("resumed_at", [])
         resumed_from = resumed[-1] if trained and len(resumed) > len(before.get("resumed_at", [])) else None
@@ -175,12 +186,29 @@ def plan_jobs(
     Raises :class:`InputError` (one line) for anything that cannot work, before any job starts.
     """
     import polyenvs  # noqa: F401  (registers the ids)
-    from baselines.algorithms import check_action_space, get_algo
-    from polyenvs.evaluation.episodes import make_env
-    from polyenvs.evaluation.rollout import agent_spaces, unknown_id_help
+
+    ids = _checked_ids(envs)
+    _check_algos(algos)
+    configs = _config_files(algos, config_dir)
+    _check_config_entries(ids, configs)
+    out = Path(out).absolute()
+    check_writable_directory(out, "--out")
+    jobs = []
+    for env_id, algo, seed in itertools.product(dict.fromkeys(ids), configs, dict.fromkeys(seeds)):
+        out_dir = out / "agents" / slug(env_id) / algo / f"seed{seed}"
+        _check_job_dir(out_dir, env_id, algo, seed)
+        result = out / "results" / f"{slug(env_id)}__agent__{algo}__seed{seed}.json"
+        jobs.append(
+            Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result),
+                checkpoint_every)
+        )  # fmt: skip
+    return jobs
+
+
+def _checked_ids(envs: list[str]) -> list[str]:
+    """``envs`` without Gymnasium's ``module:`` prefix; InputError (naming ``--envs``) for an unknown id."""
+    from polyenvs.evaluation.rollout import unknown_id_help
     from polyenvs.registry import ALL_IDS
-    from polyenvs.training.config import default_config_path, load_config
-    from polyenvs.training.train import check_out_dir
 
     ids = []
     for env_id in envs:
@@ -192,52 +220,69 @@ def plan_jobs(
                 "for the ids)"
             )
         ids.append(bare)
+    return ids
+
+
+def _check_algos(algos: list[str]) -> None:
+    from baselines.algorithms import get_algo
+
     for algo in algos:
         try:
             get_algo(algo)
         except InputError as exc:
             raise InputError(f"--algos: {exc}") from None
+
+
+def _config_files(algos: list[str], config_dir: Path | None) -> dict[str, Path]:
+    """``{algo: its config file}``, each algorithm once, in the order given: ``config_dir/<algo>.yml``, or the
+    shipped config without ``config_dir``."""
     if config_dir is not None and not Path(config_dir).is_dir():
         raise InputError(f"--config-dir {config_dir}: no such directory")
-    configs = {}
-    for algo in dict.fromkeys(algos):
-        if config_dir is None:
-            try:
-                configs[algo] = default_config_path(algo).absolute()
-            except InputError as exc:
-                raise InputError(f"--algos {algo}: {exc}".replace("--config FILE", "--config-dir DIR")) from None
-            continue
-        path = Path(config_dir) / f"{algo}.yml"
-        if not path.is_file():
-            raise InputError(f"--config-dir: config file {path} does not exist (one <algo>.yml per algorithm)")
-        configs[algo] = path.absolute()
+    return {algo: _config_file(algo, config_dir) for algo in dict.fromkeys(algos)}
+
+
+def _config_file(algo: str, config_dir: Path | None) -> Path:
+    from polyenvs.training.config import default_config_path
+
+    if config_dir is None:
+        try:
+            return default_config_path(algo).absolute()
+        except InputError as exc:
+            raise InputError(f"--algos {algo}: {exc}".replace("--config FILE", "--config-dir DIR")) from None
+    path = Path(config_dir) / f"{algo}.yml"
+    if not path.is_file():
+        raise InputError(f"--config-dir: config file {path} does not exist (one <algo>.yml per algorithm)")
+    return path.absolute()
+
+
+def _check_config_entries(ids: list[str], configs: dict[str, Path]) -> None:
+    """Every algorithm fits every id's actions, and its config has a valid entry for it."""
+    from baselines.algorithms import check_action_space
+    from polyenvs.evaluation.episodes import make_env
+    from polyenvs.evaluation.rollout import agent_spaces
+    from polyenvs.training.config import load_config
+
     for env_id in dict.fromkeys(ids):
         probe = make_env(env_id)
         try:
-            for algo in dict.fromkeys(algos):
+            for algo, path in configs.items():
                 check_action_space(algo, env_id, agent_spaces(probe)[1])
-                load_config(configs[algo], env_id, algo)  # a missing entry or a bad value: InputError
+                load_config(path, env_id, algo)  # a missing entry or a bad value: InputError
         finally:
             probe.close()
-    out = Path(out).absolute()
-    check_writable_directory(out, "--out")
-    jobs = []
-    for env_id in dict.fromkeys(ids):
-        for algo in dict.fromkeys(algos):
-            for seed in dict.fromkeys(seeds):
-                out_dir = out / "agents" / slug(env_id) / algo / f"seed{seed}"
-                try:  # an interrupted run is resumed; a directory the sweep cannot use stops it before any job
-                    check_out_dir(out_dir, env_id, algo, seed, resume=True)
-                except InputError as exc:
-                    message = str(exc).replace("; choose another --out or remove it", "; remove it")
-                    message = message.replace("; choose another --out, or --overwrite to replace it", "; remove it")
-                    raise InputError(message) from None
-                result = out / "results" / f"{slug(env_id)}__agent__{algo}__seed{seed}.json"
-                jobs.append(
-                    Job(env_id, algo, seed, str(configs[algo]), timesteps, episodes, str(out_dir), str(result),
-                        checkpoint_every)
-                )  # fmt: skip
-    return jobs
+
+
+def _check_job_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> None:
+    """A job's training directory can be used: an interrupted run there is resumed; any other run, or files that
+    are no run, stop the sweep before any job (one line)."""
+    from polyenvs.training.train import check_out_dir
+
+    try:
+        check_out_dir(out_dir, env_id, algo, seed, resume=True)
+    except InputError as exc:
+        message = str(exc).replace("; choose another --out or remove it", "; remove it")
+        message = message.replace("; choose another --out, or --overwrite to replace it", "; remove it")
+        raise InputError(message) from None
 
 
 # ------------------------------------------------------------------------------------------------- backends
@@ -380,6 +425,3 @@ def summary_table(results: list[dict]) -> list[str]:
             iqm, mean = f"{r['iqm']:.4g}", f"{r['mean']:.4g}"
         rows.append([job["env_id"], job["algo"], str(job["seed"]), status, train_s, iqm, mean])
     return _format_table(["environment", "algo", "seed", "status", "train s", "IQM return", "mean return"], rows)
-
-
-# ---------------------------------------------------------------------------------------------- command line

@@ -1,5 +1,6 @@
-"""Estimator benchmarks: localizers scored on logged rollouts, the third kind of thing polyenvs holds (beside
-Gymnasium ids and PettingZoo modules).
+"""Estimators: localizers that read an environment's logs, the third kind of thing polyenvs holds (beside Gymnasium
+ids and PettingZoo modules), scored on logged rollouts by the localization benchmark
+(:mod:`polyenvs.evaluation.localization`). The bumper cart's are in :mod:`polyenvs.estimators.bumper`.
 
 An estimator is any object with two methods (:class:`Estimator`):
 

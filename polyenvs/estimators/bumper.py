@@ -1,5 +1,5 @@
 """Estimators for the bumper cart's logs: dead reckoning (the paper's Part 2) and the paper's bump-space Monte
-Carlo localizer (Part 3). Both follow :class:`polyenvs.localization.Estimator`.
+Carlo localizer (Part 3). Both follow :class:`polyenvs.estimators.Estimator`.
 
 The bump-space localizer is the paper's filter of :mod:`polyenvs.bumper.bump_space` (its kernels live on the
 family's floor, where the localization task runs them too) behind the estimator interface.
