@@ -8,21 +8,17 @@ the name of either:
 - :class:`ParallelEnvEntry`: a PettingZoo parallel environment, named by its module path
   (``"polyenvs.swarm.corridor_v0"``), whose ``parallel_env(**kwargs)`` builds it, as PettingZoo's own modules do.
 
-Each row also lists its hand baselines (:class:`Baseline`: a name, a ``"module:attribute"`` factory and fixed
-keyword arguments) and which of them is the paper's main algorithm (``paper=``), so :func:`baselines.make_policy`
-finds them here instead of in per-family helpers. A baseline acts on one agent's observation; for a parallel
-environment the evaluation applies it to each robot's own observation (parameter sharing).
+A row describes the environment only. Its family is the package its entry point names (``polyenvs.<family>.``), a
+parallel environment's episode limit its module's ``MAX_CYCLES``. What runs on an environment is listed on the floor
+that runs it, keyed by the row's id: the hand baselines, and which one is the paper's, in :mod:`baselines.table`;
+the estimators that read its logs in :mod:`polyenvs.estimators.table`.
 
 Each row declares its task score (:class:`Score`): the one episode metric that is the paper's task, its direction,
 its best attainable value and a metric that breaks ties there; the leaderboard ranks and normalises by it. Why each
 score is the paper's task is said in the environment's docstring (its "Task score" section).
 
-A Gymnasium row may also list ``estimators``, the third kind of thing polyenvs scores: estimators (localizers)
-run on the logs its rollouts produce, scored against the true pose (``polyenvs localize``,
-:mod:`polyenvs.estimators`), not policies scored on returns.
-
 Variants are constructor keywords (``gym.make(id, floor_plan="office")``), not new rows. Entry points are strings,
-so nothing heavy is imported until an environment or a policy is made.
+so nothing heavy is imported until an environment is made (or a parallel row's ``max_cycles`` is read).
 """
 
 from __future__ import annotations
@@ -35,7 +31,6 @@ import gymnasium as gym
 
 __all__ = [
     "ALL_IDS",
-    "Baseline",
     "ENV_IDS",
     "EnvEntry",
     "PARALLEL_ENV_IDS",
@@ -43,18 +38,10 @@ __all__ = [
     "REGISTRY",
     "Score",
     "entry",
+    "family_of",
     "import_attribute",
     "register_all",
 ]
-
-
-@dataclass(frozen=True)
-class Baseline:
-    """A hand baseline: ``factory(observation_space, action_space, **kwargs)`` builds a ``baselines.base.Policy``."""
-
-    name: str
-    factory: str  # "module:attribute"
-    kwargs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -101,6 +88,12 @@ class Score:
         return 1.0 if self.tie_direction == "max" else -1.0
 
 
+def family_of(module: str) -> str:
+    """The family of an environment whose module is ``module``: the package under ``polyenvs`` that holds it
+    (``"polyenvs.buckybot.goal"`` -> ``"buckybot"``)."""
+    return module.split(".")[1]
+
+
 @dataclass(frozen=True)
 class EnvEntry:
     """A single-agent Gymnasium environment id."""
@@ -110,16 +103,10 @@ class EnvEntry:
     id: str
     entry_point: str
     max_episode_steps: int
-    family: str
     description: str
     kwargs: dict = field(default_factory=dict)
     #: A native vector env (``gym.make_vec(id, num_envs=N)``), where the family has one.
     vector_entry_point: str | None = None
-    baselines: tuple[Baseline, ...] = ()
-    #: The name of the baseline that is the paper's main algorithm, reachable as policy "paper".
-    paper: str | None = None
-    #: Estimators scored on this environment's logs (``factory(**kwargs)`` builds one), the paper's first.
-    estimators: tuple[Baseline, ...] = ()
     #: The optional extra (``pip install "polyenvs[<extra>]"``) whose packages the environment imports, if any.
     extra: str | None = None
     #: The task score the leaderboard ranks and normalises by.
@@ -128,21 +115,22 @@ class EnvEntry:
     #: keeps an id's old versions, for the results made with it; its own score need not tell policies apart).
     superseded_by: str | None = None
 
+    @property
+    def family(self) -> str:
+        """The family of the entry point's module (:func:`family_of`)."""
+        return family_of(self.entry_point.partition(":")[0])
+
 
 @dataclass(frozen=True)
 class ParallelEnvEntry:
-    """A PettingZoo parallel environment: ``import_module(id).parallel_env(max_cycles=..., **kwargs)`` (the
-    commands build it so; a user's keywords override ``kwargs``, as ``gym.make``'s override a registration's)."""
+    """A PettingZoo parallel environment: ``import_module(id).parallel_env(**kwargs)`` (the commands build it so; a
+    user's keywords override ``kwargs``, as ``gym.make``'s override a registration's)."""
 
     kind: ClassVar[str] = "pettingzoo"
 
     id: str  # the module path, as users import it
-    max_cycles: int
-    family: str
     description: str
     kwargs: dict = field(default_factory=dict)
-    baselines: tuple[Baseline, ...] = ()
-    paper: str | None = None
     #: As :attr:`EnvEntry.extra`.
     extra: str | None = None
     #: As :attr:`EnvEntry.score`.
@@ -150,45 +138,25 @@ class ParallelEnvEntry:
     #: As :attr:`EnvEntry.superseded_by`.
     superseded_by: str | None = None
 
+    @property
+    def family(self) -> str:
+        """The family of the module (:func:`family_of`)."""
+        return family_of(self.id)
 
-def _buckybot(name: str, cls: str, **kwargs) -> Baseline:
-    return Baseline(name, f"baselines.buckybot:{cls}", kwargs)
+    @property
+    def max_cycles(self) -> int:
+        """The episode limit: the module's ``MAX_CYCLES``, its ``parallel_env``'s default (reading it imports the
+        module)."""
+        return int(importlib.import_module(self.id).MAX_CYCLES)
 
 
-def _swarm(name: str, cls: str, **kwargs) -> Baseline:
-    return Baseline(name, f"baselines.swarm:{cls}", kwargs)
-
-
-# A policy cannot tell the platform from the observation space: the corridor's X80Pro reads the inverted 0..80
-# IR scale, and the paper's AP-lite reads only its two outer sensors there (the platform's controller_sensors).
-_X80PRO = {"platform": "x80pro"}
-_CORRIDOR_BASELINES = (
-    _swarm("aplite", "APLite", **_X80PRO),
-    _swarm("aplite_goal_seeking", "APLiteGoalSeeking", **_X80PRO),
-)
-_FIELD_BASELINES = (_swarm("aplite", "APLite"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking"))
 #: The swarm tasks' score: the fraction of robots that reached the light, the quicker the better at the ceiling.
 _ARRIVED = Score("success_rate", "max", ceiling=1.0, tie_break="time_to_goal_s", aggregate="mean")
 #: The beasts' success tasks: the stance reached, the quicker the better.
 _BEAST_SUCCESS = Score("success", "max", ceiling=1.0, tie_break="time_s", aggregate="mean")
-
-
-#: The cart's budgeted exploration (BumperCartExplore-v1 on): the paper's random bounce and the fixed turn, which
-#: anchors the score since random and the paper's random bounce coincide on the cart.
-_CART_BUDGET_BASELINES = (
-    Baseline("random_bounce", "baselines.bumper:RandomBounce"),
-    Baseline("fixed_turn", "baselines.bumper:FixedTurn", {"turn_deg": 150.0}),
-)
+#: The cart's budgeted exploration (BumperCartExplore-v1 on), anchored by the fixed turn since random and the paper's
+#: random bounce coincide on the cart.
 _CART_COVERAGE = Score("coverage", "max", ceiling=1.0, upper_anchor="fixed_turn")
-#: The localizers scored on the cart's logs (``polyenvs localize``), the paper's bump-space filter first.
-_CART_ESTIMATORS = (
-    Baseline("mcl", "polyenvs.estimators.bumper:BumpSpaceMCL"),
-    Baseline("dead_reckoning", "polyenvs.estimators.bumper:DeadReckoning"),
-)
-
-
-def _beast(name: str, cls: str, **kwargs) -> Baseline:
-    return Baseline(name, f"baselines.beast:{cls}", kwargs)
 
 
 REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
@@ -197,13 +165,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.buckybot.wall_follow:BuckybotWallFollowEnv",
         vector_entry_point="polyenvs.buckybot.vector:BuckybotWallFollowVectorEnv",
         max_episode_steps=500,
-        family="buckybot",
         description="Buckybot follows the nearest wall counter-clockwise at distance d* with six range finders",
-        baselines=(
-            _buckybot("wall_follower", "WallFollower"),
-            _buckybot("wall_follower_rules", "WallFollower", x_s_cm=30.0, no_backtrack=True, clockwise_exception=True),
-        ),
-        paper="wall_follower",
         score=Score("perimeter_fraction", "max", ceiling=1.0, tie_break="wall_distance_error_cm"),
     ),
     EnvEntry(
@@ -211,10 +173,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.buckybot.explore:BuckybotExploreEnv",
         vector_entry_point="polyenvs.buckybot.vector:BuckybotExploreVectorEnv",
         max_episode_steps=1000,
-        family="buckybot",
         description="Buckybot sweeps an unknown office with its range finders; dead-reckoned map error reported",
-        baselines=(_buckybot("wall_follow_explorer", "WallFollowExplorer"),),
-        paper="wall_follow_explorer",
         score=Score("coverage", "max", ceiling=1.0, tie_break="steps"),
     ),
     EnvEntry(
@@ -222,22 +181,16 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.buckybot.goal:BuckybotGoalEnv",
         vector_entry_point="polyenvs.buckybot.vector:BuckybotGoalVectorEnv",
         max_episode_steps=300,
-        family="buckybot",
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
-        baselines=(_buckybot("goal_seeker", "GoalSeeker"),),
-        paper="goal_seeker",
         score=Score("success", "max", ceiling=1.0, tie_break="steps_to_goal", aggregate="mean"),
     ),
     EnvEntry(
         id="polyenvs/BeastTumble-v0",
         entry_point="polyenvs.beast.tasks:BeastTumbleEnv",
         max_episode_steps=3000,
-        family="beast",
         extra="mujoco",
         description="Platonic 4-beast (MuJoCo): one canonical tumble (1234) from the working tumble's start stance; "
         "success when limbs 1, 4, 2 stand (nothing else touching) and 3 is free",
-        baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
-        paper="rolling_gait",
         score=_BEAST_SUCCESS,
         superseded_by="polyenvs/BeastTumble-v1",
     ),
@@ -245,12 +198,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         id="polyenvs/BeastRoll-v0",
         entry_point="polyenvs.beast.tasks:BeastRollEnv",
         max_episode_steps=8000,
-        family="beast",
         extra="mujoco",
         description="Platonic beast (MuJoCo): roll along a commanded heading by tumbles; reward = body velocity "
         "along the heading - control cost",
-        baselines=(_beast("rolling_gait", "RollingGait"),),
-        paper="rolling_gait",
         score=Score("distance_m", "max"),
         superseded_by="polyenvs/BeastRoll-v1",
     ),
@@ -258,11 +208,8 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         id="polyenvs/BeastTurn-v0",
         entry_point="polyenvs.beast.tasks:BeastTurnEnv",
         max_episode_steps=8000,
-        family="beast",
         extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
-        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
-        paper="sharp_turn_cone",
         score=Score("heading_error_deg", "min", ceiling=0.0),
         superseded_by="polyenvs/BeastTurn-v1",
     ),
@@ -270,12 +217,9 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         id="polyenvs/BeastRecover-v0",
         entry_point="polyenvs.beast.tasks:BeastRecoverEnv",
         max_episode_steps=2000,
-        family="beast",
         extra="mujoco",
         description="Platonic beast (MuJoCo): thrown in a random orientation, reach a still stance on three or "
         "more feet",
-        baselines=(_beast("righting", "Righting"),),
-        paper="righting",
         score=Score("success", "max", ceiling=1.0, tie_break="time_to_stance_s", aggregate="mean"),
         superseded_by="polyenvs/BeastRecover-v1",
     ),
@@ -285,45 +229,33 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         id="polyenvs/BeastTumble-v1",
         entry_point="polyenvs.beast.tasks:BeastTumbleV1Env",
         max_episode_steps=3000,
-        family="beast",
         extra="mujoco",
         description="BeastTumble with the robot's contact model (servo dead band, debounced foot switches); "
         "reward = success - time - control cost",
-        baselines=(_beast("rolling_gait", "RollingGait", max_tumbles=1),),
-        paper="rolling_gait",
         score=_BEAST_SUCCESS,
     ),
     EnvEntry(
         id="polyenvs/BeastRoll-v1",
         entry_point="polyenvs.beast.tasks:BeastRollV1Env",
         max_episode_steps=8000,
-        family="beast",
         extra="mujoco",
         description="BeastRoll with the robot's contact model (servo dead band, debounced foot switches)",
-        baselines=(_beast("rolling_gait", "RollingGait"),),
-        paper="rolling_gait",
         score=Score("distance_m", "max"),
     ),
     EnvEntry(
         id="polyenvs/BeastTurn-v1",
         entry_point="polyenvs.beast.tasks:BeastTurnV1Env",
         max_episode_steps=8000,
-        family="beast",
         extra="mujoco",
         description="BeastTurn with the robot's contact model; reward = decrease of the heading error - control cost",
-        baselines=(_beast("sharp_turn", "SharpTurn"), _beast("sharp_turn_cone", "SharpTurn", pivot="inside")),
-        paper="sharp_turn_cone",
         score=Score("heading_error_deg", "min", ceiling=0.0),
     ),
     EnvEntry(
         id="polyenvs/BeastRecover-v1",
         entry_point="polyenvs.beast.tasks:BeastRecoverV1Env",
         max_episode_steps=2000,
-        family="beast",
         extra="mujoco",
         description="BeastRecover with the robot's contact model; reward = success - time - control cost",
-        baselines=(_beast("righting", "Righting"),),
-        paper="righting",
         score=Score("success", "max", ceiling=1.0, tie_break="time_to_stance_s", aggregate="mean"),
     ),
     EnvEntry(
@@ -331,27 +263,20 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.bumper.env:BumperCartExploreEnv",
         vector_entry_point="polyenvs.bumper.vector:BumperCartExploreVectorEnv",
         max_episode_steps=200,
-        family="bumper",
         description="A bump-only cart (two wheel encoders, one bump switch) touches as much of an unknown map's "
         "walls as it can; one step is one cycle: turn, drive to the bump, back up",
-        baselines=(Baseline("random_bounce", "baselines.bumper:RandomBounce"),),
-        paper="random_bounce",
         score=Score("wall_fraction_touched", "max", ceiling=1.0),
         # Coverage saturates by 200 cycles: the paper's random bounce (random by design) 0.859 [0.849, 0.867]
         # against random 0.843 [0.835, 0.850] over the leaderboard's seeds, and no policy has room above.
         superseded_by="polyenvs/BumperCartExplore-v2",
-        estimators=_CART_ESTIMATORS,
     ),
     EnvEntry(
         id="polyenvs/BumperCartExplore-v1",
         entry_point="polyenvs.bumper.explore_v1:BumperCartExploreV1Env",
         vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV1VectorEnv",
         max_episode_steps=50,
-        family="bumper",
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles; coverage is the "
         "wall fraction touched over the most 50 cycles can touch",
-        baselines=_CART_BUDGET_BASELINES,
-        paper="random_bounce",
         score=_CART_COVERAGE,
         # A back-up that touches a wall after the bump gets that wall credited (issue 29): v2 credits the bumper's.
         superseded_by="polyenvs/BumperCartExplore-v2",
@@ -361,29 +286,19 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.bumper.explore_v2:BumperCartExploreV2Env",
         vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV2VectorEnv",
         max_episode_steps=50,
-        family="bumper",
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles, each bump "
         "credited to the wall its bumper touched; coverage is the wall fraction touched over the most 50 cycles "
         "can touch",
-        baselines=_CART_BUDGET_BASELINES,
-        paper="random_bounce",
-        # v1's baselines and score: the fix moved no baseline's IQM by more than 0.001 over seeds 0-49.
+        # v1's score (and baselines): the fix moved no baseline's IQM by more than 0.001 over seeds 0-49.
         score=_CART_COVERAGE,
-        estimators=_CART_ESTIMATORS,
     ),
     EnvEntry(
         id="polyenvs/BumperCartLocalize-v0",
         entry_point="polyenvs.bumper.localize:BumperCartLocalizeEnv",
         vector_entry_point="polyenvs.bumper.vector:BumperCartLocalizeVectorEnv",
         max_episode_steps=60,
-        family="bumper",
         description="The bump-only cart localizes itself in a known map: the paper's bump-space Monte Carlo "
         "localizer runs on its logs, the episode ends when the estimate holds within 10 cm and 30 degrees",
-        baselines=(
-            Baseline("random_bounce", "baselines.bumper:RandomBounce"),
-            Baseline("greedy_split", "baselines.bumper:GreedySplit"),
-        ),
-        paper="random_bounce",
         # No run localizes in fewer cycles than the estimate must hold (hold_cycles, 3): the floor, where the
         # distance driven breaks ties. Random and the paper's random bounce coincide: the greedy split anchors it.
         # 150 episodes: the cycles to localize spread widely (the env's own filter decides most of an episode), so
@@ -398,10 +313,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.swarm.single:APLiteCorridorEnv",
         vector_entry_point="polyenvs.swarm.vector:APLiteCorridorVectorEnv",
         max_episode_steps=600,
-        family="swarm",
         description="One X80Pro drives up a corridor past four obstacles to a light (AP-lite's indoor experiment)",
-        baselines=_CORRIDOR_BASELINES,
-        paper="aplite",
         score=_ARRIVED,
     ),
     EnvEntry(
@@ -409,40 +321,25 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
         entry_point="polyenvs.swarm.single:APLiteObstacleFieldEnv",
         vector_entry_point="polyenvs.swarm.vector:APLiteObstacleFieldVectorEnv",
         max_episode_steps=1000,
-        family="swarm",
         description="One Maxelbot crosses an outdoor obstacle field (wheel-speed noise and drift) to a goal light",
-        baselines=_FIELD_BASELINES,
-        paper="aplite",
         score=_ARRIVED,
     ),
-    # The swarm rows carry no kwargs: what a module's parallel_env() builds (3, 3 and 7 robots) is what the commands
-    # evaluate, and max_cycles is each module's own MAX_CYCLES (tests/test_swarm_hardening.py checks both).
+    # The swarm rows carry no kwargs: what a module's parallel_env() builds (3, 3 and 7 robots, for its MAX_CYCLES
+    # cycles) is what the commands evaluate (tests/test_swarm_hardening.py checks it).
     ParallelEnvEntry(
         id="polyenvs.swarm.corridor_v0",
-        max_cycles=600,
-        family="swarm",
         description="N X80Pro robots pass a corridor with four obstacles to the light",
-        baselines=_CORRIDOR_BASELINES,
-        paper="aplite",
         score=_ARRIVED,
     ),
     ParallelEnvEntry(
         id="polyenvs.swarm.obstacle_field_v0",
-        max_cycles=1000,
-        family="swarm",
         description="N Maxelbots cross a seeded obstacle field on rough terrain to a goal light",
-        baselines=_FIELD_BASELINES,
-        paper="aplite",
         score=_ARRIVED,
     ),
     ParallelEnvEntry(
         id="polyenvs.swarm.formation_v0",
-        max_cycles=1500,
-        family="swarm",
         description="A leader and followers keep a hexagonal lattice (physicomimetics springs) across an obstacle "
         "field to the light",
-        baselines=(_swarm("formation", "FormationController"), _swarm("aplite_goal_seeking", "APLiteGoalSeeking")),
-        paper="formation",
         score=Score("formation_progress_m", "max"),
     ),
 )

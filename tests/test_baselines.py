@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from baselines import available_policies, make_policy
+from baselines.table import BASELINES
 from polyenvs.evaluation.episodes import evaluate
+from polyenvs.registry import ALL_IDS, import_attribute
 
 WALL = "polyenvs/BuckybotWallFollow-v0"
 
@@ -79,6 +81,21 @@ def test_every_registered_policy_runs():
         for name in available_policies(env_id):
             doc = evaluate(env_id, name, episodes=1, seed=0)
             assert doc["episodes"][0]["length"] > 0
+
+
+def test_every_registry_id_has_its_baselines_row_and_no_other_id_has_one():
+    """The table on the baselines floor is keyed by the registry's ids, all of them and in their order: a task
+    without a row would have only "random", a row without a task would never run."""
+    assert list(BASELINES) == ALL_IDS
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_every_baseline_factory_imports_and_the_paper_is_one_of_them(env_id):
+    row = BASELINES[env_id]
+    for baseline in row.baselines:
+        assert callable(import_attribute(baseline.factory)), baseline
+    assert row.paper in row.names
+    assert available_policies(env_id) == ["random", *row.names, "paper"]
 
 
 def test_predict_follows_the_sb3_convention():

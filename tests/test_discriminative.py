@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from baselines import paper_policy
 from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR
 from polyenvs.evaluation.results import stored_results
 from polyenvs.evaluation.table import leaderboard_tables
@@ -36,7 +37,7 @@ def test_the_paper_beats_random_on_the_task_score(tables, row):
         return
     table = tables.get(row.id)
     assert table is not None, f"no reference results for {row.id}"
-    anchor = row.score.upper_anchor or row.paper
+    anchor = row.score.upper_anchor or paper_policy(row.id)
     found = {r["label"]: r for r in table["rows"]}
     for label in ("random", anchor):
         assert label in found, f"{row.id}: no reference result for {label}"

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import polyenvs
+from baselines import paper_policy
 from polyenvs.registry import REGISTRY, Score, slug
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -57,6 +58,12 @@ def _reference_rows(env_id: str) -> list[tuple[str, str, str, str]]:
     return [(r[0], r[1], r[4], r[5]) for r in rows]
 
 
+def test_a_rows_family_is_the_package_of_its_entry_point():
+    """The family picks the paper a page cites (and the recording's arguments): derived from the entry point."""
+    families = [row.family for row in REGISTRY]
+    assert families == ["buckybot"] * 3 + ["beast"] * 8 + ["bumper"] * 4 + ["swarm"] * 5
+
+
 @pytest.mark.parametrize("row", REGISTRY, ids=lambda row: row.id)
 def test_every_row_has_a_page_with_its_spaces_docstring_paper_citation_and_leaderboard(row, tables, citation):
     page = _page(row, tables, citation)
@@ -73,7 +80,7 @@ def test_every_row_has_a_page_with_its_spaces_docstring_paper_citation_and_leade
     assert f"```bibtex\n{bibtex.reference_entry(reference)}\n```" in page
     assert ":class:`" not in page and ":mod:`" not in page  # reST roles are written as MyST roles
     if row.id in tables:  # the committed results' ranked rows, the paper's policy among them
-        assert f"| {row.paper} |" in page and "Task score: `" in page
+        assert f"| {paper_policy(row.id)} |" in page and "Task score: `" in page
 
 
 @pytest.mark.parametrize("row", REGISTRY, ids=lambda row: row.id)

@@ -184,6 +184,17 @@ def test_heading_in_scores_is_degrees(logs):
     assert math.isfinite(np.nanmedian(result["position_cm"]))
 
 
+def test_every_estimator_in_the_table_reads_the_logs_of_a_registry_id_and_imports():
+    from polyenvs.estimators.table import ESTIMATORS
+    from polyenvs.registry import ENV_IDS
+
+    assert set(ESTIMATORS) <= set(ENV_IDS)
+    for env_id, known in ESTIMATORS.items():
+        assert list(known)[0] == "mcl"  # the paper's first: the command's default order
+        for name in known:
+            assert isinstance(make_estimator(name, env_id), Estimator)
+
+
 def test_the_default_environment_is_a_current_id_whose_runs_go_past_its_task_budget():
     """``polyenvs localize`` defaults to the id the benchmark ranks on (not a superseded one), and a run ends at its
     bump count, not at the task's budget of 50 cycles."""
@@ -191,6 +202,6 @@ def test_the_default_environment_is_a_current_id_whose_runs_go_past_its_task_bud
     from polyenvs.evaluation.localization import rollout_logs
     from polyenvs.registry import entry
 
-    assert entry(DEFAULT_ENV_ID).superseded_by is None and entry(DEFAULT_ENV_ID).estimators
+    assert entry(DEFAULT_ENV_ID).superseded_by is None and estimators(DEFAULT_ENV_ID)
     _, (run,) = rollout_logs(DEFAULT_ENV_ID, runs=1, bumps=55)
     assert int(run.bumped.sum()) == 55 and len(run.logs) > 50

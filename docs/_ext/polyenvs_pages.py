@@ -1,7 +1,8 @@
 """Sphinx extension: one page per registry row, written into the source tree when the build starts.
 
 Each page is made from what the code already holds, so no text is copied into ``docs/``: the row of
-:data:`polyenvs.registry.REGISTRY` (its kind, episode limit, baselines, extra and task score), the environment
+:data:`polyenvs.registry.REGISTRY` (its kind, episode limit, extra and task score) and its hand baselines
+(:data:`baselines.table.BASELINES`) and estimators (:data:`polyenvs.estimators.table.ESTIMATORS`), the environment
 built with its defaults (its spaces) and its class's Gymnasium-style docstring (its ``##`` sections are Markdown
 already), the leaderboard section written by :func:`polyenvs.evaluation.table.environment_section` from the committed
 reference results in ``benchmarks/results/`` (default and held-out layouts) with the interval chart that
@@ -29,7 +30,10 @@ from pathlib import Path
 import numpy as np
 from polyenvs_bibtex import bibtex_file, find_reference, load_citation, reference_entry
 
+from baselines import paper_policy
+from baselines.table import hand_baselines
 from polyenvs.commands.leaderboard import REFERENCE_RESULTS_DIR, REFERENCE_TABLE
+from polyenvs.estimators import estimators
 from polyenvs.registry import REGISTRY, EnvEntry, slug
 from polyenvs.swarm import rendering as swarm_rendering
 
@@ -132,7 +136,8 @@ def facts_table(row, spaces: tuple[object, object], reference: dict) -> list[str
     from polyenvs.commands.list import _describe_space as describe_space
 
     observation_space, action_space = spaces
-    names = [f"`{b.name}`" + (" (the paper's)" if b.name == row.paper else "") for b in row.baselines]
+    policies = hand_baselines(row.id)
+    names = [f"`{name}`" + (" (the paper's)" if name == policies.paper else "") for name in policies.names]
     if isinstance(row, EnvEntry):
         kind = "Gymnasium id"
         make = f'`import gymnasium, polyenvs; gymnasium.make("{row.id}")`'
@@ -162,10 +167,10 @@ def facts_table(row, spaces: tuple[object, object], reference: dict) -> list[str
         f"| task score | {_score_text(row.score)} |",
         f"| paper | [{paper_citation(reference)}](../papers/{PAPERS[row.family][0]}.md) |",
     ]
-    estimators = getattr(row, "estimators", ())
-    if estimators:
+    localizers = estimators(row.id)
+    if localizers:
         lines.append(
-            f"| estimators | {', '.join(f'`{e.name}`' for e in estimators)} ([the benchmark](../guides/localization.md)) |"
+            f"| estimators | {', '.join(f'`{name}`' for name in localizers)} ([the benchmark](../guides/localization.md)) |"
         )
     return lines
 
@@ -220,7 +225,7 @@ def record(row, cache: Path) -> Path | None:
     """The GIF of the paper's policy on ``row``, recorded by ``polyenvs record`` into ``cache`` (reused if there)."""
     from polyenvs.cli import main
 
-    if row.paper is None:
+    if paper_policy(row.id) is None:
         return None
     arguments = recording_arguments(row)
     key = re.sub(r"[^A-Za-z0-9]+", "-", " ".join(arguments)).strip("-")
@@ -304,7 +309,7 @@ def published_recording(row, gif: Path) -> tuple[bytes, bool]:
 def recording_caption(row, followed: bool) -> str:
     command = shlex.join(["polyenvs", "record", row.id, "--policy", "paper", *recording_arguments(row)])
     cut = ", cut to a window that follows the robots" if followed else ""
-    return f"*The paper's policy, `{row.paper}`, recorded at build time by `{command}`{cut}.*"
+    return f"*The paper's policy, `{paper_policy(row.id)}`, recorded at build time by `{command}`{cut}.*"
 
 
 def env_page(row, table: dict | None, media: PageMedia, citation: dict) -> str:
@@ -314,7 +319,7 @@ def env_page(row, table: dict | None, media: PageMedia, citation: dict) -> str:
     lines = [f"# `{row.id}`", "", " ".join(summary.split()), ""]
     if media.gif:
         lines += [
-            f"![The paper's policy ({row.paper}) on {row.id}]({media.gif})",
+            f"![The paper's policy ({paper_policy(row.id)}) on {row.id}]({media.gif})",
             "",
             recording_caption(row, media.followed),
             "",

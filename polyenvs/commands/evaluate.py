@@ -80,8 +80,9 @@ def describe_policy(env_id: str, policy: str, description: dict) -> str:
     from baselines import paper_policy
 
     name, hidden = policy, {"name"}
-    if policy == "paper" and paper_policy(env_id):
-        name = f"paper = {paper_policy(env_id)}"
+    paper = paper_policy(env_id) if policy == "paper" else None
+    if paper:
+        name = f"paper = {paper}"
     if "algo" in description and "path" in description:
         name, hidden = f"{description['algo']} model {description['path']}", {"name", "algo", "path", "sha256"}
     params = ", ".join(f"{k}={format_value(v)}" for k, v in description.items() if k not in hidden)

@@ -14,6 +14,7 @@ from polyenvs.evaluation.agents import DEFAULT_AGENTS_DIR
 from polyenvs.evaluation.protocol import REPRODUCE_EPISODES
 from polyenvs.files import check_writable_directory
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS
+from polyenvs.registry import REGISTRY, EnvEntry, ParallelEnvEntry
 
 __all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
 
@@ -204,7 +205,6 @@ def _plan(args: argparse.Namespace) -> _Plan:
     """Check every flag (CliError, one line) and say what is evaluated and where it is written."""
     from polyenvs.evaluation.agents import agents_line
     from polyenvs.evaluation.page import plot_path, profile_path
-    from polyenvs.registry import ALL_IDS
 
     episodes = _episodes(args)
     reference_dir = None
@@ -216,14 +216,14 @@ def _plan(args: argparse.Namespace) -> _Plan:
         agents_dir, looked = _agents(args)
     workers = int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else os.cpu_count() or 1
     results_dir, output = _outputs(args)
-    env_ids = [e for e in ALL_IDS if args.only is None or args.only in e]
-    if not env_ids:
+    rows = [row for row in REGISTRY if args.only is None or args.only in row.id]
+    if not rows:
         raise CliError(f"--only: no environment id contains {args.only!r}; run 'polyenvs list' for the ids")
-    missing = _missing_extras(env_ids)  # found now, not after the environments before them were evaluated
-    if missing and (args.update_reference or len(missing) == len(env_ids)):
+    missing = _missing_extras(rows)  # found now, not after the environments before them were evaluated
+    if missing and (args.update_reference or len(missing) == len(rows)):
         why = "--update-reference evaluates every environment: " if args.update_reference else ""
         raise CliError(f"{why}{_missing_line(missing)}")
-    env_ids = [e for e in env_ids if e not in missing]
+    env_ids = [row.id for row in rows if row.id not in missing]
     agents_found = agents_line(agents_dir, env_ids, looked)  # a malformed agent directory: one line, here
     check_writable_directory(results_dir, "--results-dir")
     check_output_file(output, "--output")
@@ -312,27 +312,25 @@ def _print_table(output: Path, documents: list[dict], source: Path, bar: Progres
     )
 
 
-def _missing_extras(env_ids: list[str]) -> dict[str, str]:
-    """The ids among ``env_ids`` whose optional packages are not installed -> the extra that installs them."""
+def _missing_extras(rows: list[EnvEntry | ParallelEnvEntry]) -> dict[str, str]:
+    """The ids of the registry ``rows`` whose optional packages are not installed -> the extra that installs them."""
     from gymnasium.error import DependencyNotInstalled
 
     from polyenvs.errors import InputError
     from polyenvs.evaluation.episodes import make_env
     from polyenvs.evaluation.protocol import old_versions_quietly
-    from polyenvs.registry import entry
 
     missing = {}
-    for env_id in env_ids:
-        extra = entry(env_id).extra
-        if extra is None:
+    for row in rows:
+        if row.extra is None:
             continue
         try:
             with old_versions_quietly():
-                make_env(env_id).close()
+                make_env(row.id).close()
         except InputError as exc:
             if not isinstance(exc.__cause__, DependencyNotInstalled | ModuleNotFoundError):
                 raise
-            missing[env_id] = extra
+            missing[row.id] = row.extra
     return missing
 
 

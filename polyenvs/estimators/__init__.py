@@ -15,8 +15,8 @@ An estimator is any object with two methods (:class:`Estimator`):
 Optionally ``empty_sets``: how many updates so far left no hypothesis standing (the runner reports the share of
 runs where that happened).
 
-Estimators are listed on the row of the environment whose logs they read, in :mod:`polyenvs.registry`
-(``EnvEntry.estimators``: name -> ``"module:Class"``, the paper's first); a user's own plugs in by import path:
+Estimators are listed by the id of the environment whose logs they read, in :mod:`polyenvs.estimators.table`
+(name -> ``"module:Class"``, the paper's first); a user's own plugs in by import path:
 ``polyenvs localize --estimator mypackage.mymodule:MyLocalizer``.
 """
 
@@ -27,6 +27,9 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from polyenvs.estimators.table import ESTIMATORS
+from polyenvs.registry import bare_id, import_attribute
+
 __all__ = ["DEFAULT_ENV_ID", "Estimator", "estimator_class", "estimator_kwargs", "estimators", "make_estimator"]
 
 #: The environment whose logs the benchmark scores by default.
@@ -34,14 +37,9 @@ DEFAULT_ENV_ID = "polyenvs/BumperCartExplore-v2"
 
 
 def estimators(env_id: str = DEFAULT_ENV_ID) -> dict[str, str]:
-    """The estimators the registry lists for ``env_id``'s logs: name -> ``"module:Class"``, the paper's first."""
-    from polyenvs.registry import entry
-
-    try:
-        row = entry(env_id)
-    except KeyError:
-        return {}
-    return {e.name: e.factory for e in getattr(row, "estimators", ())}
+    """The estimators :mod:`polyenvs.estimators.table` lists for ``env_id``'s logs (a Gymnasium id, ``polyenvs:``
+    prefix allowed): name -> ``"module:Class"``, the paper's first; none for any other environment."""
+    return dict(ESTIMATORS.get(bare_id(env_id), {}))
 
 
 @runtime_checkable
@@ -60,8 +58,6 @@ def estimator_class(name: str, env_id: str = DEFAULT_ENV_ID) -> type:
     path = known.get(name, name)
     if ":" not in path:
         raise ValueError(f"unknown estimator {name!r}; choose from {sorted(known)} or give 'module:Class'")
-    from polyenvs.registry import import_attribute
-
     try:
         cls = import_attribute(path)
     except (ImportError, AttributeError, ValueError) as exc:

@@ -26,13 +26,13 @@ import difflib
 import functools
 import importlib
 import inspect
-from typing import Any, cast
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from polyenvs.registry import PARALLEL_ENV_IDS, ParallelEnvEntry, bare_id, entry
+from polyenvs.registry import PARALLEL_ENV_IDS, bare_id, entry
 
 __all__ = [
     "SharedPolicy",
@@ -105,8 +105,9 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
     """Build ``env_id`` with the user's ``env_kwargs`` and the caller's ``extra`` (``render_mode``).
 
     A Gymnasium id goes through ``gym.make``; a module path through its ``parallel_env``, with the registry row's
-    ``max_cycles`` and ``kwargs`` under the caller's keywords. Raises :class:`UnknownEnvironment` for a name that is neither;
-    the environment's own errors (``TypeError``, ``ValueError``, ``gym.error.Error``) propagate.
+    ``kwargs`` under the caller's keywords (its episode limit is the module's default, ``MAX_CYCLES``). Raises
+    :class:`UnknownEnvironment` for a name that is neither; the environment's own errors (``TypeError``,
+    ``ValueError``, ``gym.error.Error``) propagate.
     """
     env_id = bare_id(env_id)
     kwargs = {**dict(env_kwargs or {}), **extra}
@@ -114,10 +115,10 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **extra):
         return gym.make(env_id, **kwargs)
     module = _parallel_module(env_id)
     try:
-        row = cast(ParallelEnvEntry, entry(env_id))  # a module path names a PettingZoo row
+        row_kwargs = entry(env_id).kwargs
     except KeyError:  # a user's own module: its own defaults
-        return module.parallel_env(**kwargs)
-    return module.parallel_env(**{"max_cycles": row.max_cycles, **row.kwargs, **kwargs})
+        row_kwargs = {}
+    return module.parallel_env(**{**row_kwargs, **kwargs})
 
 
 def agent_spaces(env) -> tuple[gym.Space, gym.Space]:
