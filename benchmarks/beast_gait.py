@@ -38,7 +38,7 @@ __all__ = ["main", "run_episode"]
 
 
 def run_episode(
-    env, policy, seed: int, max_steps: int, until_done: bool = True, reset_options=None, on_step=None
+    env, policy, seed: int, max_steps: int, *, until_done: bool = True, reset_options=None, on_step=None
 ) -> dict:
     """One seeded episode; stops at termination/truncation, ``max_steps``, or when the controller is done/stuck.
     ``on_step(env, info)``, if given, is called after every step."""
@@ -101,7 +101,9 @@ def _roll(seeds, polyhedron, max_steps, tumbles=4, reset_options=None):
     runs = []
     for s in seeds:
         r = run_episode(env, policy, s, max_steps, reset_options=reset_options)
-        rnd = run_episode(env, RandomPolicy(env.observation_space, env.action_space, seed=s), s, r["steps"], False)
+        rnd = run_episode(
+            env, RandomPolicy(env.observation_space, env.action_space, seed=s), s, r["steps"], until_done=False
+        )
         r["random_distance_m"] = rnd["distance_m"]
         runs.append(r)
     full = [r for r in runs if len(r.get("history", [])) == tumbles]

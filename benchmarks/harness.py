@@ -264,16 +264,16 @@ def env_case(
     vector: bool = False,
     measure_memory: bool = True,
     clock: Clock = time.perf_counter,
-    describe: Callable[[Measurement], str] | None = None,
 ) -> Case:
-    """A case stepping ``make_fn()`` with :class:`EnvRunner`, with its memory measured by :func:`peak_memory_mb`."""
+    """A case stepping ``make_fn()`` with :class:`EnvRunner`, with its memory measured by :func:`peak_memory_mb`;
+    its note gives the time per vector step (``dataclasses.replace`` the case's ``describe`` for another)."""
     return Case(
         name,
         setting,
         start=lambda: EnvRunner(make_fn, min_seconds=min_seconds, seed=seed, clock=clock),
         memory=(lambda: peak_memory_mb(make_fn, seed=seed)) if measure_memory else None,
         vector=vector,
-        describe=describe if describe is not None else _vector_step_note,
+        describe=_vector_step_note,
     )
 
 
@@ -310,47 +310,17 @@ def measure_rounds(
     if repeats < 1:
         raise ValueError(f"repeats must be >= 1, got {repeats}")
     session = next(_sessions)
-    runners: dict[int, Runner] = {}
-    errors: dict[int, str] = {}
-    rates: dict[int, list[float]] = {}
+    timing = _Timing()
     try:
-        for index, case in enumerate(cases):
-            if case.skip or case.start is None:
-                continue
-            progress(f"warming up {case.label} ...")
-            runner = None
-            try:
-                runner = case.start()
-                runner.warm_up()
-            except Exception as exc:  # noqa: BLE001 - a broken env must not stop the other rows
-                errors[index] = f"error: {one_line(exc)}"
-                progress(f"  failed: {one_line(exc)}")
-                if runner is not None:
-                    _close_quietly(runner)
-                continue
-            runners[index] = runner
-            rates[index] = []
-
+        _warm_up(cases, timing)
         for round_index in range(repeats):
             progress(f"round {round_index + 1}/{repeats} ...")
-            for index in serpentine(len(cases), round_index):
-                runner = runners.get(index)
-                if runner is None:
-                    continue
-                try:
-                    rate = runner.timed_repeat()
-                except Exception as exc:  # noqa: BLE001
-                    errors[index] = f"error in round {round_index + 1}: {one_line(exc)}"
-                    progress(f"  {cases[index].label} failed: {one_line(exc)}")
-                    _close_quietly(runners.pop(index))
-                    continue
-                rates[index].append(rate)
-                if on_repeat is not None:
-                    on_repeat(round_index, cases[index], rate)
+            _time_round(cases, round_index, timing, on_repeat)
     finally:
-        shape = {index: (runner.num_envs, runner.vector) for index, runner in runners.items()}
-        for runner in runners.values():
+        shape = {index: (runner.num_envs, runner.vector) for index, runner in timing.runners.items()}
+        for runner in timing.runners.values():
             _close_quietly(runner)
+    errors, rates = timing.errors, timing.rates
 
     rows = []
     for index, case in enumerate(cases):
@@ -361,6 +331,53 @@ def measure_rounds(
         else:
             rows.append(_finished_row(case, rates[index], shape[index], session))
     return rows
+
+
+@dataclass
+class _Timing:
+    """The rounds so far, by index into the cases: each timed case's runner and rates, and the failures."""
+
+    runners: dict[int, Runner] = field(default_factory=dict)
+    errors: dict[int, str] = field(default_factory=dict)
+    rates: dict[int, list[float]] = field(default_factory=dict)
+
+
+def _warm_up(cases: Sequence[Case], timing: _Timing) -> None:
+    """Build and warm up the runner of every case to time (a failure is noted in ``timing.errors``)."""
+    for index, case in enumerate(cases):
+        if case.skip or case.start is None:
+            continue
+        progress(f"warming up {case.label} ...")
+        runner = None
+        try:
+            runner = case.start()
+            runner.warm_up()
+        except Exception as exc:  # noqa: BLE001 - a broken env must not stop the other rows
+            timing.errors[index] = f"error: {one_line(exc)}"
+            progress(f"  failed: {one_line(exc)}")
+            if runner is not None:
+                _close_quietly(runner)
+            continue
+        timing.runners[index] = runner
+        timing.rates[index] = []
+
+
+def _time_round(cases: Sequence[Case], round_index: int, timing: _Timing, on_repeat) -> None:
+    """One timed repeat of every runner in :func:`serpentine` order; a runner that fails is closed and dropped."""
+    for index in serpentine(len(cases), round_index):
+        runner = timing.runners.get(index)
+        if runner is None:
+            continue
+        try:
+            rate = runner.timed_repeat()
+        except Exception as exc:  # noqa: BLE001
+            timing.errors[index] = f"error in round {round_index + 1}: {one_line(exc)}"
+            progress(f"  {cases[index].label} failed: {one_line(exc)}")
+            _close_quietly(timing.runners.pop(index))
+            continue
+        timing.rates[index].append(rate)
+        if on_repeat is not None:
+            on_repeat(round_index, cases[index], rate)
 
 
 def _finished_row(case: Case, rates: list[float], shape: tuple[int, bool], session: int) -> Measurement:

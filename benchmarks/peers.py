@@ -7,6 +7,7 @@ installed is listed with a note (and the install command), never silently droppe
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from collections.abc import Callable
 from typing import Any
@@ -60,12 +61,9 @@ def peer_cases(*, min_seconds: float, seed: int = 0) -> list[Case]:
         ),
     ]
     for n_agents in (3, 20):
-        case = env_case(
-            MPE2_SPREAD,
-            f"N = {n_agents}, joint steps/s",
-            _make_mpe2_spread(n_agents),
+        case = dataclasses.replace(
+            env_case(MPE2_SPREAD, f"N = {n_agents}, joint steps/s", _make_mpe2_spread(n_agents), **kw),
             describe=_agent_steps_note(n_agents),
-            **kw,
         )
         cases.append(_if_installed("mpe2", "mpe2", case))
     vmas_setting = f"{VECTOR_NUM_ENVS} envs x {_VMAS_AGENTS} agents, 1 torch thread (env-steps/s)"

@@ -7,13 +7,28 @@ import math
 import os
 import platform
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from benchmarks.harness import MEMORY_STEPS_SINGLE, MEMORY_STEPS_VECTOR, Measurement, paired_ratio
 from benchmarks.peers import CARTPOLE, MINIGRID, VECTOR_NUM_ENVS
 from benchmarks.targets import Kind, Target, target_for
 
-__all__ = ["format_notes", "format_report", "format_table", "format_training_table", "reference"]
+__all__ = ["HowMeasured", "format_notes", "format_report", "format_table", "format_training_table", "reference"]
+
+
+@dataclass(frozen=True)
+class HowMeasured:
+    """How a report's numbers were made: the ``command`` that ran, each row's ``min_seconds`` per round over
+    ``repeats`` rounds in the first round's ``order`` (the timed rows' labels), whether in ``quick`` mode, and when
+    (``date``, by default now)."""
+
+    command: str
+    min_seconds: float
+    repeats: int
+    order: Sequence[str]
+    quick: bool = False
+    date: datetime = field(default_factory=lambda: datetime.now(UTC))
 
 
 def reference(rows: Sequence[Measurement], name: str, vector: bool) -> Measurement | None:
@@ -84,33 +99,47 @@ def format_notes(notes: Sequence[str]) -> str:
 def format_report(
     rows: Sequence[Measurement],
     notes: Sequence[str],
+    how: HowMeasured,
     *,
-    min_seconds: float,
-    repeats: int,
-    order: Sequence[str],
-    quick: bool,
-    command: str,
-    date: datetime | None = None,
     training: Sequence[Measurement] = (),
     sections: Sequence[str] = (),
 ) -> str:
     """The whole THROUGHPUT.md: how the numbers were made, the machine, the tables and the notes.
 
-    ``order`` is the labels of the timed rows in the order of the first round; ``sections`` are the families' own
-    Markdown sections (each with its peers, timed in rounds of its own), appended at the end.
+    ``sections`` are the families' own Markdown sections (each with its peers, timed in rounds of its own),
+    appended at the end.
     """
-    date = date or datetime.now(UTC)
-    plural = "" if repeats == 1 else "s"
-    mode = " **Quick mode**: too short to be more than a smoke test." if quick else ""
-    order_text = ", ".join(order) if order else "(no row was timed)"
-    preamble = f"""# Throughput
+    text = _preamble(how) + format_table(rows) + "\n"
+    if training:
+        text += (
+            "\n## Training speed\n\nPPO timesteps per second (rollouts and gradient epochs, after a one-rollout"
+            f" warm-up), in {_rounds(how.repeats)} with PPO on CartPole-v1 (the ratio is the median of"
+            " per-round ratios): the environment should never be the bottleneck.\n\n"
+        )
+        text += format_training_table(training) + "\n"
+    if notes:
+        text += "\nNotes:\n\n" + format_notes(notes) + "\n"
+    for section in sections:
+        text += "\n" + section.rstrip("\n") + "\n"
+    return text
 
-Written by `{command}` on {date:%Y-%m-%d %H:%M} UTC; rerun it rather than editing this file.{mode}
+
+def _rounds(repeats: int) -> str:
+    return f"{repeats} interleaved round{'' if repeats == 1 else 's'}"
+
+
+def _preamble(how: HowMeasured) -> str:
+    """The report's title, how the numbers were made, and the machine."""
+    mode = " **Quick mode**: too short to be more than a smoke test." if how.quick else ""
+    order_text = ", ".join(how.order) if how.order else "(no row was timed)"
+    return f"""# Throughput
+
+Written by `{how.command}` on {how.date:%Y-%m-%d %H:%M} UTC; rerun it rather than editing this file.{mode}
 
 How the numbers were made:
 
-- All rows in one process run, measured in {repeats} interleaved round{plural} after an untimed warm-up of every row
-  (numba compilation, lazy setup): each round times every row once for at least {min_seconds:g} s, peers and ours
+- All rows in one process run, measured in {_rounds(how.repeats)} after an untimed warm-up of every row
+  (numba compilation, lazy setup): each round times every row once for at least {how.min_seconds:g} s, peers and ours
   alternating, in this order (reversed every other round, so that no row is always early or late in a round):
   {order_text}.
 - steps/s is a row's median over the rounds. Each ratio is the median over the rounds of the row's rate divided by
@@ -132,19 +161,6 @@ Machine: {platform.platform()}, {_cpu_model()}, {os.cpu_count()} CPUs; Python {p
 {_versions()}.
 
 """
-    text = preamble + format_table(rows) + "\n"
-    if training:
-        text += (
-            "\n## Training speed\n\nPPO timesteps per second (rollouts and gradient epochs, after a one-rollout"
-            f" warm-up), in {repeats} interleaved round{plural} with PPO on CartPole-v1 (the ratio is the median of"
-            " per-round ratios): the environment should never be the bottleneck.\n\n"
-        )
-        text += format_training_table(training) + "\n"
-    if notes:
-        text += "\nNotes:\n\n" + format_notes(notes) + "\n"
-    for section in sections:
-        text += "\n" + section.rstrip("\n") + "\n"
-    return text
 
 
 # ---------------------------------------------------------------------------------------------------- cells

@@ -31,7 +31,7 @@ from pathlib import Path
 from benchmarks.harness import Case, Measurement, measure_rounds, not_measured
 from benchmarks.ours import polyenvs_cases
 from benchmarks.peers import peer_cases
-from benchmarks.report import format_notes, format_report, format_table, format_training_table
+from benchmarks.report import HowMeasured, format_notes, format_report, format_table, format_training_table
 from benchmarks.training import measure_training
 
 __all__ = ["FAMILY_BENCHMARKS", "BenchmarkRun", "alternate", "family_sections", "main", "run"]
@@ -159,17 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         from polyenvs.files import write_text_atomic
 
         command = " ".join(["python -m benchmarks.throughput", *(sys.argv[1:] if argv is None else argv)])
-        report = format_report(
-            result.rows,
-            notes,
-            min_seconds=min_seconds,
-            repeats=repeats,
-            order=result.order,
-            quick=args.quick,
-            command=command,
-            training=training,
-            sections=sections,
-        )
+        how = HowMeasured(command, min_seconds, repeats, result.order, quick=args.quick)
+        report = format_report(result.rows, notes, how, training=training, sections=sections)
         try:
             write_text_atomic(args.output, report)
         except OSError as exc:

@@ -19,6 +19,7 @@ timed apart) until then. From the repo root::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import platform
 import sys
@@ -30,7 +31,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Chunk", "TimeToBeat", "format_result", "main", "time_to_beat"]
+__all__ = ["Chunk", "Race", "TimeToBeat", "format_result", "main", "time_to_beat"]
 
 ENV_ID = "polyenvs/BuckybotWallFollow-v0"
 
@@ -83,86 +84,105 @@ def _returns_iqm(document: Mapping[str, Any]) -> tuple[float, float]:
     return interquartile_mean(returns), float(sum(returns) / len(returns))
 
 
-def time_to_beat(
-    env_id: str = ENV_ID,
-    *,
-    budget: int = 300_000,
-    chunk: int = 25_000,
-    seed: int = 0,
-    episodes: int = 20,
-    eval_seed: int | None = None,
-    paper_policy: str = "paper",
-    config: str | Path | None = None,
-    vec_env: str = "auto",
-    overrides: Mapping[str, Any] | None = None,
-    stop_when_beaten: bool = True,
-    on_chunk: Callable[[Chunk, float], None] | None = None,
-) -> TimeToBeat:
-    """Train PPO in chunks until its IQM on the evaluation seeds exceeds ``paper_policy``'s, or ``budget`` steps.
+@dataclass(frozen=True)
+class Race:
+    """What :func:`time_to_beat` runs: PPO on ``env_id`` (seed ``seed``, its ``config`` entry, by default
+    configs/ppo.yml's, with ``overrides`` replacing PPO arguments: tests shrink n_steps, on a ``vec_env`` as
+    ``polyenvs train`` picks it) in chunks of ``chunk`` timesteps up to ``budget``, each chunk evaluated on
+    ``episodes`` episodes from ``eval_seed`` (default: the published seeds) against ``paper_policy``; it stops at the
+    first chunk that beats the paper unless ``stop_when_beaten`` is False."""
 
-    ``overrides`` replaces PPO arguments of the config entry (tests shrink n_steps). ``on_chunk(chunk, paper_iqm)``
-    is called after each chunk's evaluation.
-    """
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecNormalize
+    env_id: str = ENV_ID
+    budget: int = 300_000
+    chunk: int = 25_000
+    seed: int = 0
+    episodes: int = 20
+    eval_seed: int | None = None
+    paper_policy: str = "paper"
+    config: str | Path | None = None
+    vec_env: str = "auto"
+    overrides: Mapping[str, Any] | None = None
+    stop_when_beaten: bool = True
 
+
+def time_to_beat(race: Race, on_chunk: Callable[[Chunk, float], None] | None = None) -> TimeToBeat:
+    """Train PPO in chunks until its IQM on the evaluation seeds exceeds the paper policy's, or the budget's steps
+    (:class:`Race`). ``on_chunk(chunk, paper_iqm)`` is called after each chunk's evaluation."""
     import polyenvs  # noqa: F401  (registers the ids)
     from polyenvs.errors import check_count
     from polyenvs.evaluation.episodes import evaluate
     from polyenvs.evaluation.protocol import EVAL_SEED
     from polyenvs.registry import bare_id
+
+    budget, chunk = check_count("budget", race.budget, 1), check_count("chunk", race.chunk, 1)
+    eval_seed = EVAL_SEED if race.eval_seed is None else race.eval_seed
+    race = dataclasses.replace(race, env_id=bare_id(race.env_id), budget=budget, chunk=chunk, eval_seed=eval_seed)
+
+    start = time.perf_counter()
+    paper = evaluate(race.env_id, race.paper_policy, episodes=race.episodes, seed=eval_seed)
+    paper_iqm, paper_mean = _returns_iqm(paper)
+    result = TimeToBeat(
+        race.env_id, race.paper_policy, paper_iqm, paper_mean, time.perf_counter() - start, list(paper["seeds"]),
+        budget, chunk, race.seed,
+    )  # fmt: skip
+    _train_in_chunks(race, result, on_chunk)
+    return result
+
+
+def _train_in_chunks(race: Race, result: TimeToBeat, on_chunk) -> None:
+    """Train and evaluate chunk after chunk into ``result.chunks`` (the race's ids and counts checked already)."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
     from polyenvs.training.config import default_config_path, load_config
     from polyenvs.training.vec_adapter import make_training_vec_env
 
-    budget, chunk = check_count("budget", budget, 1), check_count("chunk", chunk, 1)
-    eval_seed = EVAL_SEED if eval_seed is None else eval_seed
-    env_id = bare_id(env_id)
-
-    start = time.perf_counter()
-    paper = evaluate(env_id, paper_policy, episodes=episodes, seed=eval_seed)
-    paper_iqm, paper_mean = _returns_iqm(paper)
-    result = TimeToBeat(
-        env_id, paper_policy, paper_iqm, paper_mean, time.perf_counter() - start, list(paper["seeds"]), budget,
-        chunk, seed,
-    )  # fmt: skip
-
     torch.set_num_threads(1)  # small MLPs: more threads only contend on these 2-core machines
-    cfg = load_config(config if config is not None else default_config_path("ppo"), env_id, "ppo")
-    venv = make_training_vec_env(env_id, cfg.n_envs, seed=seed, wrappers=cfg.wrapper_callables(), vec_env=vec_env)
+    env_id, seed = race.env_id, race.seed
+    cfg = load_config(race.config if race.config is not None else default_config_path("ppo"), env_id, "ppo")
+    venv = make_training_vec_env(env_id, cfg.n_envs, seed=seed, wrappers=cfg.wrapper_callables(), vec_env=race.vec_env)
     train_s = eval_s = 0.0
     try:
         if cfg.normalize:
             venv = VecNormalize(venv, **cfg.normalize_kwargs)
-        hyper = {**cfg.hyperparams, **dict(overrides or {})}
+        hyper = {**cfg.hyperparams, **dict(race.overrides or {})}
         model = PPO(cfg.policy, venv, seed=seed, device="cpu", verbose=0, **hyper)
         run = {"env_id": env_id, "algo": "ppo", "seed": seed, "hyperparams": cfg.resolved()}
         with tempfile.TemporaryDirectory(prefix="time_to_beat_") as scratch:
             out = Path(scratch)
-            while model.num_timesteps < budget:
+            while model.num_timesteps < race.budget:
                 tick = time.perf_counter()
-                model.learn(total_timesteps=min(chunk, budget - model.num_timesteps), reset_num_timesteps=False)
+                model.learn(
+                    total_timesteps=min(race.chunk, race.budget - model.num_timesteps), reset_num_timesteps=False
+                )
                 train_s += time.perf_counter() - tick
 
                 tick = time.perf_counter()
-                model.save(out / "model.zip")
-                normalizer = model.get_vec_normalize_env()
-                if normalizer is not None:
-                    normalizer.save(str(out / "vecnormalize.pkl"))
-                (out / "run.json").write_text(json.dumps({**run, "timesteps": int(model.num_timesteps)}))
-                document = evaluate(env_id, str(out), episodes=episodes, seed=eval_seed)
+                document = _evaluate_chunk(race, model, out, run)
                 eval_s += time.perf_counter() - tick
 
                 iqm, mean = _returns_iqm(document)
                 done = Chunk(int(model.num_timesteps), iqm, mean, train_s, eval_s)
                 result.chunks.append(done)
                 if on_chunk is not None:
-                    on_chunk(done, paper_iqm)
-                if stop_when_beaten and iqm > paper_iqm:
+                    on_chunk(done, result.paper_iqm)
+                if race.stop_when_beaten and iqm > result.paper_iqm:
                     break
     finally:
         venv.close()
-    return result
+
+
+def _evaluate_chunk(race: Race, model, out: Path, run: dict) -> dict:
+    """Save the model as a training directory in ``out`` and evaluate it (the evaluation's document)."""
+    from polyenvs.evaluation.episodes import evaluate
+
+    model.save(out / "model.zip")
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        normalizer.save(str(out / "vecnormalize.pkl"))
+    (out / "run.json").write_text(json.dumps({**run, "timesteps": int(model.num_timesteps)}))
+    return evaluate(race.env_id, str(out), episodes=race.episodes, seed=race.eval_seed)
 
 
 def format_result(result: TimeToBeat) -> str:
@@ -224,10 +244,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
 
     try:
-        result = time_to_beat(
+        race = Race(
             args.env, budget=args.budget, chunk=args.chunk, seed=args.seed, episodes=args.episodes,
-            vec_env=args.vec_env, stop_when_beaten=not args.keep_going, on_chunk=progress,
+            vec_env=args.vec_env, stop_when_beaten=not args.keep_going,
         )  # fmt: skip
+        result = time_to_beat(race, on_chunk=progress)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
