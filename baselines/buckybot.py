@@ -75,6 +75,7 @@ class WallFollower(Policy):
         self,
         observation_space,
         action_space,
+        *,
         d_star_cm: float = 50.0,
         x_s_cm: float = 20.0,
         no_backtrack: bool = False,

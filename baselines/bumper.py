@@ -79,7 +79,7 @@ class FixedTurn(Policy):
 
 
 @njit(cache=True)
-def _travel_to_bump(x, y, h, walls, front, half, max_cm):
+def _travel_to_bump(x, y, h, walls, front, half, max_cm):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """How far the cart at ``(x, y, h)`` drives straight before its bumper (``front`` cm ahead of the axle,
     ``half`` cm either side) touches a wall: the nearest hit of the rays from the bumper's ends and middle and of
     the wall vertices that the bumper's sweep meets; ``max_cm`` if none."""
@@ -173,7 +173,7 @@ class GreedySplit(Policy):
         seed: seeds the policy's generator (default 0; ``None``: fresh entropy).
     """
 
-    def __init__(self, observation_space, action_space, map="paper", particles: int = 1000, candidates: int = 12,
+    def __init__(self, observation_space, action_space, *, map="paper", particles: int = 1000, candidates: int = 12,
                  bin_cm: float = 5.0, hypothesis_cm: float = 20.0, seed: int | None = 0):  # fmt: skip
         super().__init__(observation_space, action_space)
         self.n = check_int("particles", particles, 100, 20_000)

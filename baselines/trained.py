@@ -352,7 +352,7 @@ class TrainedPolicy:
     """
 
     def __init__(
-        self, model, algo: str, path: str, normalization=None, run: dict | None = None, checksum=None,
+        self, model, algo: str, path: str, *, normalization=None, run: dict | None = None, checksum=None,
         residual: ResidualComposer | None = None, stack: ObservationStack | None = None,
     ):  # fmt: skip
         self.model = model
@@ -478,7 +478,7 @@ def _stack_of(path, run: dict, run_file, observation_space) -> ObservationStack 
     return ObservationStack(frames, observation_space)
 
 
-def _residual_of(path, run: dict, run_file, env_id: str, observation_space, action_space, seed):
+def _residual_of(path, run: dict, run_file, env_id: str, observation_space, action_space, *, seed):
     """The composer of a residual agent's run.json (None for a plain model), its baseline rebuilt."""
     if "residual" not in run:
         return None
@@ -512,7 +512,7 @@ def load_trained_policy(
         raise TrainedModelError(f"{path}: trained on {trained_on} ({run_file}), not {env_id}")
     if normalize_file is None and _normalize_requested(run):
         raise TrainedModelError(f"{path}: {run_file} says it trained with normalize, but there is no {NORMALIZE_FILE}")
-    residual = _residual_of(path, run, run_file, env_id, observation_space, action_space, seed)
+    residual = _residual_of(path, run, run_file, env_id, observation_space, action_space, seed=seed)
     if residual is not None:  # the model sees and does what the residual wrapper gave it
         observation_space, action_space = residual.observation_space, residual.action_space
     stack = _stack_of(path, run, run_file, observation_space)
@@ -529,4 +529,6 @@ def load_trained_policy(
             )
     normalization = _load_normalization(normalize_file, observation_space) if normalize_file is not None else None
     checksum = model_checksum(model_file, normalize_file)
-    return TrainedPolicy(model, algo, path, normalization, run, checksum, residual, stack)
+    return TrainedPolicy(
+        model, algo, path, normalization=normalization, run=run, checksum=checksum, residual=residual, stack=stack
+    )

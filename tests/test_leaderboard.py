@@ -515,6 +515,12 @@ def test_the_pool_takes_the_longest_evaluations_first(tmp_path, monkeypatch):
         submitted.extend(job[1] for job in jobs)
 
     monkeypatch.setattr(polyenvs.pool, "run_local", record)
-    polyenvs.evaluation.run.run_leaderboard([GOAL, WALL], 1, results_dir=tmp_path, progress=lambda _: None, workers=2)
+    polyenvs.evaluation.run.run_leaderboard(
+        [GOAL, WALL],
+        1,
+        results_dir=tmp_path,
+        listeners=polyenvs.evaluation.run.Listeners(progress=lambda _: None),
+        workers=2,
+    )
     assert submitted[0] == WALL and submitted[-1] == GOAL
     assert submitted == sorted(submitted, key=lambda env_id: -polyenvs.evaluation.run.step_budget(env_id))

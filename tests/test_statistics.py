@@ -12,7 +12,9 @@ checked against the two-stage variance formula.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -29,6 +31,7 @@ from polyenvs.evaluation.statistics import (
     probability_of_improvement,
     verdict,
 )
+from polyenvs.registry import Score
 
 REPS = 2000
 
@@ -213,8 +216,8 @@ def test_the_verdict_follows_the_direction():
     rng = np.random.default_rng(11)
     agent = [rng.normal(1.0, 0.2, size=50) for _ in range(3)]
     reference = [rng.normal(2.0, 0.3, size=50)]
-    assert compare(agent, reference, direction="min").outcome == "better"
-    assert compare(agent, reference, direction="max").outcome == "worse"
+    assert compare(agent, reference, Score("error", direction="min")).outcome == "better"
+    assert compare(agent, reference, Score("error", direction="max")).outcome == "worse"
     across = Difference(agent=1.0, reference=1.0, low=-0.1, high=0.2)
     assert verdict(across, "min") == verdict(across, "max") == "tied"
 
@@ -232,17 +235,17 @@ def test_a_tie_at_the_ceiling_is_decided_by_the_tie_break_interval():
     agent, reference = [_successes(50)] * 3, [_successes(50)]
     agent_times = [rng.normal(14.0, 1.0, size=50) for _ in range(3)]
     reference_times = [rng.normal(20.0, 3.0, size=50)]
-    ceiling = {"aggregate": "mean", "ceiling": 1.0, "tie_direction": "min"}
-    faster = compare(agent, reference, **ceiling, agent_tie_groups=agent_times, reference_tie_groups=reference_times)
+    ceiling = Score("success", aggregate="mean", ceiling=1.0, tie_direction="min")
+    faster = compare(agent, reference, ceiling, agent_tie_groups=agent_times, reference_tie_groups=reference_times)
     assert (faster.outcome, faster.score.value) == ("better", 0.0)
     assert faster.tie_break.high < 0
     close = [rng.normal(19.7, 3.0, size=50)]
     assert (
-        compare(agent, reference, **ceiling, agent_tie_groups=close, reference_tie_groups=reference_times).outcome
+        compare(agent, reference, ceiling, agent_tie_groups=close, reference_tie_groups=reference_times).outcome
         == "tied"
     )
     below = compare(
-        agent, [_successes(49)], **ceiling, agent_tie_groups=agent_times, reference_tie_groups=reference_times
+        agent, [_successes(49)], ceiling, agent_tie_groups=agent_times, reference_tie_groups=reference_times
     )
     assert (below.outcome, below.tie_break) == ("tied", None)
 
@@ -261,6 +264,11 @@ def test_the_comparisons_are_deterministic_given_the_seed():
     assert difference_with_ci(agent, reference, seed=1) != difference_with_ci(agent, reference, seed=2)
 
 
+def _unchecked_score(**fields) -> SimpleNamespace:
+    """A task score that skips :class:`Score`'s own checks, so that :func:`compare`'s are the ones tested."""
+    return SimpleNamespace(**{**dataclasses.asdict(Score("score")), **fields})
+
+
 @pytest.mark.parametrize(
     ("call", "name"),
     [
@@ -271,7 +279,9 @@ def test_the_comparisons_are_deterministic_given_the_seed():
         pytest.param(lambda g: aggregate_with_two_level_ci([]), "groups", id="no groups"),
         pytest.param(lambda g: difference_with_ci(g, [[np.nan]]), "reference_groups", id="nan"),
         pytest.param(lambda g: verdict(difference_with_ci(g, g), "up"), "direction", id="verdict direction"),
-        pytest.param(lambda g: compare(g, g, tie_direction="fast"), "tie_direction", id="tie_direction"),
+        pytest.param(
+            lambda g: compare(g, g, _unchecked_score(tie_direction="fast")), "tie_direction", id="tie_direction"
+        ),
         pytest.param(lambda g: probability_of_improvement([[]], g), "x_groups", id="x_groups"),
         pytest.param(lambda g: probability_of_improvement(g, g, direction="up"), "direction", id="P direction"),
     ],

@@ -199,7 +199,8 @@ def test_time_to_beat_trains_in_chunks_and_compares_with_the_paper_on_the_same_s
     from benchmarks import time_to_beat
 
     tiny = {"n_steps": 8, "batch_size": 32, "n_epochs": 1}
-    result = time_to_beat.time_to_beat(budget=128, chunk=64, episodes=2, overrides=tiny, stop_when_beaten=False)
+    race = time_to_beat.Race(budget=128, chunk=64, episodes=2, overrides=tiny, stop_when_beaten=False)
+    result = time_to_beat.time_to_beat(race)
     assert result.seeds == [1000, 1001]  # the published evaluation seeds
     assert [chunk.timesteps for chunk in result.chunks] == [64, 128]
     assert all(math.isfinite(chunk.ppo_iqm) and chunk.total_s >= chunk.train_s for chunk in result.chunks)

@@ -290,11 +290,15 @@ def test_record_a_trained_model(ppo_run, tmp_path):
 
 def _bad_model(kind: str, ppo_run: Path, tmp_path: Path) -> tuple[str, str, str]:
     """(env id, --policy value, fragment of the one-line error) for each way a model can be unusable."""
-    if kind == "missing":
-        return WALL, str(tmp_path / "nowhere"), "no such training directory or model file"
-    if kind == "missing zip":
-        return WALL, str(tmp_path / "nowhere.zip"), "no such training directory or model file"
+    if kind in ("missing", "missing zip"):
+        name = "nowhere.zip" if kind == "missing zip" else "nowhere"
+        return WALL, str(tmp_path / name), "no such training directory or model file"
     run = copy_run(ppo_run, tmp_path / "run")
+    return _break_model_file(kind, run) or _break_run_files(kind, run, tmp_path)
+
+
+def _break_model_file(kind: str, run: Path) -> tuple[str, str, str] | None:
+    """:func:`_bad_model` for the kinds that spoil ``run``'s model.zip (None for the others)."""
     if kind == "no model in directory":
         (run / "model.zip").unlink()
         return WALL, str(run), "must hold model.zip"
@@ -311,6 +315,11 @@ def _bad_model(kind: str, ppo_run: Path, tmp_path: Path) -> tuple[str, str, str]
         with zipfile.ZipFile(run / "model.zip", "w") as archive:
             archive.writestr("hello.txt", "hi")
         return WALL, str(run), "no data or policy.pth"
+    return None
+
+
+def _break_run_files(kind: str, run: Path, tmp_path: Path) -> tuple[str, str, str]:
+    """:func:`_bad_model` for the kinds that spoil what lies beside the model (or ask for another environment)."""
     if kind == "another environment":
         return GOAL, str(run), f"trained on {WALL}"
     if kind == "spaces differ":

@@ -155,6 +155,7 @@ def body_motion(
     feet_ground: np.ndarray,
     pose0: tuple[np.ndarray, np.ndarray],
     pose1: tuple[np.ndarray, np.ndarray],
+    *,
     free_targets: dict[int, np.ndarray],
     knots: int = 12,
 ) -> JointTrajectory | None:
@@ -166,7 +167,14 @@ def body_motion(
 
 
 def leg_trajectory(
-    planner: BeastPlanner, q: np.ndarray, leg: int, path: np.ndarray, rot: np.ndarray, centre: np.ndarray, rate: float
+    planner: BeastPlanner,
+    q: np.ndarray,
+    leg: int,
+    path: np.ndarray,
+    rot: np.ndarray,
+    centre: np.ndarray,
+    *,
+    rate: float,
 ) -> JointTrajectory | None:
     """Joint trajectory of one leg along a ground-frame foot path (knots, 3), the rest of the robot held at ``q``
     (body pose ``rot``, ``centre``); None if the path leaves the leg's workspace or joint range, or crosses a
@@ -294,7 +302,7 @@ class _FootholdController:
         self.footholds[leg] = pos
 
     def _leg_trajectory(self, q, leg, path, rot, centre) -> JointTrajectory | None:
-        return leg_trajectory(self.planner, q, leg, path, rot, centre, self.rate)
+        return leg_trajectory(self.planner, q, leg, path, rot, centre, rate=self.rate)
 
     def _start(self, traj: JointTrajectory, phase: str):
         self.traj, self.t, self.phase = traj, 0.0, phase
@@ -421,8 +429,9 @@ class CrawlController(_FootholdController):
         com = rot1 @ centre_of_mass(p, q_end)
         centre = np.array([com_xy[0] - com[0], com_xy[1] - com[1], cfg.height])
         traj = body_motion(
-            p, q, self.legs, self._feet_array(), pose0, (rot1, centre), {self.opposite: self.fold}, cfg.knots
-        )
+            p, q, self.legs, self._feet_array(), pose0, (rot1, centre), free_targets={self.opposite: self.fold},
+            knots=cfg.knots,
+        )  # fmt: skip
         if traj is None:
             self.failures += 1
             self.phase, self.waited = "stuck", 0.0
@@ -556,7 +565,6 @@ class ReorientController(_FootholdController):
         self.elapsed += CONTROL_DT
         if self.crawl is not None:
             return self.crawl(obs)
-        p = self.planner
         q, contact = self._sense(obs)
         if self.phase == "settle":
             self.waited += CONTROL_DT
@@ -568,25 +576,29 @@ class ReorientController(_FootholdController):
             self.t += CONTROL_DT
             if self.t >= self.traj.duration:
                 self.hold_q = self.traj.q[-1].copy()
-                if self.phase == "tilt":
-                    self._plan_place(q, self.c)
-                elif self.phase in ("place", "reach"):
-                    if contact[self.placing] or self.reaches >= 4:
-                        self._landed(q)
-                        if self.placing == self.c:
-                            self._plan_place(q, self.d)
-                        else:
-                            self._plan_shift(q)
-                    else:
-                        self._plan_reach(q)
-                elif self.phase == "shift":
-                    self._plan_lift(q)
-                else:
+                if self.phase == "lift":
                     self._hand_over(obs, q)
                     return self.crawl(obs)
+                self._plan_after(q, contact)
         if self.traj is not None and self.phase in ("tilt", "place", "reach", "shift", "lift"):
-            return p.to_action(self.traj(self.t))
-        return p.to_action(self.hold_q)
+            return self.planner.to_action(self.traj(self.t))
+        return self.planner.to_action(self.hold_q)
+
+    def _plan_after(self, q: np.ndarray, contact: np.ndarray):
+        """The move of phase tilt, place, reach or shift ended: plan the next one (tilt, place c, place d, shift,
+        lift), reaching further down where a placed foot has not touched yet."""
+        if self.phase == "tilt":
+            self._plan_place(q, self.c)
+        elif self.phase == "shift":
+            self._plan_lift(q)
+        elif contact[self.placing] or self.reaches >= 4:  # place or reach
+            self._landed(q)
+            if self.placing == self.c:
+                self._plan_place(q, self.d)
+            else:
+                self._plan_shift(q)
+        else:
+            self._plan_reach(q)
 
     # ------------------------------------------------------------------------------------------------ geometry
     def _start_ground(self, q: np.ndarray, contact: np.ndarray):
@@ -673,7 +685,9 @@ class ReorientController(_FootholdController):
             if not K.reachable(p_limb[None], p.links, tol=-1e-3)[0]:
                 return None
             free[leg] = p.ik_nearest_any(p_limb[None], TUCKED[None])[0]
-        traj = body_motion(p, q, self.support, self._feet_array(), pose0, (rot, centre), free, cfg.knots)
+        traj = body_motion(
+            p, q, self.support, self._feet_array(), pose0, (rot, centre), free_targets=free, knots=cfg.knots
+        )
         if traj is None:
             return None
         # The shift onto the four legs at the end must be plannable too (c and d on their footholds).
@@ -684,7 +698,8 @@ class ReorientController(_FootholdController):
         com_xy = np.mean([feet[leg][:2] for leg in self.legs], axis=0)
         centre1 = self._centre_for(self.rot1, q_end, com_xy, cfg.height)
         planted = self.support + [self.c, self.d]
-        if body_motion(p, q_end, planted, feet, (rot, centre), (self.rot1, centre1), {}, cfg.knots) is None:
+        pose1 = (self.rot1, centre1)
+        if body_motion(p, q_end, planted, feet, (rot, centre), pose1, free_targets={}, knots=cfg.knots) is None:
             return None
         return traj
 
@@ -723,7 +738,9 @@ class ReorientController(_FootholdController):
         pose0 = self._pose(q, planted)
         com_xy = np.mean([self.footholds[leg][:2] for leg in self.legs], axis=0)
         centre = self._centre_for(self.rot1, q, com_xy, cfg.height)
-        traj = body_motion(p, q, planted, self._feet_array(), pose0, (self.rot1, centre), {}, cfg.knots)
+        traj = body_motion(
+            p, q, planted, self._feet_array(), pose0, (self.rot1, centre), free_targets={}, knots=cfg.knots
+        )
         if traj is None:
             return self._fail("shift onto the four legs not plannable")
         self._start(traj, "shift")

@@ -82,6 +82,7 @@ class RollingGaitController:
     def __init__(
         self,
         planner: BeastPlanner,
+        *,
         first_tumble: tuple[int, int, int, int] | None = None,
         max_tumbles: int | None = None,
         heading: np.ndarray | None = None,
@@ -114,56 +115,73 @@ class RollingGaitController:
         self.history: list[tuple[int, ...]] = []
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        p = self.planner
         sensors = split_observation(obs)
         q = sensors["joint_pos"]
         contact = sensors["foot_contact"] > 0.5
-        dt = CONTROL_DT
         if self.phase == "start":
-            self.hold_q = q.copy()
-            down = tuple(int(i) for i in np.flatnonzero(contact))
-            if len(down) >= 3:
-                self.support = self._face(down)
-                self._begin_next(q)
+            self._stand_on_feet_down(q, contact)
         elif self.phase in ("tip", "stance"):
-            self.t += dt
-            if self.t >= self.traj.duration:
-                self.hold_q = self.traj.q[-1].copy()
-                if self.phase == "tip":
-                    self.phase, self.landed_for, self.waited = "roll", 0.0, 0.0
-                else:
-                    self._begin_next(q)
+            self._follow_plan(q)
         elif self.phase == "roll":
-            l1, l2, l3, l4 = self.tumble
-            self.waited += dt
-            landed = contact[l4] and not contact[l3]
-            self.landed_for = self.landed_for + dt if landed else 0.0
-            if self.landed_for >= 0.3:
-                self.tumbles_done += 1
-                self.history.append(tuple(v + 1 for v in self.tumble))
-                self.support = (l1, l2, l4)
-                self.last_edge = frozenset((l1, l2))
-                plan = p.stance_plan(q, self.support, (l3,))
-                if plan is None:
-                    self.phase, self.waited = "stuck", 0.0
-                else:
-                    self._start(plan, "stance")
-            elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < p.config.max_nudges:
-                self.nudges += 1
-                extra = self.nudges * p.config.nudge
-                plan, self.future = self._tip_plan(q, self.tumble, self.future, self.landing, extra)
-                if plan is not None:
-                    self._start(plan, "tip")
-            elif self.waited >= ROLL_TIMEOUT:
-                self._resume(q, contact)
+            self._wait_for_landing(q, contact)
         elif self.phase == "stuck":
             # Try again from whatever stands now, a few times a second (the feet may have settled differently).
-            self.waited += dt
+            self.waited += CONTROL_DT
             if self.waited >= 1.0:
                 self._resume(q, contact)
         if self.traj is not None and self.phase in ("tip", "stance"):
-            return p.to_action(self.traj(self.t))
-        return p.to_action(self.hold_q)
+            return self.planner.to_action(self.traj(self.t))
+        return self.planner.to_action(self.hold_q)
+
+    def _stand_on_feet_down(self, q: np.ndarray, contact: np.ndarray):
+        """Phase "start": hold the measured angles and, once three feet are down, plan the first tumble."""
+        self.hold_q = q.copy()
+        down = tuple(int(i) for i in np.flatnonzero(contact))
+        if len(down) >= 3:
+            self.support = self._face(down)
+            self._begin_next(q)
+
+    def _follow_plan(self, q: np.ndarray):
+        """Phases "tip" and "stance": advance along the plan; at its end, wait for the landing after a tip, or go
+        on to the next tumble after a stance move."""
+        self.t += CONTROL_DT
+        if self.t >= self.traj.duration:
+            self.hold_q = self.traj.q[-1].copy()
+            if self.phase == "tip":
+                self.phase, self.landed_for, self.waited = "roll", 0.0, 0.0
+            else:
+                self._begin_next(q)
+
+    def _wait_for_landing(self, q: np.ndarray, contact: np.ndarray):
+        """Phase "roll": the landing foot down (and the lifted one up) for 0.3 s lands the tumble; a tip that has not
+        gone over after a second is nudged further; after ``ROLL_TIMEOUT`` the gait goes on from what stands."""
+        _, _, l3, l4 = self.tumble
+        self.waited += CONTROL_DT
+        landed = contact[l4] and not contact[l3]
+        self.landed_for = self.landed_for + CONTROL_DT if landed else 0.0
+        if self.landed_for >= 0.3:
+            self._land(q)
+        elif self.waited >= 1.0 and contact[l3] and not contact[l4] and self.nudges < self.planner.config.max_nudges:
+            self.nudges += 1
+            extra = self.nudges * self.planner.config.nudge
+            plan, self.future = self._tip_plan(q, self.tumble, self.future, self.landing, extra)
+            if plan is not None:
+                self._start(plan, "tip")
+        elif self.waited >= ROLL_TIMEOUT:
+            self._resume(q, contact)
+
+    def _land(self, q: np.ndarray):
+        """Count the tumble, stand on its new support and plan the stance move that lifts the old foot."""
+        l1, l2, l3, l4 = self.tumble
+        self.tumbles_done += 1
+        self.history.append(tuple(v + 1 for v in self.tumble))
+        self.support = (l1, l2, l4)
+        self.last_edge = frozenset((l1, l2))
+        plan = self.planner.stance_plan(q, self.support, (l3,))
+        if plan is None:
+            self.phase, self.waited = "stuck", 0.0
+        else:
+            self._start(plan, "stance")
 
     def _face(self, down) -> tuple[int, ...] | None:
         """Three of the feet that are down forming a support face (no two opposite limbs), working limbs first."""

@@ -118,7 +118,7 @@ DEFAULT_CONFIGS = {
 }
 
 
-def _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots) -> tuple:
+def _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, *, any_branch, knots) -> tuple:
     """Everything :meth:`BeastPlanner.body_motion` reads, exactly (the arrays' bytes)."""
     arrays = (q_now, feet_tumble, *pose0, *pose1, *free_targets.values())
     data = b"".join(np.ascontiguousarray(a, dtype=float).tobytes() for a in arrays)
@@ -373,16 +373,18 @@ class BeastPlanner:
         its stop); then a foot must stay 1 mm inside its workspace and a jump between branches (a singularity
         crossed) is None. ``knots``: knot intervals (default the gait's).
         """
-        key = _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots)
+        key = _motion_key(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch=any_branch, knots=knots)
         if key in self._motions:  # the same inputs plan the same motion: reuse it (trajectories are never modified)
             return self._motions[key]
-        traj = self._body_motion(q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots)
+        traj = self._body_motion(
+            q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch=any_branch, knots=knots
+        )
         if len(self._motions) >= MOTION_CACHE:
             del self._motions[next(iter(self._motions))]
         self._motions[key] = traj
         return traj
 
-    def _body_motion(self, q_now, planted, feet_tumble, pose0, pose1, free_targets, any_branch, knots):
+    def _body_motion(self, q_now, planted, feet_tumble, pose0, pose1, free_targets, *, any_branch, knots):
         """:meth:`body_motion`, planned."""
         q_now = np.asarray(q_now, dtype=float).reshape(self.n_limbs, 3)
         (r0, c0), (r1, c1) = pose0, pose1

@@ -153,13 +153,14 @@ def zero_tip_plan(planner: BeastPlanner, q_now: np.ndarray, tumble, landing: flo
         apart = np.linalg.norm(centre[starts][:, None] - centre[ends][None], axis=-1)
         for flat in np.argsort(apart, axis=None)[:20]:
             a, b = starts[flat // len(ends)], ends[flat % len(ends)]
-            plan = _moves(planner, q_now, tumble, ground, pose0, (rot[a], centre[a]), (rot[b], centre[b]), q[a])
+            pose_a, pose_b = (rot[a], centre[a]), (rot[b], centre[b])
+            plan = _moves(planner, q_now, tumble, ground, pose0=pose0, pose_a=pose_a, pose_b=pose_b, q_a=q[a])
             if plan is not None:
                 return plan
     return None
 
 
-def _moves(planner, q_now, tumble, ground, pose0, pose_a, pose_b, q_a) -> JointTrajectory | None:
+def _moves(planner, q_now, tumble, ground, *, pose0, pose_a, pose_b, q_a) -> JointTrajectory | None:
     """The zero-tip tumble from ``q_now`` through poses A and B (rotation body -> tumble frame, centre), or None."""
     l1, l2, l3, l4 = tumble
     (rot_a, centre_a), (rot_b, centre_b) = pose_a, pose_b
@@ -169,14 +170,14 @@ def _moves(planner, q_now, tumble, ground, pose0, pose_a, pose_b, q_a) -> JointT
     if reach is None or not planner.in_range(reach.q):
         return None
     down = np.linspace(above, ground[l4], 6)
-    touch = leg_trajectory(planner, reach.q[-1], l4, down, rot_a, centre_a, planner.rate)
+    touch = leg_trajectory(planner, reach.q[-1], l4, down, rot_a, centre_a, rate=planner.rate)
     if touch is None:
         return None
     shift = planner.body_motion(touch.q[-1], [l1, l2, l3, l4], ground, pose_a, pose_b, {})
     if shift is None or not planner.in_range(shift.q):
         return None
     up = np.linspace(ground[l3], ground[l3] + [0.0, 0.0, HOVER], 6)
-    lift = leg_trajectory(planner, shift.q[-1], l3, up, rot_b, centre_b, planner.rate)
+    lift = leg_trajectory(planner, shift.q[-1], l3, up, rot_b, centre_b, rate=planner.rate)
     if lift is None or planner.stance_plan(lift.q[-1], (l1, l2, l4), (l3,)) is None:
         return None
     return _concatenate([reach, touch, shift, lift])

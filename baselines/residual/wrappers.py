@@ -77,6 +77,7 @@ class ResidualPolicy(gym.Wrapper):
         scale: float = 0.5,
         observe_base: bool = True,
         env_id: str | None = None,
+        *,
         seed: int | None = 0,
         hold: int = 1,
     ):

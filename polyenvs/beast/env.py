@@ -2,7 +2,7 @@
 
 A task subclasses :class:`BeastEnv` and provides ``reward_names`` and ``metric_names``, ``_initial_state`` (the
 start state, drawn from the env's generator without touching the simulation) and ``_task_step`` (reward terms,
-termination, running metrics). Everything else lives here:
+termination, running metrics, from the tick's :class:`~polyenvs.beast.sensors.StepSummary`). Everything else lives here:
 
 - the model is generated from the constructor's parameters (:mod:`polyenvs.beast.model`) and loaded through a
   temporary file, so nothing is shipped that cannot be regenerated;
@@ -232,7 +232,7 @@ class BeastEnv(MujocoEnv):
     #: and their defaults: :class:`SensorParams`, or :class:`RobotContactParams` for the -v1 ids.
     params_class: type[SensorParams] = SensorParams
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 - gym.make's keywords: all keyword-only, one per documented argument
         self,
         *,
         polyhedron: str = "tetrahedron",
@@ -427,7 +427,7 @@ class BeastEnv(MujocoEnv):
         ):  # fmt: skip
             self._unstable = True
             return None, False
-        return self._task_step(*self._misc[S.SUMMARY].tolist())
+        return self._task_step(S.StepSummary(*self._misc[S.SUMMARY].tolist()))
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         options = self._check_options(options)
@@ -515,6 +515,6 @@ class BeastEnv(MujocoEnv):
         """Set up the episode's bookkeeping (``self._metrics``) once the start state is sensed."""
         raise NotImplementedError
 
-    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
-        """(reward terms in ``reward_names`` order, terminated) from the step's summary (``sensors.sense``)."""
+    def _task_step(self, summary: S.StepSummary) -> tuple[tuple[float, ...], bool]:
+        """(reward terms in ``reward_names`` order, terminated) from the tick's summary."""
         raise NotImplementedError

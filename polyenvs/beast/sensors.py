@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -33,6 +34,7 @@ __all__ = [
     "TILT_AXES",
     "VELOCITY_CLIP",
     "DIVERGED_SPEED",
+    "StepSummary",
     "actuate",
     "observation_layout",
     "observation_layout_of",
@@ -102,6 +104,21 @@ PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = range(6, 12)
 VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = range(12, 19)
 N_MISC = 19
 SUMMARY = slice(VELOCITY, N_MISC)
+
+
+class StepSummary(NamedTuple):
+    """The summary of one tick that a task scores (``misc[SUMMARY]``, in its columns' order; see :func:`sense`):
+    velocity (m/s) along the heading and distance (m) along it from the start, the feet-on-floor bitmask (bit i =
+    limb i + 1) and count, contacts of anything but a foot with the floor, mean squared torque / limit^2, squared
+    body spin (rad^2/s^2). Python floats, as the kernel wrote them."""
+
+    velocity: float
+    distance: float
+    feet_mask: float
+    n_feet: float
+    other_contacts: float
+    torque_sq: float
+    spin_sq: float
 
 
 @njit(cache=True)

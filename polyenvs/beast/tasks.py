@@ -15,6 +15,7 @@ from polyenvs.beast.env import STANCE_TICKS, BeastEnv, RobotContactParams, Senso
 from polyenvs.beast.layouts import LAYOUT_SPLIT
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.beast.mujoco_extra import mujoco
+from polyenvs.beast.sensors import StepSummary
 from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
 
@@ -265,18 +266,18 @@ class BeastTumbleEnv(BeastEnv):
         self._target = CANONICAL_END if self.polyhedron == "tetrahedron" else None
         self._metrics = {"success": 0.0, "time_s": 0.0, "distance_m": 0.0}
 
-    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
-        mask = int(feet_mask)
-        success = self._counter.update(mask, n_feet, self._qpos, other_contacts) and (
+    def _task_step(self, summary: StepSummary):
+        mask = int(summary.feet_mask)
+        success = self._counter.update(mask, summary.n_feet, self._qpos, summary.other_contacts) and (
             self._target is None or mask == self._target
         )
         m = self._metrics
-        m["distance_m"] = distance
+        m["distance_m"] = summary.distance
         m["time_s"] = self._elapsed * CONTROL_DT
         if success:
             m["success"] = 1.0
         bonus = self.success_reward if success else 0.0
-        return (velocity, bonus, -self.ctrl_cost_weight * torque_sq), success
+        return (summary.velocity, bonus, -self.ctrl_cost_weight * summary.torque_sq), success
 
 
 class BeastRollEnv(BeastEnv):
@@ -298,14 +299,14 @@ class BeastRollEnv(BeastEnv):
         self._counter = TumbleCounter(feet_mask, self._qpos)
         self._metrics = {"distance_m": 0.0, "tumbles": 0.0, "speed_m_s": 0.0}
 
-    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+    def _task_step(self, summary: StepSummary):
         counter = self._counter
-        counter.update(int(feet_mask), n_feet, self._qpos, other_contacts)
+        counter.update(int(summary.feet_mask), summary.n_feet, self._qpos, summary.other_contacts)
         m = self._metrics
-        m["distance_m"] = distance
+        m["distance_m"] = summary.distance
         m["tumbles"] = float(counter.count)
-        m["speed_m_s"] = distance / (self._elapsed * CONTROL_DT)
-        return (velocity, -self.ctrl_cost_weight * torque_sq), False
+        m["speed_m_s"] = summary.distance / (self._elapsed * CONTROL_DT)
+        return (summary.velocity, -self.ctrl_cost_weight * summary.torque_sq), False
 
 
 class BeastTurnEnv(BeastEnv):
@@ -330,9 +331,9 @@ class BeastTurnEnv(BeastEnv):
         self._stances = [self._qpos[:2].copy()]
         self._metrics = {"heading_change_deg": 0.0, "heading_error_deg": 180.0, "tumbles": 0.0, "distance_m": 0.0}
 
-    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
+    def _task_step(self, summary: StepSummary):
         m = self._metrics
-        if self._counter.update(int(feet_mask), n_feet, self._qpos, other_contacts):
+        if self._counter.update(int(summary.feet_mask), summary.n_feet, self._qpos, summary.other_contacts):
             self._stances = [*self._stances[-2:], self._qpos[:2].copy()]
             if len(self._stances) == 3:
                 dx, dy = self._stances[2] - self._stances[0]
@@ -340,8 +341,8 @@ class BeastTurnEnv(BeastEnv):
                 m["heading_change_deg"] = change
                 m["heading_error_deg"] = abs((change - self.turn_deg + 180.0) % 360.0 - 180.0)
             m["tumbles"] = float(self._counter.count)
-        m["distance_m"] = distance
-        return (velocity, -self.ctrl_cost_weight * torque_sq), False
+        m["distance_m"] = summary.distance
+        return (summary.velocity, -self.ctrl_cost_weight * summary.torque_sq), False
 
 
 class BeastRecoverEnv(BeastEnv):
@@ -385,17 +386,17 @@ class BeastRecoverEnv(BeastEnv):
         self._held = 0
         self._metrics = {"success": 0.0, "time_to_stance_s": 0.0}
 
-    def _task_step(self, velocity, distance, feet_mask, n_feet, other_contacts, torque_sq, spin_sq):
-        other = other_contacts > 0
-        self._held = self._held + 1 if (n_feet >= 3 and not other and spin_sq < 0.01) else 0
+    def _task_step(self, summary: StepSummary):
+        other = summary.other_contacts > 0
+        self._held = self._held + 1 if (summary.n_feet >= 3 and not other and summary.spin_sq < 0.01) else 0
         success = self._held >= STANCE_TICKS
         m = self._metrics
         m["time_to_stance_s"] = (self._elapsed - (self._held if success else 0)) * CONTROL_DT
         if success:
             m["success"] = 1.0
-        support = 0.01 * (n_feet - (3.0 if other else 0.0))
+        support = 0.01 * (summary.n_feet - (3.0 if other else 0.0))
         bonus = self.success_reward if success else 0.0
-        return (support, bonus, -self.ctrl_cost_weight * torque_sq), success
+        return (support, bonus, -self.ctrl_cost_weight * summary.torque_sq), success
 
 
 class _RobotContact:
@@ -420,8 +421,8 @@ class _PaysSuccessAndTime:
         self.time_cost = check_in_range("time_cost", time_cost, 0.0, 10.0)
         super().__init__(**kwargs)
 
-    def _task_step(self, *summary):
-        (_, bonus, ctrl), success = super()._task_step(*summary)
+    def _task_step(self, summary: StepSummary):
+        (_, bonus, ctrl), success = super()._task_step(summary)
         return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
 
 
@@ -472,9 +473,9 @@ class BeastTurnV1Env(_RobotContact, BeastTurnEnv):
         self.heading_reward = check_in_range("heading_reward", heading_reward, 0.0, 1000.0)
         super().__init__(**kwargs)
 
-    def _task_step(self, *summary):
+    def _task_step(self, summary: StepSummary):
         before = self._metrics["heading_error_deg"]
-        (_, ctrl), terminated = super()._task_step(*summary)
+        (_, ctrl), terminated = super()._task_step(summary)
         gain = self.heading_reward * (before - self._metrics["heading_error_deg"]) / 180.0
         return (gain, ctrl), terminated
 

@@ -205,6 +205,7 @@ def _poses(info: dict) -> tuple[np.ndarray, np.ndarray]:
 
 def figure8_maps(
     agent,
+    *,
     seed: int = 0,
     floor_plan="office",
     max_steps: int = 1000,

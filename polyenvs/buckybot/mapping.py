@@ -237,7 +237,7 @@ def _beam_settled(planes, segment, direction):
 
 
 @njit(cache=True)
-def _near_cells_known(bits, lines, length, a0, a1, b0, b1):
+def _near_cells_known(bits, lines, length, a0, a1, b0, b1):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Whether every cell within ``_WALK_SLACK`` of the segment ``(a0, b0)``-``(a1, b1)`` is known, the cells taken
     as ``lines`` lines of ``length`` cells along the ``b`` axis (line ``k``: bits ``k length`` on); parts off the
     grid need nothing.

@@ -100,7 +100,7 @@ def measure_one(d, normal, noise_scale):
 
 
 @njit(cache=True)
-def measure_into(true_range, normals, noise_scale, reading, too_close, no_return, normalised):
+def measure_into(true_range, normals, noise_scale, reading, too_close, no_return, normalised):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Compiled core of :func:`measure_ranges_normalised` on 1-D arrays, writing into the output arrays."""
     for i in range(true_range.shape[0]):
         reading[i], too_close[i], no_return[i], normalised[i] = measure_one(true_range[i], normals[i], noise_scale)

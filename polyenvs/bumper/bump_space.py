@@ -14,15 +14,17 @@ call over the particle array (:func:`update_rows`: over a batch of them).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from polyenvs.bumper.maps import free_at
 from polyenvs.bumper.odometry import odometry_step
 from polyenvs.core.jit import njit
+from polyenvs.core.parameters import check_parameters, documented, parameter, physical_parameters
 from polyenvs.core.validation import check_in_range, check_int
 
-__all__ = ["BumpSpaceFilter", "densest_cluster", "log_index", "mcl_update", "update_rows"]
+__all__ = ["BumpSpaceFilter", "BumpSpaceSettings", "densest_cluster", "log_index", "mcl_update", "update_rows"]
 
 #: Heading bins of the densest-cluster estimate.
 _HEADING_BINS = 8
@@ -40,7 +42,7 @@ _TICK, _BASE, _FRONT, _HALF, _TOL, _H0, _H1, _F0, _F1, _L0, _L1, _CELL, _GX, _GY
 
 
 @njit(cache=True)
-def _move_particles(particles, n, a, b, noise, stage, params):
+def _move_particles(particles, n, a, b, noise, stage, params):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     base = params[_BASE]
     theta = (b - a) / base
     nx, ny, nh = odometry_step(0.0, 0.0, 0.0, a, b, base)
@@ -92,10 +94,8 @@ def _in_bump_space(x, y, h, bump, walls, params):
 
 
 @njit(cache=True)
-def densest_cluster(particles, n, params, counts, out):
-    """Bin the particles in (x, y, heading) cells, take the cell with the most particles in it and its 26
-    neighbours, and average the particles there (heading as a circular mean) into ``out``; returns how many
-    particles that cluster holds."""
+def _bin_particles(particles, n, params, counts):
+    """Each particle's (x, y, heading) cell ``(n, 3)``, and how many fall in each cell into ``counts``."""
     cell, gx, gy = params[_CELL], params[_GX], params[_GY]
     nx, ny = int(params[_NX]), int(params[_NY])
     counts[:] = 0
@@ -106,6 +106,12 @@ def densest_cluster(particles, n, params, counts, out):
         ih = int((particles[i, 2] + math.pi) / (2.0 * math.pi) * _HEADING_BINS) % _HEADING_BINS
         bins[i, 0], bins[i, 1], bins[i, 2] = ix, iy, ih
         counts[ix, iy, ih] += 1
+    return bins
+
+
+@njit(cache=True)
+def _densest_cell(counts, nx, ny):
+    """The cell whose 3 x 3 x 3 block (heading wrapping round) holds the most particles; the first of equals."""
     best, bx, by, bh = -1, 0, 0, 0
     for ix in range(nx):
         for iy in range(ny):
@@ -120,6 +126,16 @@ def densest_cluster(particles, n, params, counts, out):
                                 total += counts[ix + dx, iy + dy, (ih + dh) % _HEADING_BINS]
                 if total > best:
                     best, bx, by, bh = total, ix, iy, ih
+    return bx, by, bh
+
+
+@njit(cache=True)
+def densest_cluster(particles, n, params, counts, out):
+    """Bin the particles in (x, y, heading) cells, take the cell with the most particles in it and its 26
+    neighbours, and average the particles there (heading as a circular mean) into ``out``; returns how many
+    particles that cluster holds."""
+    bins = _bin_particles(particles, n, params, counts)
+    bx, by, bh = _densest_cell(counts, int(params[_NX]), int(params[_NY]))
     sx = sy = sc = ss = 0.0
     m = 0
     for i in range(n):
@@ -187,6 +203,29 @@ def update_rows(actions, clouds, logs, model, estimates):
         estimates[b, 4] = kept
 
 
+@documented
+@dataclass(frozen=True)
+class BumpSpaceSettings:
+    """The filter's motion errors per stage (``sd = *_sd + *_frac x`` the stage's turn or distance), its bump-space
+    tolerance (the paper's ``pointinside`` tolerance: 0.5 cm empties the set far more often, a loose one blurs the
+    map into symmetry) and the densest-cluster estimate's cell (heading cells are 45°).
+
+    {parameters}
+    """
+
+    heading_sd_deg: float = parameter(2.0, 0.0, 90.0, "deg", "feasibility study")
+    heading_sd_frac: float = parameter(0.05, 0.0, 1.0, "of the turn", "feasibility study")
+    forward_sd_cm: float = parameter(0.6, 0.0, 50.0, "cm", "feasibility study")
+    forward_sd_frac: float = parameter(0.06, 0.0, 1.0, "of the distance", "feasibility study")
+    lateral_sd_cm: float = parameter(0.6, 0.0, 50.0, "cm", "feasibility study")
+    lateral_sd_frac: float = parameter(0.06, 0.0, 1.0, "of the distance", "feasibility study")
+    tolerance_cm: float = parameter(1.5, 0.0, 50.0, "cm", "ours, for the paper's pointinside test")
+    cluster_cm: float = parameter(10.0, 1.0, 100.0, "cm", "ours")
+
+    def __post_init__(self):
+        check_parameters(self)
+
+
 class BumpSpaceFilter:
     """The filter's settings and packed model, and the particles' seeding (the estimator and the task build on it).
 
@@ -195,15 +234,10 @@ class BumpSpaceFilter:
             paper's arena (100 runs of 15 bumps), runs whose particle set emptied: 0.83 / 0.52 / 0.29 / 0.15 /
             0.12 at 100 / 300 / 500 / 700 / 1,000, the knee at 700 as the paper says; the median position error
             at bump 10 is still 35 cm at 700 against 13 cm at 1,000.
-        heading_sd_deg, heading_sd_frac: heading error per stage, ``sd = heading_sd_deg + heading_sd_frac x
-            |turn|`` (default 2° + 5%, from the feasibility study).
-        forward_sd_cm, forward_sd_frac: forward error per stage, ``sd = forward_sd_cm + forward_sd_frac x
-            distance`` (default 0.6 cm + 6%).
-        lateral_sd_cm, lateral_sd_frac: lateral error per stage, the same form (default 0.6 cm + 6%).
-        tolerance_cm: bump-space tolerance, the paper's ``pointinside`` tolerance (default 1.5 cm; 0.5 cm
-            empties the set far more often, a loose one blurs the map into symmetry).
         bumper_width_cm, bumper_offset_cm: the bumper the test uses (default: the context's nominal cart).
-        cluster_cm: the densest-cluster estimate's cell (default 10 cm; heading cells are 45°).
+        **settings: the motion errors, the bump-space tolerance and the estimate's cell, by name
+            (:class:`BumpSpaceSettings`: default 2° + 5% of the turn for the heading, 0.6 cm + 6% of the distance
+            forward and laterally, 1.5 cm, 10 cm).
 
     Every argument after ``particles`` is keyword-only.
     """
@@ -212,32 +246,24 @@ class BumpSpaceFilter:
         self,
         particles: int = 1000,
         *,
-        heading_sd_deg: float = 2.0,
-        heading_sd_frac: float = 0.05,
-        forward_sd_cm: float = 0.6,
-        forward_sd_frac: float = 0.06,
-        lateral_sd_cm: float = 0.6,
-        lateral_sd_frac: float = 0.06,
-        tolerance_cm: float = 1.5,
         bumper_width_cm: float | None = None,
         bumper_offset_cm: float | None = None,
-        cluster_cm: float = 10.0,
+        **settings,
     ):
+        # Python's own TypeError for an unknown keyword, as when these were the constructor's own parameters.
+        checked = physical_parameters(BumpSpaceFilter, BumpSpaceSettings, settings)
         self.n = check_int("particles", particles, 10, 100_000)
-        self.heading = (check_in_range("heading_sd_deg", heading_sd_deg, 0.0, 90.0),
-                        check_in_range("heading_sd_frac", heading_sd_frac, 0.0, 1.0))  # fmt: skip
-        self.forward = (check_in_range("forward_sd_cm", forward_sd_cm, 0.0, 50.0),
-                        check_in_range("forward_sd_frac", forward_sd_frac, 0.0, 1.0))  # fmt: skip
-        self.lateral = (check_in_range("lateral_sd_cm", lateral_sd_cm, 0.0, 50.0),
-                        check_in_range("lateral_sd_frac", lateral_sd_frac, 0.0, 1.0))  # fmt: skip
-        self.tolerance_cm = check_in_range("tolerance_cm", tolerance_cm, 0.0, 50.0)
+        self.heading = (checked.heading_sd_deg, checked.heading_sd_frac)
+        self.forward = (checked.forward_sd_cm, checked.forward_sd_frac)
+        self.lateral = (checked.lateral_sd_cm, checked.lateral_sd_frac)
+        self.tolerance_cm = checked.tolerance_cm
         self.bumper_width_cm = (
             None if bumper_width_cm is None else check_in_range("bumper_width_cm", bumper_width_cm, 1.0, 50.0)
         )
         self.bumper_offset_cm = (
             None if bumper_offset_cm is None else check_in_range("bumper_offset_cm", bumper_offset_cm, 0.0, 50.0)
         )
-        self.cluster_cm = check_in_range("cluster_cm", cluster_cm, 1.0, 100.0)
+        self.cluster_cm = checked.cluster_cm
 
     def configure(self, context, bounds=None) -> None:
         """Pack the filter's parameters for ``context`` (the map and the cart's nominal geometry): ``params``,

@@ -164,6 +164,27 @@ def max_ticks(model: CartModel) -> int:
 
 
 @njit(cache=True)
+def _line_crossings(c0, a, b, theta):
+    """The two ``t`` at which the signed distance ``c0`` from the segment's line, moving at rate ``a`` (and with
+    ``b = n . w``) through angle ``theta``, is zero (:func:`_crossing`); ``inf`` for a root that does not exist."""
+    r0, r1 = _INF, _INF
+    if theta == 0.0:
+        if a != 0.0:
+            r0 = -c0 / a
+    else:
+        qa, qb, qc = c0 * theta - 2.0 * b, 2.0 * a, c0 * theta
+        disc = qb * qb - 4.0 * qa * qc
+        if disc < 0.0:
+            return _INF, _INF
+        q = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))
+        if q != 0.0:
+            r0 = 2.0 * math.atan(qc / q) / theta
+        if qa != 0.0:
+            r1 = 2.0 * math.atan(q / qa) / theta
+    return r0, r1
+
+
+@njit(cache=True)
 def _crossing(point, w, theta, segment, outward):
     """First ``t`` in [0, 1] at which ``point = (px, py)`` (moving with ``w = (wx, wy)`` through angle ``theta``, as
     in the module docstring) enters across ``segment = (qx, qy, ex, ey)``, from ``q`` to ``q + e``, from its outer
@@ -187,20 +208,7 @@ def _crossing(point, w, theta, segment, outward):
         along = ((px - qx) * ex + (py - qy) * ey) / length_sq
         if -1e-12 <= along <= 1.0 + 1e-12:
             return 0.0  # touching and moving in (the second derivative decides when the first is zero)
-    r0, r1 = _INF, _INF
-    if theta == 0.0:
-        if a != 0.0:
-            r0 = -c0 / a
-    else:
-        qa, qb, qc = c0 * theta - 2.0 * b, 2.0 * a, c0 * theta
-        disc = qb * qb - 4.0 * qa * qc
-        if disc < 0.0:
-            return _INF
-        q = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))
-        if q != 0.0:
-            r0 = 2.0 * math.atan(qc / q) / theta
-        if qa != 0.0:
-            r1 = 2.0 * math.atan(q / qa) / theta
+    r0, r1 = _line_crossings(c0, a, b, theta)
     best = _INF
     for t in (r0, r1):
         if not (0.0 <= t <= 1.0) or t >= best:
@@ -220,7 +228,7 @@ def _crossing(point, w, theta, segment, outward):
 
 
 @njit(cache=True)
-def _walls_near(x, y, h, a, b, d, params, walls):
+def _walls_near(x, y, h, a, b, d, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Which real walls the body can reach while it moves by ``(a, b)`` from ``(x, y, h)``: every body point stays
     within the body's reach of the axle, and the axle within a quarter of ``|s theta|`` of its path's chord (an
     arc of at most 90 degrees lies within an eighth of it), so a wall farther than their sum (and a margin) from the
@@ -259,7 +267,7 @@ def _segments_within(p, q, reach) -> bool:
 
 
 @njit(cache=True)
-def _first_contact(x, y, h, a, b, d, params, walls):
+def _first_contact(x, y, h, a, b, d, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """First contact of the body moving by wheel travels ``(a, b)`` on base ``d`` from ``(x, y, h)``:
     ``(t, segment, contact x, contact y)``; ``t = inf`` and segment -1 when the motion is free."""
     theta, s = (b - a) / d, 0.5 * (a + b)
@@ -331,7 +339,7 @@ def _uniform(z):
 
 
 @njit(cache=True)
-def _stage(row, k, a_cmd, b_cmd, z_a, z_b, params, walls):
+def _stage(row, k, a_cmd, b_cmd, z_a, z_b, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """One logged stage: wheels commanded to rotate ``(a_cmd, b_cmd)`` cm; ground travel has per-wheel slip. Logs
     the rounded ticks of the rotation done, dead-reckons them, records a contact as the latest; returns the contact
     ``(segment or -1, x, y)``."""

@@ -239,7 +239,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
 
 def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
     """Evaluate what ``plan`` says (reusing stored results unless --redo) on ``bar``, which it closes."""
-    from polyenvs.evaluation.run import run_leaderboard
+    from polyenvs.evaluation.run import Listeners, run_leaderboard
 
     def on_plan(total: int) -> None:  # every check passed (the agents loaded too): say what is evaluated
         if plan.missing:
@@ -253,9 +253,7 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
             plan.episodes,
             results_dir=plan.results_dir,
             redo=args.redo or args.update_reference,
-            progress=bar.message,
-            on_plan=on_plan,
-            on_episode=lambda _: bar.advance(),
+            listeners=Listeners(progress=bar.message, on_plan=on_plan, on_episode=lambda _: bar.advance()),
             agents_dir=plan.agents_dir,
             extra_agents=args.policy or (),
             workers=plan.workers,

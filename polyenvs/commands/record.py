@@ -45,11 +45,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from polyenvs.evaluation.episodes import make_agent, make_env
     from polyenvs.evaluation.rollout import episode_frames
-    from polyenvs.files import atomic_path
 
     seed = int_flag("--seed", args.seed, 0, MAX_SEED)
     max_steps = int_flag("--max-steps", args.max_steps, 1, MAX_STEPS)
@@ -62,6 +59,26 @@ def run(args: argparse.Namespace) -> int:
             f"{MAX_FRAMES}: raise --every to {-(-max_steps // (MAX_FRAMES - 2))} or lower --max-steps"
         )
     output = Path(args.output)
+    iio = _video_writer(output)
+    check_output_file(output, "--output")
+    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
+    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
+
+    env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
+    try:
+        env_id = bare_id(args.env_id)
+        policy = make_agent(args.policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
+        frames = episode_frames(env, policy, seed, max_steps, every=every)
+        fps = fps or min(max(env.metadata.get("render_fps", 10) / every, MIN_FPS), MAX_FPS)
+    finally:
+        env.close()
+    _write_video(iio, output, frames, fps)
+    print(f"wrote {len(frames)} frames to {output}")
+    return 0
+
+
+def _video_writer(output: Path):
+    """imageio's writer (``imageio.v3``) for ``output``, once its format and what writing it needs are checked."""
     suffix = output.suffix.lower()
     if suffix not in RECORD_FORMATS:
         raise CliError(f"--output {output}: the file name must end in {' or '.join(RECORD_FORMATS)}")
@@ -76,18 +93,16 @@ def run(args: argparse.Namespace) -> int:
             imageio_ffmpeg.get_ffmpeg_exe()
         except (ImportError, RuntimeError):
             raise CliError(f"--output {output}: writing .mp4 needs imageio-ffmpeg: {install_hint('render')}") from None
-    check_output_file(output, "--output")
-    env_kwargs = parse_json_object(args.env_kwargs, "--env-kwargs")
-    policy_kwargs = parse_json_object(args.policy_kwargs, "--policy-kwargs")
+    return iio
 
-    env = make_env(args.env_id, env_kwargs, render_mode="rgb_array")
-    try:
-        env_id = bare_id(args.env_id)
-        policy = make_agent(args.policy, env_id, env, seed=seed, policy_kwargs=policy_kwargs)
-        frames = episode_frames(env, policy, seed, max_steps, every=every)
-        fps = fps or min(max(env.metadata.get("render_fps", 10) / every, MIN_FPS), MAX_FPS)
-    finally:
-        env.close()
+
+def _write_video(iio, output: Path, frames: list, fps: float) -> None:
+    """Write ``frames`` to ``output`` (a .gif or an .mp4) at ``fps``, atomically."""
+    import numpy as np
+
+    from polyenvs.files import atomic_path
+
+    suffix = output.suffix.lower()
     video = np.stack(frames)
     if suffix == ".gif":
         options = {"duration": 1000 / fps, "loop": 0}
@@ -101,5 +116,3 @@ def run(args: argparse.Namespace) -> int:
                 raise OSError("the writer produced an empty file")
     except OSError as exc:
         raise CliError(f"--output {output}: could not write it: {exc}") from None
-    print(f"wrote {len(frames)} frames to {output}")
-    return 0

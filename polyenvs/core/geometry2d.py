@@ -260,7 +260,7 @@ def nearest_wall_points(table: SegmentTable, points: np.ndarray) -> tuple[np.nda
 
 
 @njit(cache=True, error_model="numpy")
-def _rays_against(ws, lo, hi, ox, oy, dx, dy, best):
+def _rays_against(ws, lo, hi, ox, oy, dx, dy, best):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     for k in range(ws.shape[0]):
         if ws[k, _REAL] == 0.0:
             continue
@@ -290,7 +290,7 @@ def first_hits(walls, queries, rays, best):
 
 
 @njit(cache=True, error_model="numpy")
-def _nearest_against(ws, lo, hi, px, py, best, index):
+def _nearest_against(ws, lo, hi, px, py, best, index):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     for k in range(ws.shape[0]):
         if ws[k, _REAL] == 0.0:
             continue
@@ -321,7 +321,7 @@ def nearest_squared(walls, queries, points, best, index):
 
 
 @njit(cache=True, error_model="numpy")
-def _crossings_against(ws, lo, hi, ax, ay, bx, by, hit):
+def _crossings_against(ws, lo, hi, ax, ay, bx, by, hit):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     for k in range(ws.shape[0]):
         if ws[k, _REAL] == 0.0:
             continue

@@ -123,6 +123,7 @@ def evaluate(
     policy: str = "paper",
     episodes: int = 10,
     seed: int = 0,
+    *,
     env_kwargs: dict | None = None,
     policy_kwargs: dict | None = None,
     on_episode: Callable[[dict], None] | None = None,

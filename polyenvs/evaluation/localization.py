@@ -50,7 +50,7 @@ def _pose(info_pose) -> np.ndarray:
     return np.array([x, y, math.radians(heading_deg)])
 
 
-def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: dict | None = None,
+def rollout_logs(env_id: str, runs: int, bumps: int, *, seed: int = 0, env_kwargs: dict | None = None,
                  policy: str = "paper", progress=None):  # fmt: skip
     """``(context, [RunLog])``: ``runs`` rollouts of ``env_id`` until ``bumps`` bumps each.
 
@@ -97,7 +97,7 @@ def rollout_logs(env_id: str, runs: int, bumps: int, seed: int = 0, env_kwargs: 
     return context, out
 
 
-def score_estimator(name: str, kwargs: dict, context, run_logs: list[RunLog], bumps: int, seed: int = 0,
+def score_estimator(name: str, kwargs: dict, context, run_logs: list[RunLog], bumps: int, *, seed: int = 0,
                     progress=None, env_id: str = DEFAULT_ENV_ID) -> dict:  # fmt: skip
     """Run a fresh estimator per run over the logs (``name``: one of ``env_id``'s estimators or a
     ``"module:Class"``); arrays of errors after each bump, failures, and the update rate (over every run but the

@@ -31,7 +31,18 @@ from polyenvs.evaluation.results import evaluation_title, load_result, provenanc
 from polyenvs.files import write_json_atomic
 from polyenvs.registry import ParallelEnvEntry, entry
 
-__all__ = ["run_leaderboard", "step_budget"]
+__all__ = ["Listeners", "run_leaderboard", "step_budget"]
+
+
+@dataclass(frozen=True)
+class Listeners:
+    """What a leaderboard run tells its caller: ``progress(line)`` a line per finished evaluation (and per result
+    reused or redone), ``on_plan(total_episodes)`` once before the first evaluation, ``on_episode(result)`` after
+    each episode (with workers, for each episode of an evaluation when it finishes)."""
+
+    progress: Callable[[str], None] = print
+    on_plan: Callable[[int], None] | None = None
+    on_episode: Callable[[dict], None] | None = None
 
 
 @dataclass
@@ -58,9 +69,7 @@ def run_leaderboard(
     *,
     results_dir: Path,
     redo: bool = False,
-    progress: Callable[[str], None] = print,
-    on_plan: Callable[[int], None] | None = None,
-    on_episode: Callable[[dict], None] | None = None,
+    listeners: Listeners | None = None,
     agents_dir: Path | None = None,
     extra_agents: list[str] | tuple[str, ...] = (),
     workers: int = 1,
@@ -74,23 +83,17 @@ def run_leaderboard(
     ``extra_agents`` (paths whose run.json names one of ``env_ids``); every agent that needs evaluating is loaded
     and checked against its environment first, so a broken one raises :class:`~polyenvs.errors.InputError` before
     any episode runs. Results already in ``results_dir`` for ``episodes`` episodes (and, for an agent, the same
-    model) are reused unless ``redo``; anything else there is evaluated again and ``progress`` says which file and
-    why. ``on_plan(total_episodes)`` is called once before the first evaluation, ``on_episode`` after each episode
-    (with ``workers`` > 1, for each episode of an evaluation when it finishes), and ``progress`` prints a line per
-    finished evaluation. With ``workers`` > 1 the evaluations run on that many processes
-    (:func:`polyenvs.pool.run_local`), with the same results as one by one. An agent's document carries
-    ``"agent": {"algo", "label", "training_seed", ...}``.
+    model) are reused unless ``redo``; anything else there is evaluated again and ``listeners.progress`` says which
+    file and why (:class:`Listeners`: by default lines are printed). With ``workers`` > 1 the evaluations run on that
+    many processes (:func:`polyenvs.pool.run_local`), with the same results as one by one. An agent's document
+    carries ``"agent": {"algo", "label", "training_seed", ...}``.
     """
-    agents: dict[str, list[Agent]] = {env_id: find_agents(agents_dir, env_id) for env_id in env_ids}
-    for path in extra_agents:
-        agent = agent_from_path(path)
-        if agent.env_id not in agents:
-            raise InputError(f"--policy {path}: trained on {agent.env_id}, which is not among the environments run")
-        agents[agent.env_id].append(agent)
-    plan = _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents)
+    listeners = listeners if listeners is not None else Listeners()
+    agents = _agents_of(env_ids, agents_dir, extra_agents)
+    plan = _plan_evaluations(env_ids, episodes, results_dir, redo, listeners.progress, agents)
     todo = [item for item in plan if item.doc is None]
-    if on_plan is not None:
-        on_plan(sum(item.episodes for item in todo))
+    if listeners.on_plan is not None:
+        listeners.on_plan(sum(item.episodes for item in todo))
 
     def finish(item: _Evaluation, doc: dict, seconds: float) -> None:
         doc["n_episodes"] = item.episodes
@@ -100,25 +103,41 @@ def run_leaderboard(
         write_json_atomic(item.path, doc)
         item.doc = doc
         done = sum(i.doc is not None for i in todo)
-        progress(
+        listeners.progress(
             f"{item.title}: {item.episodes} episode{'s' if item.episodes != 1 else ''} in {seconds:.1f} s "
             f"({done}/{len(todo)})"
         )
 
     if workers > 1 and len(todo) > 1:
-        _evaluate_in_pool(todo, workers, finish, on_episode)
+        _evaluate_in_pool(todo, workers, finish, listeners.on_episode)
     else:
-        for item in todo:
-            started = time.monotonic()
-            kwargs = layouts_kwargs(item.layouts)
-            with old_versions_quietly():
-                doc = evaluate(item.env_id, item.policy, episodes=item.episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
-                               on_episode=on_episode)  # fmt: skip
-            finish(item, doc, time.monotonic() - started)
+        _evaluate_in_turn(todo, finish, listeners.on_episode)
     for item in plan:
         if item.agent is not None:
             item.doc["agent"] = item.agent.meta()  # the row it joins now (a --policy agent is labelled by its path)
     return [item.doc for item in plan]
+
+
+def _agents_of(env_ids: list[str], agents_dir: Path | None, extra_agents) -> dict[str, list[Agent]]:
+    """Each environment's trained agents: the committed ones under ``agents_dir``, then the ``extra_agents``."""
+    agents: dict[str, list[Agent]] = {env_id: find_agents(agents_dir, env_id) for env_id in env_ids}
+    for path in extra_agents:
+        agent = agent_from_path(path)
+        if agent.env_id not in agents:
+            raise InputError(f"--policy {path}: trained on {agent.env_id}, which is not among the environments run")
+        agents[agent.env_id].append(agent)
+    return agents
+
+
+def _evaluate_in_turn(todo: list[_Evaluation], finish, on_episode) -> None:
+    """The evaluations one after the other, in this process."""
+    for item in todo:
+        started = time.monotonic()
+        kwargs = layouts_kwargs(item.layouts)
+        with old_versions_quietly():
+            doc = evaluate(item.env_id, item.policy, episodes=item.episodes, seed=EVAL_SEED, env_kwargs=kwargs or None,
+                           on_episode=on_episode)  # fmt: skip
+        finish(item, doc, time.monotonic() - started)
 
 
 def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) -> list[_Evaluation]:

@@ -11,8 +11,12 @@ functions that compare policies (:func:`aggregate_with_two_level_ci`, :func:`dif
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from polyenvs.registry import Score
 
 __all__ = [
     "Comparison",
@@ -249,33 +253,33 @@ class Comparison:
 def compare(
     agent_groups,
     reference_groups,
+    task_score: Score,
     *,
-    aggregate: str = "iqm",
-    direction: str = "max",
-    ceiling: float | None = None,
     agent_tie_groups=None,
     reference_tie_groups=None,
-    tie_direction: str = "min",
     n_boot: int = 2000,
     seed: int = 0,
     confidence: float = 0.95,
 ) -> Comparison:
     """Whether an agent beats a reference on a task score (per training seed, or one group: its values).
 
-    The outcome is :func:`verdict` on :func:`difference_with_ci` of the score. Where that is a tie with both
-    policies' aggregates at the score's ``ceiling`` (a success rate of 1, say), the tie-break metric decides: the
-    same interval of the difference of its mean (``agent_tie_groups`` minus ``reference_tie_groups``), better in
-    ``tie_direction`` (faster to the goal, for instance). Without tie-break values a tie stays a tie.
+    ``task_score`` says how (a registry row's :class:`~polyenvs.registry.Score`, or anything with its ``aggregate``,
+    ``direction``, ``ceiling`` and ``tie_direction``). The outcome is :func:`verdict` on :func:`difference_with_ci`
+    of the score. Where that is a tie with both policies' aggregates at the score's ``ceiling`` (a success rate of 1,
+    say), the tie-break metric decides: the same interval of the difference of its mean (``agent_tie_groups`` minus
+    ``reference_tie_groups``), better in ``tie_direction`` (faster to the goal, for instance). Without tie-break
+    values a tie stays a tie.
     """
-    _check_choice("tie_direction", tie_direction, DIRECTIONS)
-    _check_choice("direction", direction, DIRECTIONS)
-    score = difference_with_ci(agent_groups, reference_groups, aggregate, n_boot, seed, confidence)
-    outcome = verdict(score, direction)
+    _check_choice("tie_direction", task_score.tie_direction, DIRECTIONS)
+    _check_choice("direction", task_score.direction, DIRECTIONS)
+    score = difference_with_ci(agent_groups, reference_groups, task_score.aggregate, n_boot, seed, confidence)
+    outcome = verdict(score, task_score.direction)
+    ceiling = task_score.ceiling
     at_ceiling = ceiling is not None and score.agent == score.reference == ceiling
     if outcome != "tied" or not at_ceiling or agent_tie_groups is None or reference_tie_groups is None:
         return Comparison(outcome, score)
     tie = difference_with_ci(agent_tie_groups, reference_tie_groups, "mean", n_boot, seed, confidence)
-    return Comparison(verdict(tie, tie_direction), score, tie)
+    return Comparison(verdict(tie, task_score.tie_direction), score, tie)
 
 
 def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -289,6 +293,7 @@ def probability_of_improvement(
     y_groups,
     aggregate: str = "iqm",
     direction: str = "max",
+    *,
     n_boot: int = 2000,
     seed: int = 0,
     confidence: float = 0.95,

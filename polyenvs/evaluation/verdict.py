@@ -26,14 +26,7 @@ def _compare(agent: dict, reference: dict, score, layouts: str) -> Comparison | 
     if agent[runs] is None or reference[runs] is None:
         return None
     return compare(
-        agent[runs],
-        reference[runs],
-        aggregate=score.aggregate,
-        direction=score.direction,
-        ceiling=score.ceiling,
-        agent_tie_groups=agent[ties],
-        reference_tie_groups=reference[ties],
-        tie_direction=score.tie_direction,
+        agent[runs], reference[runs], score, agent_tie_groups=agent[ties], reference_tie_groups=reference[ties]
     )
 
 

@@ -99,7 +99,7 @@ def drive(command, live, noise, params, out):
 
 
 @njit(cache=True)
-def account(pose, before, active, sensed, episode, params, out):
+def account(pose, before, active, sensed, episode, params, out):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Score one step for every active robot: the family's reward terms (columns ``PROGRESS``, ``COLLISION``,
     ``ARRIVAL``), arrival and termination, and the running episode metrics in ``track`` (turn, still steps, contact
     events, time, smallest clearance).

@@ -157,7 +157,7 @@ def _collides(i, pose, proposal, radius, scene, grid):
 
 
 @njit(cache=True)
-def move(pose, active, wheels, params, scene, grid, scratch):
+def move(pose, active, wheels, params, scene, grid, scratch):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Advance every active robot by one control period; a contact refuses the move (the robot still turns).
 
     Args:
@@ -231,7 +231,7 @@ def _insert_neighbour(index, distance, j, d):
 
 
 @njit(cache=True)
-def _meet_robots(i, pose, params, grid, ray, out, gap):
+def _meet_robots(i, pose, params, grid, ray, out, gap):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Robot ``i`` against the robots of the 3 x 3 cells around it: they block its beams (``ray`` from
     :func:`_cast_beams`) and narrow its gap within a beam's reach, and fill its k nearest-neighbour slots within
     ``comm_range_m``. Returns the gap."""
@@ -263,7 +263,7 @@ def _meet_robots(i, pose, params, grid, ray, out, gap):
 
 
 @njit(cache=True)
-def sense(pose, active, todo, params, angles, scene, grid, out):
+def sense(pose, active, todo, params, angles, scene, grid, out):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """Cast every active robot's beams, find its k nearest robots in range, and measure its clearance (one call
     senses the whole batch).
 

@@ -186,7 +186,7 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
     #: How ``layouts=`` splits the task's layouts (set by :func:`polyenvs.core.layouts.documents_layouts`).
     layout_split: LayoutSplit
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 - parallel_env's keywords: all keyword-only, one per documented argument
         self,
         *,
         layouts: str = "default",

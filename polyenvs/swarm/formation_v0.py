@@ -84,7 +84,7 @@ def default_comm_range(spacing_m: float) -> float:
 
 
 @njit(cache=True)
-def write_leader(pose, active, todo, normals, per, params, at, out):
+def write_leader(pose, active, todo, normals, per, params, at, out):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """The formation's observation parts of every row in ``todo``: ``leader`` at columns ``at .. at + 2`` (range
     / comm_range, bearing / pi, mask: the leader's broadcast, if within comm_range) and ``is_leader`` at ``at + 3``
     (the family has zeroed them). ``normals``: ``(N, 2)`` the bearing's and the range's noise draws; ``params``:
@@ -109,7 +109,7 @@ def write_leader(pose, active, todo, normals, per, params, at, out):
 
 
 @njit(cache=True)
-def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):
+def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """``|r - R| / R`` over the lattice pairs whose robots are both still in the episode, for E environments of
     N robots (``pairs`` index one environment's robots): the mean per robot over its pairs (``per_robot``,
     ``(E * N,)``) and each environment's mean over its pairs (``swarm``, ``(E,)``; 0 without such pairs)."""

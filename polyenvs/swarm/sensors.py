@@ -141,7 +141,7 @@ def wrap_angle(angle):
 
 
 @njit(cache=True)
-def write_observations(robots, todo, sensed, goals, per, draws, params, out):
+def write_observations(robots, todo, sensed, goals, per, draws, params, out):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """The family's part of every robot's observation row in ``todo``, written into ``out`` ``(N, D)`` float32
     (rows of inactive robots are 0; rows not in ``todo`` are left as they are).
 

@@ -207,15 +207,7 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         return f"{path}: {env_id}: {key}"
 
     parameters = inspect.signature(cls.__init__).parameters
-    algo_keys = [k for k in parameters if k not in RESERVED_KEYS]
-    for key in entry:
-        if key in UNSUPPORTED_KEYS:
-            raise InputError(f"{where(key)}: {UNSUPPORTED_KEYS[key]}")
-        if key not in META_KEYS and key not in algo_keys:
-            close = difflib.get_close_matches(key, [*META_KEYS, *algo_keys], n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise InputError(f"{where(key)}: unknown key for {algo} ({cls.__name__}){hint}")
-
+    _check_keys(entry, algo, cls, [k for k in parameters if k not in RESERVED_KEYS], where)
     if "n_timesteps" not in entry:
         raise InputError(f"{where('n_timesteps')}: missing (the number of training steps)")
     config = TrainConfig(
@@ -226,6 +218,33 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         policy=_policy(entry.get("policy", "MlpPolicy"), cls, where("policy")),
         raw=entry,
     )
+    _read_environment_keys(config, entry, where)
+    hyperparams = {
+        key: _algo_value(key, value, parameters[key].default, where(key))
+        for key, value in entry.items()
+        if key not in META_KEYS
+    }
+    config.hyperparams = hyperparams
+    if "normalize" in entry:
+        config.normalize, config.normalize_kwargs = _normalize(entry["normalize"], where("normalize"))
+        if config.normalize and "gamma" in hyperparams:  # as RL Zoo: the return is discounted like the algorithm's
+            config.normalize_kwargs["gamma"] = hyperparams["gamma"]
+    return config
+
+
+def _check_keys(entry: dict[str, Any], algo: str, cls: type, algo_keys: list[str], where) -> None:
+    """Refuse a key that is not supported, or neither a key of ours (``META_KEYS``) nor an argument of ``cls``."""
+    for key in entry:
+        if key in UNSUPPORTED_KEYS:
+            raise InputError(f"{where(key)}: {UNSUPPORTED_KEYS[key]}")
+        if key not in META_KEYS and key not in algo_keys:
+            close = difflib.get_close_matches(key, [*META_KEYS, *algo_keys], n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(f"{where(key)}: unknown key for {algo} ({cls.__name__}){hint}")
+
+
+def _read_environment_keys(config: TrainConfig, entry: dict[str, Any], where) -> None:
+    """The keys of ``entry`` that shape the training environments (copies, frames, wrappers, keywords), checked."""
     if "n_envs" in entry:
         config.n_envs = _count(entry["n_envs"], 1, where("n_envs"), MAX_N_ENVS)
     if "frame_stack" in entry:
@@ -234,17 +253,6 @@ def _resolve(path: Path, env_id: str, algo: str, cls: type, entry: dict[str, Any
         config.env_wrappers = _env_wrappers(entry["env_wrapper"], where("env_wrapper"))
     if "env_kwargs" in entry:
         config.env_kwargs = _env_kwargs(entry["env_kwargs"], where("env_kwargs"))
-    hyperparams: dict[str, Any] = {}
-    for key, value in entry.items():
-        if key in META_KEYS:
-            continue
-        hyperparams[key] = _algo_value(key, value, parameters[key].default, where(key))
-    config.hyperparams = hyperparams
-    if "normalize" in entry:
-        config.normalize, config.normalize_kwargs = _normalize(entry["normalize"], where("normalize"))
-        if config.normalize and "gamma" in hyperparams:  # as RL Zoo: the return is discounted like the algorithm's
-            config.normalize_kwargs["gamma"] = hyperparams["gamma"]
-    return config
 
 
 # ---------------------------------------------------------------------------------------------- value checks
@@ -331,18 +339,9 @@ def _algo_value(key: str, value: Any, default: Any, where: str) -> Any:
             return None
         return _schedule(value, where)
     if key.endswith("_kwargs"):
-        if isinstance(value, str) and key in EVALUATED_KWARGS:
-            value = parse_python_value(value, where)
-        _mapping_only(value, where, key)
-        if value is not None and not isinstance(value, dict):
-            raise InputError(f"{where}: expected a dict, got {_show(value)}")
-        return value
+        return _kwargs_value(key, value, where)
     if key == "train_freq":
-        if isinstance(value, list | tuple):
-            if len(value) != 2 or value[1] not in ("step", "episode"):
-                raise InputError(f"{where}: expected an integer or [n, 'step' | 'episode'], got {_show(value)}")
-            return (_count(value[0], 1, where), value[1])
-        return _count(value, 1, where)
+        return _train_freq(value, where)
     if isinstance(default, bool):
         if not isinstance(value, bool):
             raise InputError(f"{where}: expected true or false, got {_show(value)}")
@@ -354,6 +353,25 @@ def _algo_value(key: str, value: Any, default: Any, where: str) -> Any:
     if isinstance(value, str) and _yaml_hint(value):
         raise InputError(f"{where}: got the text {value!r}{_yaml_hint(value)}")
     return value
+
+
+def _kwargs_value(key: str, value: Any, where: str) -> dict | None:
+    """A ``*_kwargs`` hyperparameter: a dict (or None), given as a mapping or, for ``EVALUATED_KWARGS``, as text."""
+    if isinstance(value, str) and key in EVALUATED_KWARGS:
+        value = parse_python_value(value, where)
+    _mapping_only(value, where, key)
+    if value is not None and not isinstance(value, dict):
+        raise InputError(f"{where}: expected a dict, got {_show(value)}")
+    return value
+
+
+def _train_freq(value: Any, where: str) -> int | tuple[int, str]:
+    """``train_freq``: a positive count of steps, or ``[n, "step" | "episode"]``."""
+    if isinstance(value, list | tuple):
+        if len(value) != 2 or value[1] not in ("step", "episode"):
+            raise InputError(f"{where}: expected an integer or [n, 'step' | 'episode'], got {_show(value)}")
+        return (_count(value[0], 1, where), value[1])
+    return _count(value, 1, where)
 
 
 def _normalize(value: Any, where: str) -> tuple[bool, dict[str, Any]]:
@@ -428,44 +446,55 @@ def parse_python_value(text: str, where: str = "value") -> Any:
 
 
 def _literal(node: ast.AST, where: str, text: str) -> Any:
-    def bad(what: str) -> InputError:
-        return InputError(f"{where}: {what} is not allowed (in {text!r})")
-
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool | int | float | str) or node.value is None:
             return node.value
-        raise bad(f"the constant {node.value!r}")
+        raise _not_allowed(f"the constant {node.value!r}", where, text)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
         operand = _literal(node.operand, where, text)
         if isinstance(operand, bool) or not isinstance(operand, int | float):
-            raise bad("a sign before a non-number")
+            raise _not_allowed("a sign before a non-number", where, text)
         return -operand if isinstance(node.op, ast.USub) else operand
     if isinstance(node, ast.List):
         return [_literal(e, where, text) for e in node.elts]
     if isinstance(node, ast.Tuple):
         return tuple(_literal(e, where, text) for e in node.elts)
     if isinstance(node, ast.Dict):
-        out = {}
-        for k, v in zip(node.keys, node.values, strict=True):
-            if k is None:
-                raise bad("'**' unpacking")
-            key = _literal(k, where, text)
-            if not isinstance(key, str):
-                raise bad(f"the non-string key {key!r}")
-            out[key] = _literal(v, where, text)
-        return out
+        return _literal_dict(node, where, text)
     if isinstance(node, ast.Call):
-        if not (isinstance(node.func, ast.Name) and node.func.id == "dict") or node.args:
-            raise bad(f"the call {ast.unparse(node.func)}(...) (only dict(key=value, ...))")
-        out = {}
-        for kw in node.keywords:
-            if kw.arg is None:
-                raise bad("'**' unpacking")
-            out[kw.arg] = _literal(kw.value, where, text)
-        return out
+        return _literal_dict_call(node, where, text)
     if isinstance(node, ast.Attribute | ast.Name):
         return _named_class(ast.unparse(node), where, text)
-    raise bad(f"the expression {ast.unparse(node)!r}")
+    raise _not_allowed(f"the expression {ast.unparse(node)!r}", where, text)
+
+
+def _not_allowed(what: str, where: str, text: str) -> InputError:
+    return InputError(f"{where}: {what} is not allowed (in {text!r})")
+
+
+def _literal_dict(node: ast.Dict, where: str, text: str) -> dict:
+    """``{"key": value, ...}``: string keys, no ``**`` unpacking."""
+    out = {}
+    for k, v in zip(node.keys, node.values, strict=True):
+        if k is None:
+            raise _not_allowed("'**' unpacking", where, text)
+        key = _literal(k, where, text)
+        if not isinstance(key, str):
+            raise _not_allowed(f"the non-string key {key!r}", where, text)
+        out[key] = _literal(v, where, text)
+    return out
+
+
+def _literal_dict_call(node: ast.Call, where: str, text: str) -> dict:
+    """``dict(key=value, ...)``, the one call allowed."""
+    if not (isinstance(node.func, ast.Name) and node.func.id == "dict") or node.args:
+        raise _not_allowed(f"the call {ast.unparse(node.func)}(...) (only dict(key=value, ...))", where, text)
+    out = {}
+    for kw in node.keywords:
+        if kw.arg is None:
+            raise _not_allowed("'**' unpacking", where, text)
+        out[kw.arg] = _literal(kw.value, where, text)
+    return out
 
 
 def _named_class(name: str, where: str, text: str) -> type:

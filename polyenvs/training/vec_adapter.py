@@ -265,22 +265,37 @@ def make_training_vec_env(
     is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first
     reset seeds sub-env ``i`` with ``seed + i``. Bad ``env_kwargs`` raise :class:`~polyenvs.errors.InputError`.
     """
+    target = env if isinstance(env, EnvTarget) else resolve_env(env, env_kwargs)
+    if target.parallel:
+        venv = _parallel_vec_env(target, n_envs, wrappers, vec_env)
+    else:
+        venv = _gymnasium_vec_env(target, n_envs, wrappers, vec_env)
+    if seed is not None:
+        venv.seed(seed)
+    return venv
+
+
+def _parallel_vec_env(target: EnvTarget, n_envs: int, wrappers: Sequence[Callable], vec_env: str) -> VecEnv:
+    """``n_envs`` copies of a PettingZoo swarm, each wrapped by ``wrappers``, as one VecEnv of their robots."""
     from polyenvs.evaluation.episodes import make_env
 
-    target = env if isinstance(env, EnvTarget) else resolve_env(env, env_kwargs)
-    env_id, env_kwargs = target.env_id, target.env_kwargs
-    if target.parallel:
-        if vec_env == "native":
-            raise InputError(f"{env_id} is a PettingZoo environment: it trains on its robots, not a native vector env")
-        venv = ParallelVecEnvAdapter([_wrapped(make_env(env_id, env_kwargs), wrappers) for _ in range(n_envs)])
-        if seed is not None:
-            venv.seed(seed)
-        return venv
+    if vec_env == "native":
+        raise InputError(
+            f"{target.env_id} is a PettingZoo environment: it trains on its robots, not a native vector env"
+        )
+    return ParallelVecEnvAdapter(
+        [_wrapped(make_env(target.env_id, target.env_kwargs), wrappers) for _ in range(n_envs)]
+    )
+
+
+def _gymnasium_vec_env(target: EnvTarget, n_envs: int, wrappers: Sequence[Callable], vec_env: str) -> VecEnv:
+    """A Gymnasium id's training VecEnv: its native vector env where ``vec_env`` asks for one and it can be had,
+    else SB3's ``DummyVecEnv`` of ``gym.make`` copies (see :func:`make_training_vec_env`)."""
     if vec_env not in ("auto", "native", "dummy"):
         raise InputError(f"vec_env must be 'auto', 'native' or 'dummy', got {vec_env!r}")
     if vec_env == "native" and wrappers:
         raise InputError("per-env wrappers (env_wrapper) need vec_env='dummy': the native env is every env at once")
-    env_kwargs = dict(env_kwargs or {})
+    env_id, env_kwargs = target.env_id, dict(target.env_kwargs or {})
     venv: VecEnv | None = None
     try:
         if vec_env == "native" or (vec_env == "auto" and target.native_vector and not wrappers):
@@ -290,24 +305,22 @@ def make_training_vec_env(
             if native is not None:
                 venv = VecMonitor(NativeVecEnvAdapter(native))
         if venv is None:
-            from stable_baselines3.common.env_util import make_vec_env
-
-            def wrapper_class(env: gym.Env) -> gym.Env:
-                for wrap in wrappers:
-                    env = wrap(env)
-                return env
-
-            venv = make_vec_env(
-                env_id, n_envs=n_envs, env_kwargs=env_kwargs, vec_env_cls=DummyVecEnv,
-                wrapper_class=wrapper_class if wrappers else None,
-            )  # fmt: skip
+            venv = _dummy_vec_env(env_id, n_envs, env_kwargs, wrappers)
     except (TypeError, ValueError, gym.error.Error) as exc:
         if isinstance(exc, InputError) or not env_kwargs:
             raise
         raise InputError(f"bad environment keyword arguments for {env_id}: {exc}") from exc
-    if seed is not None:
-        venv.seed(seed)
     return venv
+
+
+def _dummy_vec_env(env_id: str, n_envs: int, env_kwargs: dict, wrappers: Sequence[Callable]) -> VecEnv:
+    """SB3's ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, each then wrapped by ``wrappers``."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    wrapper_class = functools.partial(_wrapped, wrappers=wrappers) if wrappers else None
+    return make_vec_env(
+        env_id, n_envs=n_envs, env_kwargs=env_kwargs, vec_env_cls=DummyVecEnv, wrapper_class=wrapper_class
+    )
 
 
 def _wrapped(env, wrappers: Sequence[Callable]):
