@@ -433,6 +433,9 @@ class _ToyGymnasiumRow(gymnasium_suite.GymnasiumRowChecks):
     """The Gymnasium suite's checks on the toy row of ``family``."""
 
     family = ""
+    #: The toy's task file is imported only in this process (it lies in a temporary folder, not in the package), so
+    #: the async vector env's workers must be forked from it: a spawned worker could not import the entry point.
+    async_context = "fork"
 
     @pytest.fixture
     def entry(self, toy_rows) -> EnvEntry:

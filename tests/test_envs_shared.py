@@ -81,6 +81,10 @@ class GymnasiumRowChecks:
     id), ``entry`` (its :class:`~polyenvs.registry.EnvEntry`), ``vector_id`` (an id with a native vector env) and
     ``rows_id`` (an id whose class is a :class:`~polyenvs.core.rows.RowsEnv`)."""
 
+    #: The multiprocessing start method of the async vector env's workers (None: the default, which importing
+    #: torchrl makes "spawn" for the whole test session).
+    async_context: str | None = None
+
     def test_gymnasium_env_checker(self, env_id):
         env = gym.make(env_id, render_mode="rgb_array")
         check_env(env.unwrapped, skip_render_check=False)
@@ -150,7 +154,9 @@ class GymnasiumRowChecks:
             assert np.array_equal(env.step(action)[0], clone.step(action)[0])
 
     def test_async_vector_env(self, env_id):
-        envs = gym.make_vec(f"polyenvs:{env_id}", num_envs=2, vectorization_mode="async")
+        envs = gym.make_vec(
+            f"polyenvs:{env_id}", num_envs=2, vectorization_mode="async", vector_kwargs={"context": self.async_context}
+        )
         try:
             obs, _ = envs.reset(seed=0)
             assert obs.shape == (2, *envs.single_observation_space.shape)

@@ -63,7 +63,7 @@ def observations(env, agent, steps):
     "env_id, agent_dir",
     [
         ("polyenvs/BeastRoll-v0", "polyenvs__BeastRoll-v0/ppo/seed0"),
-        ("polyenvs/BuckybotWallFollow-v0", "polyenvs__BuckybotWallFollow-v0/ppo/seed0"),
+        ("polyenvs/BuckybotWallFollow-v0", "polyenvs__BuckybotWallFollow-v0/ppo_bc_wall_follower_rules/seed0"),
         ("polyenvs/BuckybotExplore-v0", "polyenvs__BuckybotExplore-v0/maskable_ppo/seed0"),
         ("polyenvs/BumperCartExplore-v0", "polyenvs__BumperCartExplore-v0/ppo/seed0"),
         ("polyenvs.swarm.formation_v0", "polyenvs.swarm.formation_v0/ppo/seed0"),
@@ -87,7 +87,9 @@ def test_a_batch_of_one_stays_a_batch_and_a_bad_shape_is_refused():
     env = make_env("polyenvs/BuckybotWallFollow-v0")
     try:
         agent = make_agent(
-            str(AGENTS / "polyenvs__BuckybotWallFollow-v0/ppo/seed0"), "polyenvs/BuckybotWallFollow-v0", env
+            str(AGENTS / "polyenvs__BuckybotWallFollow-v0/ppo_bc_wall_follower_rules/seed0"),
+            "polyenvs/BuckybotWallFollow-v0",
+            env,
         )
         obs, _ = env.reset(seed=1000)
         assert_same(agent.lean(obs[None]), sb3_predict(agent, obs[None]))
