@@ -150,6 +150,8 @@ class RobotView(gym.Env):
         return self._observations[robot], self._infos.get(robot, {})
 
     def step(self, action):
+        """Step the swarm with ``action`` for this robot and the shared policy's actions for its teammates; return
+        this robot's observation, reward, terminated, truncated and info (Gymnasium's step)."""
         if self.robot not in self.swarm.agents:
             raise RuntimeError("the robot's episode has ended: call reset()")
         # the shared policy acts for every live robot, as in the whole swarm's rollout (a trained model's batch of
