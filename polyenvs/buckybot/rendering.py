@@ -11,15 +11,11 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
-from polyenvs.core.raster import Canvas, with_legend
+from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, WALL, Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
 
-FRAME_WIDTH_PX = 480
-WALL = (30, 30, 30)
-TRUE_PATH = (200, 40, 40)
-DEAD_RECKONED_PATH = (60, 90, 220)
 BODY = (250, 190, 60)
 BODY_EDGE = (120, 80, 10)
 BODY_FACE = (255, 236, 170)

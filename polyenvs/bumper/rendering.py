@@ -12,16 +12,12 @@ import math
 import numpy as np
 
 from polyenvs.bumper import cart as C
-from polyenvs.core.raster import Canvas, with_legend
+from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, WALL, Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 
 __all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_belief", "draw_touched_cells"]
 
-FRAME_WIDTH_PX = 480
-WALL = (30, 30, 30)
 TOUCHED = (40, 170, 60)
-TRUE_PATH = (200, 40, 40)
-DEAD_RECKONED_PATH = (60, 90, 220)
 BUMP = (230, 120, 0)
 BODY = (250, 190, 60)
 BUMPER = (120, 60, 0)

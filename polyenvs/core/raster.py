@@ -22,7 +22,22 @@ import numpy as np
 
 from polyenvs.core.validation import check_finite, check_positive
 
-__all__ = ["Canvas", "stamp_text", "text_width", "with_legend"]
+__all__ = [
+    "DEAD_RECKONED_PATH",
+    "FRAME_WIDTH_PX",
+    "TRUE_PATH",
+    "WALL",
+    "Canvas",
+    "stamp_text",
+    "text_width",
+    "with_legend",
+]
+
+#: The house style every family's frames share: their width and the colours of what means the same in each.
+FRAME_WIDTH_PX = 480
+WALL = (30, 30, 30)
+TRUE_PATH = (200, 40, 40)
+DEAD_RECKONED_PATH = (60, 90, 220)
 
 # Hidden border around the frame: stroke footprints that spill over an edge land there instead of being
 # bounds-checked pixel by pixel. Grown on demand for very wide strokes.

@@ -14,7 +14,15 @@ from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
 from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
-from polyenvs.swarm.layouts import box_walls, hex_lattice, lattice_pairs, layout_obstacle_slots, random_obstacles
+from polyenvs.swarm.layouts import (
+    WALL_MARGIN_M,
+    box_walls,
+    drawn_field,
+    hex_lattice,
+    lattice_pairs,
+    layout_obstacle_slots,
+    random_obstacles,
+)
 from polyenvs.swarm.sensors import wrap_angle
 
 __all__ = [
@@ -47,13 +55,7 @@ LAYOUT_SPLIT = LayoutSplit(
     (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.33, 0.45)),),
     varies="3-7 obstacles placed as in the default field, the goal at 35-65 % of the field's width",
 )
-#: Obstacle centres keep this far (m) from the side walls in the default and held-out fields (*ours*).
-WALL_MARGIN_M = 0.6
-#: ... and this far in the training fields, so that an obstacle by a wall, which a robot cannot pass on the
-#: wall's side and which the held-out fields' larger rocks make, is among what training draws (*ours*).
-TRAIN_WALL_MARGIN_M = 0.4
 LAYOUT_GOAL_SPAN = (0.35, 0.65)
-LAYOUT_COUNTS = (3, 7)
 N_OBSTACLES = 5
 #: The lattice spacing R (m) a formation accepts.
 SPACING_RANGE_M = (0.5, 3.0)
@@ -299,7 +301,7 @@ class FormationEnv(SwarmEnv):
                  goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
                  layouts: str = "default", **kwargs):  # fmt: skip
         self.spacing_m = check_in_range("spacing_m", spacing_m, *SPACING_RANGE_M)
-        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
+        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES)
         goal_radius_m = default_goal_radius(self.spacing_m) if goal_radius_m is None else goal_radius_m
         comm_range_m = default_comm_range(self.spacing_m) if comm_range_m is None else comm_range_m
         super().__init__(n_robots=n_robots, goal_radius_m=goal_radius_m, comm_range_m=comm_range_m,
@@ -323,8 +325,7 @@ class FormationEnv(SwarmEnv):
         return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
 
     def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
-        count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
-        margin = TRAIN_WALL_MARGIN_M if layouts == "train" else WALL_MARGIN_M
+        count, margin = drawn_field(rng, layouts)
         return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts), margin)
 
     def _field(self, rng: np.random.Generator, count: int, goal_span, radii, margin: float = WALL_MARGIN_M) -> Episode:

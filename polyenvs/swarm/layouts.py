@@ -14,7 +14,11 @@ from polyenvs.core.validation import check_int
 
 __all__ = [
     "LAYOUT_KINDS",
+    "LAYOUT_COUNTS",
+    "TRAIN_WALL_MARGIN_M",
+    "WALL_MARGIN_M",
     "box_walls",
+    "drawn_field",
     "episode_kinds",
     "hex_lattice",
     "lattice_pairs",
@@ -33,6 +37,14 @@ BY_A_WALL = LayoutKind(
     "obstacle by a wall", "an obstacle less than a robot's width from a wall: the way past it is on one side only"
 )
 LAYOUT_KINDS = (IN_THE_WAY, BY_A_WALL)
+
+#: How many obstacles a drawn field (``layouts="train"`` or ``"test"``) of the obstacle-field tasks holds (*ours*).
+LAYOUT_COUNTS = (3, 7)
+#: Obstacle centres keep this far (m) from the side walls in the default and held-out fields (*ours*).
+WALL_MARGIN_M = 0.6
+#: ... and this far in the training fields, so that an obstacle by a wall, which a robot cannot pass on the
+#: wall's side and which the held-out fields' larger rocks make, is among what training draws (*ours*).
+TRAIN_WALL_MARGIN_M = 0.4
 
 
 def box_walls(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:
@@ -85,7 +97,13 @@ def random_obstacles(rng: np.random.Generator, count: int, region, radius_range,
     return np.array(placed, dtype=np.float64).reshape(-1, 3)
 
 
-def layout_obstacle_slots(n_obstacles, layouts, default: int, most: int) -> int:
+def drawn_field(rng: np.random.Generator, layouts: str) -> tuple[int, float]:
+    """A drawn field's obstacle count (from ``rng``) and the margin its obstacles keep from the side walls."""
+    count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
+    return count, TRAIN_WALL_MARGIN_M if layouts == "train" else WALL_MARGIN_M
+
+
+def layout_obstacle_slots(n_obstacles, layouts, default: int, most: int = LAYOUT_COUNTS[1]) -> int:
     """The obstacle slots of a field: ``n_obstacles`` (checked), or with ``layouts="train"`` or ``"test"``, which
     draw their own count, the most they draw (a ``n_obstacles`` other than ``default`` is refused, not ignored)."""
     n_obstacles = check_int("n_obstacles", n_obstacles, 0, 200)

@@ -14,7 +14,14 @@ import numpy as np
 from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
 from polyenvs.core.parameters import documents_arguments, parameter
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
-from polyenvs.swarm.layouts import box_walls, layout_obstacle_slots, random_obstacles, start_block
+from polyenvs.swarm.layouts import (
+    WALL_MARGIN_M,
+    box_walls,
+    drawn_field,
+    layout_obstacle_slots,
+    random_obstacles,
+    start_block,
+)
 
 __all__ = ["MAX_CYCLES", "N_ROBOTS", "ObstacleFieldEnv", "env", "parallel_env", "raw_env"]
 
@@ -35,12 +42,6 @@ LAYOUT_SPLIT = LayoutSplit(
     (SplitParameter("obstacle radius", "m", train=OBSTACLE_RADIUS_M, test=(0.38, 0.5)),),
     varies="3-7 obstacles placed as in the default field, the goal anywhere in the middle three fifths of the far end",
 )
-#: Obstacle centres keep this far (m) from the side walls in the default and held-out fields (*ours*).
-WALL_MARGIN_M = 0.6
-#: ... and this far in the training fields, so that an obstacle by a wall, which a robot cannot pass on the
-#: wall's side and which the held-out fields' larger rocks make, is among what training draws (*ours*).
-TRAIN_WALL_MARGIN_M = 0.4
-LAYOUT_COUNTS = (3, 7)
 LAYOUT_GOAL_SPAN = (0.2, 0.8)
 
 
@@ -119,7 +120,7 @@ class ObstacleFieldEnv(SwarmEnv):
 
     def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = N_OBSTACLES, max_cycles: int = MAX_CYCLES,
                  layouts: str = "default", **kwargs):  # fmt: skip
-        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES, LAYOUT_COUNTS[1])
+        self.n_obstacles = layout_obstacle_slots(n_obstacles, layouts, N_OBSTACLES)
         super().__init__(n_robots=n_robots, max_cycles=max_cycles, layouts=layouts, **kwargs)
 
     def _block(self) -> tuple[int, float]:
@@ -135,8 +136,7 @@ class ObstacleFieldEnv(SwarmEnv):
         return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
 
     def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
-        count = int(rng.integers(LAYOUT_COUNTS[0], LAYOUT_COUNTS[1] + 1))
-        margin = TRAIN_WALL_MARGIN_M if layouts == "train" else WALL_MARGIN_M
+        count, margin = drawn_field(rng, layouts)
         return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts), margin)
 
     def _field(self, rng: np.random.Generator, count: int, goal_span, radii, margin: float = WALL_MARGIN_M) -> Episode:

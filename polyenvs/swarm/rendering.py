@@ -8,17 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from polyenvs.core.raster import Canvas, with_legend
+from polyenvs.core.raster import FRAME_WIDTH_PX, WALL, Canvas, with_legend
 from polyenvs.core.window import FrameRenderer
 from polyenvs.swarm.batch import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
 
-FRAME_WIDTH_PX = 480
 #: Robots are drawn at least this many pixels in radius: to scale, a Maxelbot on the obstacle field is 2-3 px
 #: wide at 480 px, too small to see or to tell from an obstacle.
 MIN_ROBOT_RADIUS_PX = 6.0
-WALL = (30, 30, 30)
 OBSTACLE = (120, 120, 120)
 LIGHT = (250, 200, 0)
 LIGHT_HALO = (255, 240, 170)
