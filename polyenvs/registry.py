@@ -18,7 +18,9 @@ its best attainable value and a metric that breaks ties there; the leaderboard r
 score is the paper's task is said in the environment's docstring (its "Task score" section).
 
 Variants are constructor keywords (``gym.make(id, floor_plan="office")``), not new rows. Entry points are strings,
-so nothing heavy is imported until an environment is made (or a parallel row's ``max_cycles`` is read).
+so nothing heavy is imported until an environment is made (or a parallel row's ``max_cycles`` is read). A row with
+``native_vector=True`` registers a ``vector_entry_point`` string derived from its entry point, which ``gym.make_vec``
+resolves to the env class's own ``VectorEnv`` (:mod:`polyenvs.core.vector_entry`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import gymnasium as gym
+
+from polyenvs.core import vector_entry
 
 __all__ = [
     "ALL_IDS",
@@ -105,8 +109,9 @@ class EnvEntry:
     max_episode_steps: int
     description: str
     kwargs: dict = field(default_factory=dict)
-    #: A native vector env (``gym.make_vec(id, num_envs=N)``), where the family has one.
-    vector_entry_point: str | None = None
+    #: Whether ``gym.make_vec(id, num_envs=N)`` builds the entry point's native vector env, its class's
+    #: ``VectorEnv`` (where the family has one; :attr:`vector_entry_point`).
+    native_vector: bool = False
     #: The optional extra (``pip install "polyenvs[<extra>]"``) whose packages the environment imports, if any.
     extra: str | None = None
     #: The task score the leaderboard ranks and normalises by.
@@ -119,6 +124,12 @@ class EnvEntry:
     def family(self) -> str:
         """The family of the entry point's module (:func:`family_of`)."""
         return family_of(self.entry_point.partition(":")[0])
+
+    @property
+    def vector_entry_point(self) -> str | None:
+        """Gymnasium's ``vector_entry_point``, derived from the entry point where :attr:`native_vector` is set (a
+        string, as Minari's JSON of the spec needs: :func:`polyenvs.core.vector_entry.vector_entry_point`)."""
+        return vector_entry.vector_entry_point(self.entry_point) if self.native_vector else None
 
 
 @dataclass(frozen=True)
@@ -163,7 +174,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotWallFollow-v0",
         entry_point="polyenvs.buckybot.wall_follow:BuckybotWallFollowEnv",
-        vector_entry_point="polyenvs.buckybot.vector:BuckybotWallFollowVectorEnv",
+        native_vector=True,
         max_episode_steps=500,
         description="Buckybot follows the nearest wall counter-clockwise at distance d* with six range finders",
         score=Score("perimeter_fraction", "max", ceiling=1.0, tie_break="wall_distance_error_cm"),
@@ -171,7 +182,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotExplore-v0",
         entry_point="polyenvs.buckybot.explore:BuckybotExploreEnv",
-        vector_entry_point="polyenvs.buckybot.vector:BuckybotExploreVectorEnv",
+        native_vector=True,
         max_episode_steps=1000,
         description="Buckybot sweeps an unknown office with its range finders; dead-reckoned map error reported",
         score=Score("coverage", "max", ceiling=1.0, tie_break="steps"),
@@ -179,7 +190,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BuckybotGoal-v0",
         entry_point="polyenvs.buckybot.goal:BuckybotGoalEnv",
-        vector_entry_point="polyenvs.buckybot.vector:BuckybotGoalVectorEnv",
+        native_vector=True,
         max_episode_steps=300,
         description="Buckybot reaches a goal given by dead-reckoned bearing and distance without hitting walls",
         score=Score("success", "max", ceiling=1.0, tie_break="steps_to_goal", aggregate="mean"),
@@ -261,7 +272,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BumperCartExplore-v0",
         entry_point="polyenvs.bumper.env:BumperCartExploreEnv",
-        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreVectorEnv",
+        native_vector=True,
         max_episode_steps=200,
         description="A bump-only cart (two wheel encoders, one bump switch) touches as much of an unknown map's "
         "walls as it can; one step is one cycle: turn, drive to the bump, back up",
@@ -273,7 +284,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BumperCartExplore-v1",
         entry_point="polyenvs.bumper.explore_v1:BumperCartExploreV1Env",
-        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV1VectorEnv",
+        native_vector=True,
         max_episode_steps=50,
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles; coverage is the "
         "wall fraction touched over the most 50 cycles can touch",
@@ -284,7 +295,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BumperCartExplore-v2",
         entry_point="polyenvs.bumper.explore_v2:BumperCartExploreV2Env",
-        vector_entry_point="polyenvs.bumper.vector:BumperCartExploreV2VectorEnv",
+        native_vector=True,
         max_episode_steps=50,
         description="The bump-only cart touches as much wall as it can in a budget of 50 cycles, each bump "
         "credited to the wall its bumper touched; coverage is the wall fraction touched over the most 50 cycles "
@@ -295,7 +306,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BumperCartLocalize-v0",
         entry_point="polyenvs.bumper.localize:BumperCartLocalizeEnv",
-        vector_entry_point="polyenvs.bumper.vector:BumperCartLocalizeVectorEnv",
+        native_vector=True,
         max_episode_steps=60,
         description="The bump-only cart localizes itself in a known map: the paper's bump-space Monte Carlo "
         "localizer runs on its logs, the episode ends when the estimate holds within 10 cm and 30 degrees",
@@ -311,7 +322,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/APLiteCorridor-v0",
         entry_point="polyenvs.swarm.single:APLiteCorridorEnv",
-        vector_entry_point="polyenvs.swarm.vector:APLiteCorridorVectorEnv",
+        native_vector=True,
         max_episode_steps=600,
         description="One X80Pro drives up a corridor past four obstacles to a light (AP-lite's indoor experiment)",
         score=_ARRIVED,
@@ -319,7 +330,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/APLiteObstacleField-v0",
         entry_point="polyenvs.swarm.single:APLiteObstacleFieldEnv",
-        vector_entry_point="polyenvs.swarm.vector:APLiteObstacleFieldVectorEnv",
+        native_vector=True,
         max_episode_steps=1000,
         description="One Maxelbot crosses an outdoor obstacle field (wheel-speed noise and drift) to a goal light",
         score=_ARRIVED,

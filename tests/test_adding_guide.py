@@ -40,56 +40,47 @@ import math
 import numpy as np
 
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.env import BuckybotEnv, reset_task, step_task
 from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import A_OBS, A_STATE, BASE_METRICS, advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import documents_layouts
-from polyenvs.core.rows import RowsVectorEnv
 
 REWARD_TERMS = ("away",)
 METRICS = ("distance_cm",)
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 (_R_AWAY,) = OUT.term_columns("away")
 (_M_DISTANCE,) = OUT.metric_columns("distance_cm")
-_M_BASE = OUT.metric_columns(*BASE_METRICS)
-_REWARD = OUT.reward
 OBSERVATION_PARTS = {"away": 1}
 (_AWAY,) = range(*BuckybotEnv.observation_parts(OBSERVATION_PARTS)["away"])
 _START_X, _START_Y, _DISTANCE = range(3)
 
 
 @njit(cache=True)
-def _score(b, state, task, obs, out):
+def _score_row(b, sim, task_arrays, out):
+    state, (task,) = sim[S.A_STATE], task_arrays
     d = math.hypot(state[b, S.X] - task[b, _START_X], state[b, S.Y] - task[b, _START_Y])
     out[b, _R_AWAY] = (d - task[b, _DISTANCE]) / STEP_LENGTH_CM
-    task[b, _DISTANCE] = d
-    obs[b, _AWAY] = math.tanh(d / 100.0)
-    write_base_metrics(b, state, out, _M_BASE)
-    out[b, _M_DISTANCE] = d
-    out[b, _REWARD] = out[b, _R_AWAY]
+    out[b, _M_DISTANCE] = task[b, _DISTANCE] = d
+    sim[S.A_OBS][b, _AWAY] = math.tanh(d / 100.0)
+    return False
+
+
+@njit(cache=True)
+def _start_row(b, sim, task_arrays, out):
+    state, (task,) = sim[S.A_STATE], task_arrays
+    task[b, _START_X], task[b, _START_Y], task[b, _DISTANCE] = state[b, S.X], state[b, S.Y], 0.0
+    return _score_row(b, sim, task_arrays, out)
 
 
 @njit(cache=True)
 def _reset_kernel(rows, kernel):
-    sim, out, (task,) = kernel.sim, kernel.out, kernel.task
-    state = sim[A_STATE]
-    for n in range(rows.shape[0]):
-        b = rows[n]
-        first_sense_row(b, sim)
-        task[b, _START_X], task[b, _START_Y], task[b, _DISTANCE] = state[b, S.X], state[b, S.Y], 0.0
-        out[b, :] = 0.0
-        _score(b, state, task, sim[A_OBS], out)
+    reset_task(rows, kernel, _start_row, REWARD_TERMS)
 
 
 @njit(cache=True)
 def _step_kernel(actions, kernel):
-    sim, out, (task,) = kernel.sim, kernel.out, kernel.task
-    advance_rows(actions, sim)
-    for b in range(actions.shape[0]):
-        if actions[b] >= 0:
-            _score(b, sim[A_STATE], task, sim[A_OBS], out)
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_layouts(LAYOUT_SPLIT)
@@ -136,10 +127,6 @@ class ToyWanderEnv(BuckybotEnv):
 
     _step_kernel = staticmethod(_step_kernel)
     _reset_kernel = staticmethod(_reset_kernel)
-
-
-class ToyWanderVectorEnv(RowsVectorEnv):
-    env_class = ToyWanderEnv
 '''
 
 #: The beasts (step 1's model is polyenvs/beast/tasks.py): keep the body still (the guide's own check, stand.py).
@@ -257,34 +244,28 @@ parallel_env, raw_env, env = module_constructors(ToyBoxEnv)
 CART_TASK = '''
 """Toy: bump as often as possible."""
 
-import numpy as np
-
-from polyenvs.bumper.env import OBSERVATION_STRUCTURE, BumperCartEnv
+from polyenvs.bumper.env import A_OBS, OBSERVATION_STRUCTURE, BumperCartEnv, step_task
 from polyenvs.bumper.maps import LAYOUT_SPLIT
 from polyenvs.core.columns import OutColumns
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import documents_layouts
-from polyenvs.core.rows import RowsVectorEnv
 
 REWARD_TERMS = ("bump",)
-METRICS = ("bumps",)
+METRICS = ("bumps",)  # the base counts the bumps and writes them, as it does wherever a task names "bumps"
 OUT = OutColumns(REWARD_TERMS, METRICS)
 (_R_BUMP,) = OUT.term_columns("bump")
-(_M_BUMPS,) = OUT.metric_columns("bumps")
-_REWARD = OUT.reward
 _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
 
 
 @njit(cache=True)
-def _score_kernel(actions, kernel):
-    obs, (bumps,), out = kernel.sim[5], kernel.task, kernel.out
-    for b in range(actions.shape[0]):
-        if actions[b, 1] < 0.5:
-            continue
-        bumps[b] += obs[b, _BUMP_OBS]
-        out[b, _R_BUMP] = obs[b, _BUMP_OBS]
-        out[b, _M_BUMPS] = bumps[b]
-        out[b, _REWARD] = out[b, _R_BUMP]
+def _score_row(b, sim, task, out):
+    out[b, _R_BUMP] = sim[A_OBS][b, _BUMP_OBS]
+    return False
+
+
+@njit(cache=True)
+def _step_kernel(actions, kernel):
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_layouts(LAYOUT_SPLIT)
@@ -319,22 +300,7 @@ class ToyBumpEnv(BumperCartEnv):
     reward_names = REWARD_TERMS
     metric_names = METRICS
     out_columns = OUT
-
-    def _task_init(self):
-        self._bumps = np.zeros(self._batch_size)
-
-    def _task_arrays(self):
-        return (self._bumps,)
-
-    def _task_commit(self, row, sample):
-        self._bumps[row] = 0.0
-
-    def _task_step(self, actions):
-        _score_kernel(actions, self._kernel)
-
-
-class ToyBumpVectorEnv(RowsVectorEnv):
-    env_class = ToyBumpEnv
+    _step_kernel = staticmethod(_step_kernel)
 '''
 
 #: Each family's toy: (the task file's module, its source, its registry row, its baselines row).
@@ -345,7 +311,7 @@ TOYS = {
         EnvEntry(
             id="polyenvs/ToyWander-v0",
             entry_point="polyenvs.buckybot.toy_wander:ToyWanderEnv",
-            vector_entry_point="polyenvs.buckybot.toy_wander:ToyWanderVectorEnv",
+            native_vector=True,
             max_episode_steps=40,
             description="Toy: Buckybot tips as far from its start as it can",
             score=Score("distance_cm", "max"),
@@ -383,7 +349,7 @@ TOYS = {
         EnvEntry(
             id="polyenvs/ToyBump-v0",
             entry_point="polyenvs.bumper.toy_bump:ToyBumpEnv",
-            vector_entry_point="polyenvs.bumper.toy_bump:ToyBumpVectorEnv",
+            native_vector=True,
             max_episode_steps=20,
             description="Toy: the bump cart bumps as often as it can",
             score=Score("bumps", "max"),

@@ -15,7 +15,6 @@ from baselines.bumper import RandomBounce
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.env import OBSERVATION_STRUCTURE, BumperCartExploreEnv
 from polyenvs.bumper.maps import MAPS
-from polyenvs.bumper.vector import BumperCartExploreVectorEnv
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 
@@ -168,7 +167,7 @@ def test_actions_of_a_wrong_dtype_raise_and_change_nothing(name):
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[4]["pose"], b[4]["pose"])
     # The vector env: the bad turn in one row refuses the whole batch, changing nothing.
-    envs = BumperCartExploreVectorEnv(num_envs=3, map="obstacles")
+    envs = BumperCartExploreEnv.VectorEnv(num_envs=3, map="obstacles")
     envs.reset(seed=3)
     envs.step(np.full((3, 1), 0.3, dtype=np.float32))
     before = _snapshot(envs._core)
@@ -184,7 +183,7 @@ def test_real_turns_of_any_float_or_integer_type_are_accepted():
     for action in (np.array([0.5], dtype=np.float16), np.array([1]), np.array([-1], dtype=np.int8), [0.25], (0,),
                    np.array([np.uint8(1)])):  # fmt: skip
         env.step(action)
-    envs = BumperCartExploreVectorEnv(num_envs=2)
+    envs = BumperCartExploreEnv.VectorEnv(num_envs=2)
     envs.reset(seed=0)
     envs.step(np.array([[1], [0]]))
     envs.step([[0.5], [-0.5]])
@@ -220,7 +219,7 @@ def test_reset_pose_option():
 
 def test_native_vector_env_refuses_nan_turns():
     """(Its parity with SyncVectorEnv is the registry-wide test in tests/test_envs_shared.py.)"""
-    native = BumperCartExploreVectorEnv(num_envs=3, map="maze")
+    native = BumperCartExploreEnv.VectorEnv(num_envs=3, map="maze")
     native.reset(seed=100)
     with pytest.raises(ValueError, match="actions"):
         native.step(np.full((3, 1), np.nan, dtype=np.float32))

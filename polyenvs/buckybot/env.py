@@ -1,22 +1,31 @@
 """The Gymnasium surface shared by the Buckybot tasks: spaces, seeding, reset options, info, rendering.
 
 Everything inside works on a batch of robots ("rows"), like the simulator: ``BuckybotEnv`` is a
-:class:`polyenvs.core.rows.RowsEnv`, so a Gymnasium env is a batch of one and
-:class:`polyenvs.buckybot.vector.BuckybotVectorEnv` (a ``RowsVectorEnv``) runs the same class with many rows, and
-the task equations exist once, in compiled kernels. The base knows no task: a task module declares its reward
-terms, metrics and observation parts by name and subclasses :class:`BuckybotEnv` with
+:class:`polyenvs.core.rows.RowsEnv`, so a Gymnasium env is a batch of one and each task's ``VectorEnv`` (a
+:class:`~polyenvs.core.rows.RowsVectorEnv`) runs the same class with many rows, and
+the task equations exist once, in compiled kernels. The base knows no task and owns everything tasks share: the
+physics advance, the base metrics (:data:`polyenvs.buckybot.simulator.BASE_METRICS`), the reward (the sum of the
+task's reward terms) and the terminated column. A task module (:mod:`polyenvs.buckybot.goal` is the model) writes
 
-- ``reward_names`` and ``metric_names`` (its own metrics; :data:`polyenvs.buckybot.simulator.BASE_METRICS` come
-  first), and ``out_columns``, the :class:`polyenvs.core.columns.OutColumns` its kernels' column constants come
-  from (:meth:`BuckybotEnv.task_columns` makes it from the names);
-- ``task_observation_sizes`` (name -> size of each observation part after the sensors), with their bounds;
-- ``_step_kernel(actions, kernel)`` and ``_reset_kernel(rows, kernel)``: compiled loops over rows that call the
-  simulator's row kernels, score the task and write observation rows, all in one call (see
-  :mod:`polyenvs.buckybot.wall_follow`). ``kernel`` (:class:`polyenvs.core.jit.KernelArgs`) holds ``kernel.sim``,
-  the tuple of :data:`polyenvs.buckybot.simulator.SIM_ARRAYS`, ``kernel.out``, the ``_out`` table, and
-  ``kernel.task``, the task's tuple;
-- ``_task_arrays()``: the task's own arrays, that tuple (after replacing one, call ``_repack_task()``);
-- optional hooks for per-plan tables (``_task_install_plan``) and per-episode choices (``_task_sample`` /
+- its declaration: ``REWARD_TERMS`` and ``METRICS`` (its own metrics; the base metrics come first), and
+  ``OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)``, the :class:`polyenvs.core.columns.OutColumns` its
+  column constants come from; ``task_observation_sizes`` (name -> size of each observation part after the
+  sensors), with their bounds;
+- two per-row functions, compiled: ``_score_row(b, sim, task, out)`` scores robot ``b`` after its tip (its reward
+  terms and own metrics into ``out[b]``, its observation part into ``sim[S.A_OBS][b]``) and returns whether its
+  episode terminated; ``_start_row(b, sim, task, out)`` does the same for a freshly placed robot (after its first
+  readings; ``out[b]`` is zero). ``sim`` is the tuple of :data:`polyenvs.buckybot.simulator.SIM_ARRAYS`, ``task``
+  the task's own tuple (``_task_arrays()``);
+- its compiled step and reset, one line each, which hand those functions to the family's drivers::
+
+      @njit(cache=True)
+      def _step_kernel(actions, kernel):
+          step_task(actions, kernel, _score_row, REWARD_TERMS)
+
+  (and ``reset_task(rows, kernel, _start_row, REWARD_TERMS)``; numba inlines the drivers, so the task's call is
+  compiled and cached with the task), set on the class as ``staticmethod``s;
+- ``_task_init()`` and ``_task_arrays()``: the task's own arrays (after replacing one, call ``_repack_task()``),
+  and optional hooks for per-plan tables (``_task_install_plan``) and per-episode choices (``_task_sample`` /
   ``_task_commit``).
 
 A reset is a transaction (the convention of :mod:`polyenvs.core.rows`): every random choice is drawn and every
@@ -45,11 +54,17 @@ from polyenvs.buckybot.floor_plans import (
     plan_width,
     random_room,
 )
-from polyenvs.buckybot.simulator import BuckybotParams, BuckybotSimulator
-from polyenvs.core.columns import OutColumns, spans
+from polyenvs.buckybot.simulator import (
+    BuckybotParams,
+    BuckybotSimulator,
+    advance_rows,
+    first_sense_row,
+    write_base_metrics,
+)
+from polyenvs.core.columns import OutColumns, spans, write_reward
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.geometry2d import pack_segments
-from polyenvs.core.jit import compiled_for
+from polyenvs.core.jit import compiled_for, njit
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import SharedVersionHistory, physical_parameters
 from polyenvs.core.rows import RowsEnv, vector_convention
@@ -63,6 +78,8 @@ __all__ = [
     "BuckybotEnv",
     "PathTrail",
     "ground_truth_parts",
+    "reset_task",
+    "step_task",
 ]
 
 
@@ -95,6 +112,41 @@ def ground_truth_parts(ground_truth: np.ndarray) -> dict[str, np.ndarray]:
         name: ground_truth[..., start] if stop == start + 1 else ground_truth[..., start:stop]
         for name, (start, stop) in GROUND_TRUTH_STRUCTURE.items()
     }
+
+
+@njit(inline="always")
+def step_task(actions, kernel, score_row, terms):
+    """A task's compiled step: advance every robot whose action is >= 0 (a row given -1 was just reset: it neither
+    moves nor scores), then score each with ``score_row(b, sim, task, out)`` (returns terminated) and write its base
+    metrics, its reward (the sum of its ``terms``, the task's reward term names) and its terminated flag.
+
+    Inlined into the task's own cached ``_step_kernel``, where ``score_row`` is a global compiled function: numba
+    can cache neither a function taking another as an argument nor a closure, but it caches this. The cache is
+    checked against the task's file only: after editing a driver, delete the caches (:mod:`polyenvs.core.jit`)."""
+    sim, out, task = kernel.sim, kernel.out, kernel.task
+    advance_rows(actions, sim)
+    state = sim[S.A_STATE]
+    for b in range(actions.shape[0]):
+        if actions[b] >= 0:
+            terminated = score_row(b, sim, task, out)
+            write_base_metrics(b, state, out, len(terms))
+            write_reward(b, out, len(terms), terminated)
+
+
+@njit(inline="always")
+def reset_task(rows, kernel, start_row, terms):
+    """A task's compiled reset of freshly placed robots ``rows``: their first readings, a zero ``_out`` row, then
+    ``start_row(b, sim, task, out)`` (the task's start; returns terminated), the base metrics, the reward and the
+    terminated flag, as :func:`step_task`."""
+    sim, out, task = kernel.sim, kernel.out, kernel.task
+    state = sim[S.A_STATE]
+    for n in range(rows.shape[0]):
+        b = rows[n]
+        first_sense_row(b, sim)
+        out[b, :] = 0.0
+        terminated = start_row(b, sim, task, out)
+        write_base_metrics(b, state, out, len(terms))
+        write_reward(b, out, len(terms), terminated)
 
 
 #: Actuator letters each action extends, by (face, edge at frame direction 0).
@@ -241,8 +293,8 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         sizes = cls.task_observation_sizes if task_sizes is None else task_sizes
         return spans({**S.SENSOR_OBSERVATION, **sizes})
 
-    _step_kernel = None  # staticmethod(compiled step loop), set by each task
-    _reset_kernel = None  # staticmethod(compiled reset loop)
+    _step_kernel = None  # staticmethod: the task's compiled step, a call of step_task
+    _reset_kernel = None  # staticmethod: the task's compiled reset, a call of reset_task
 
     def _task_init(self) -> None:
         """Allocate the task's arrays (``self._n_slots`` plan slots, ``self._batch_size`` rows)."""

@@ -5,17 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.env import BuckybotEnv, reset_task, step_task
 from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT, RANDOM_ROOM_BOUNDS
 from polyenvs.buckybot.mapping import OccupancyGrid, mark_beams_rotated, placement_gaps_rotated
-from polyenvs.buckybot.simulator import (
-    A_STATE,
-    A_WALLS,
-    BASE_METRICS,
-    advance_rows,
-    first_sense_row,
-    write_base_metrics,
-)
 from polyenvs.core.floor_plan import FloorPlan, grid_shape
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import documents_layouts
@@ -29,8 +21,6 @@ METRICS = ("coverage", "map_error_cm", "steps")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_COVERAGE, _R_BLOCKED = OUT.term_columns("coverage", "blocked")
 _M_COVERAGE, _M_MAP_ERROR, _M_STEPS = OUT.metric_columns("coverage", "map_error_cm", "steps")
-_M_BASE = OUT.metric_columns(*BASE_METRICS)
-_REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
 # Columns of the task state: free cells of the main region observed so far, the map-error sum and its count.
 _SEEN, _ERROR_SUM, _POINTS = range(3)
@@ -63,53 +53,46 @@ def _observe(b, state, arrays, w):
 
 
 @njit(cache=True)
-def _write_out(b, state, task, grid, tp, out):
-    write_base_metrics(b, state, out, _M_BASE)
-    coverage = task[b, _SEEN] / grid[_FREE_TOTAL]
+def _write_metrics(b, state, arrays, w, out):
+    """The task's metrics into ``out[b]``; returns whether the coverage goal is reached (the episode's end)."""
+    task, grids, tp = arrays[0], arrays[5], arrays[6]
+    coverage = task[b, _SEEN] / grids[w, _FREE_TOTAL]
     out[b, _M_COVERAGE] = coverage
     out[b, _M_MAP_ERROR] = task[b, _ERROR_SUM] / max(task[b, _POINTS], 1.0)
     out[b, _M_STEPS] = state[b, S.STEPS]
-    out[b, _REWARD] = out[b, _R_COVERAGE] + out[b, _R_BLOCKED]
-    out[b, _TERMINATED] = 1.0 if coverage >= tp[_GOAL] else 0.0
+    return coverage >= tp[_GOAL]
+
+
+@njit(cache=True)
+def _start_row(b, sim, arrays, out):
+    """Freshly placed robot ``b``: an unknown map, then what it sees before its first tip (which counts)."""
+    state, w = sim[S.A_STATE], S.plan_slot(b, sim)
+    task, cells, known_rows, known_cols = arrays[0], arrays[1], arrays[2], arrays[3]
+    cells[b, :, :] = 0  # unknown
+    known_rows[b, :] = 0
+    known_cols[b, :] = 0
+    task[b, :] = 0.0
+    _observe(b, state, arrays, w)
+    return _write_metrics(b, state, arrays, w, out)
+
+
+@njit(cache=True)
+def _score_row(b, sim, arrays, out):
+    """Robot ``b`` after its tip: the share of the free area its beams newly observed, blocked tips."""
+    state, w = sim[S.A_STATE], S.plan_slot(b, sim)
+    out[b, _R_COVERAGE] = 100.0 * _observe(b, state, arrays, w)  # percent newly observed
+    out[b, _R_BLOCKED] = -1.0 if state[b, S.BLOCKED] > 0.5 else 0.0
+    return _write_metrics(b, state, arrays, w, out)
 
 
 @njit(cache=True)
 def _reset_kernel(rows, kernel):
-    """Sense, map and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotExploreEnv._task_arrays()``)."""
-    sim, out, arrays = kernel.sim, kernel.out, kernel.task
-    state, walls = sim[A_STATE], sim[A_WALLS]
-    task, cells, known_rows, known_cols, free, grids, tp = arrays
-    shared = walls.shape[0] == 1
-    for n in range(rows.shape[0]):
-        b = rows[n]
-        w = 0 if shared else b
-        first_sense_row(b, sim)
-        cells[b, :, :] = 0  # unknown
-        known_rows[b, :] = 0
-        known_cols[b, :] = 0
-        task[b, :] = 0.0
-        _observe(b, state, arrays, w)  # what the robot sees before its first tip counts
-        out[b, :] = 0.0
-        _write_out(b, state, task, grids[w], tp, out)
+    reset_task(rows, kernel, _start_row, REWARD_TERMS)
 
 
 @njit(cache=True)
 def _step_kernel(actions, kernel):
-    """Step every row with an action >= 0, map and score it (``kernel.task``: ``BuckybotExploreEnv._task_arrays()``)."""
-    sim, out, arrays = kernel.sim, kernel.out, kernel.task
-    advance_rows(actions, sim)
-    state, walls = sim[A_STATE], sim[A_WALLS]
-    task, cells, known_rows, known_cols, free, grids, tp = arrays
-    shared = walls.shape[0] == 1
-    for b in range(actions.shape[0]):
-        if actions[b] < 0:
-            continue
-        w = 0 if shared else b
-        blocked = state[b, S.BLOCKED] > 0.5
-        observed = _observe(b, state, arrays, w)
-        out[b, _R_COVERAGE] = 100.0 * observed  # percent newly observed
-        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
-        _write_out(b, state, task, grids[w], tp, out)
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_layouts(LAYOUT_SPLIT)

@@ -7,10 +7,9 @@ import math
 import numpy as np
 
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.env import BuckybotEnv
+from polyenvs.buckybot.env import BuckybotEnv, reset_task, step_task
 from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import A_OBS, A_STATE, BASE_METRICS, advance_rows, first_sense_row, write_base_metrics
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import documents_layouts
@@ -28,8 +27,6 @@ METRICS = ("success", "final_distance_cm", "steps_to_goal")
 OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_PROGRESS, _R_GOAL, _R_BLOCKED = OUT.term_columns("progress", "goal", "blocked")
 _M_SUCCESS, _M_FINAL_DISTANCE, _M_STEPS = OUT.metric_columns("success", "final_distance_cm", "steps_to_goal")
-_M_BASE = OUT.metric_columns(*BASE_METRICS)
-_REWARD, _TERMINATED = OUT.reward, OUT.terminated
 #: The observation's part after the sensors: the goal's bearing (cos, sin) and tanh(distance / 200 cm).
 OBSERVATION_PARTS = {"goal": 3}
 _GOAL_COS, _GOAL_SIN, _GOAL_DISTANCE = range(*BuckybotEnv.observation_parts(OBSERVATION_PARTS)["goal"])
@@ -54,50 +51,46 @@ def _goal_observation(b, state, task, obs):
 
 
 @njit(cache=True)
-def _write_out(b, state, task, out):
-    write_base_metrics(b, state, out, _M_BASE)
+def _write_metrics(b, state, task, out):
     out[b, _M_SUCCESS] = task[b, _SUCCESS]
     out[b, _M_FINAL_DISTANCE] = task[b, _DISTANCE]
     out[b, _M_STEPS] = state[b, S.STEPS]  # the episode ends at the goal: its steps are the steps to it
-    out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_GOAL] + out[b, _R_BLOCKED]
-    out[b, _TERMINATED] = task[b, _SUCCESS]
+
+
+@njit(cache=True)
+def _start_row(b, sim, task_arrays, out):
+    """Freshly placed robot ``b``: its distance to the goal and its first goal observation."""
+    state, task = sim[S.A_STATE], task_arrays[0]
+    task[b, _DISTANCE] = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
+    task[b, _SUCCESS] = 0.0
+    _goal_observation(b, state, task, sim[S.A_OBS])
+    _write_metrics(b, state, task, out)
+    return False
+
+
+@njit(cache=True)
+def _score_row(b, sim, task_arrays, out):
+    """Robot ``b`` after its tip: progress towards the goal, success (which ends the episode), blocked tips."""
+    state, (task, tp) = sim[S.A_STATE], task_arrays
+    d = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
+    out[b, _R_PROGRESS] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in steps
+    task[b, _DISTANCE] = d
+    task[b, _SUCCESS] = 1.0 if d <= tp[_RADIUS] else 0.0
+    out[b, _R_GOAL] = 10.0 * task[b, _SUCCESS]
+    out[b, _R_BLOCKED] = -1.0 if state[b, S.BLOCKED] > 0.5 else 0.0
+    _goal_observation(b, state, task, sim[S.A_OBS])
+    _write_metrics(b, state, task, out)
+    return task[b, _SUCCESS] > 0.5
 
 
 @njit(cache=True)
 def _reset_kernel(rows, kernel):
-    """Sense and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotGoalEnv._task_arrays()``)."""
-    sim, out = kernel.sim, kernel.out
-    state, obs = sim[A_STATE], sim[A_OBS]
-    task, tp = kernel.task
-    for n in range(rows.shape[0]):
-        b = rows[n]
-        first_sense_row(b, sim)
-        task[b, _DISTANCE] = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
-        task[b, _SUCCESS] = 0.0
-        _goal_observation(b, state, task, obs)
-        out[b, :] = 0.0
-        _write_out(b, state, task, out)
+    reset_task(rows, kernel, _start_row, REWARD_TERMS)
 
 
 @njit(cache=True)
 def _step_kernel(actions, kernel):
-    """Step every row with an action >= 0 and score it (``kernel.task``: ``BuckybotGoalEnv._task_arrays()``)."""
-    sim, out = kernel.sim, kernel.out
-    advance_rows(actions, sim)
-    state, obs = sim[A_STATE], sim[A_OBS]
-    task, tp = kernel.task
-    for b in range(actions.shape[0]):
-        if actions[b] < 0:
-            continue
-        blocked = state[b, S.BLOCKED] > 0.5
-        d = math.hypot(task[b, _GOAL_X] - state[b, S.X], task[b, _GOAL_Y] - state[b, S.Y])
-        out[b, _R_PROGRESS] = (task[b, _DISTANCE] - d) / STEP_LENGTH_CM  # progress towards the goal, in steps
-        task[b, _DISTANCE] = d
-        task[b, _SUCCESS] = 1.0 if d <= tp[_RADIUS] else 0.0
-        out[b, _R_GOAL] = 10.0 * task[b, _SUCCESS]
-        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
-        _goal_observation(b, state, task, obs)
-        _write_out(b, state, task, out)
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_layouts(LAYOUT_SPLIT)

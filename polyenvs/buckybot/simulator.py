@@ -15,8 +15,9 @@ Packed state. Everything a step reads or writes about a robot is one row of ``Bu
 (float64, columns named by the constants below), and the compiled kernels take the simulator's arrays as one tuple
 ``sim`` (:data:`SIM_ARRAYS`: state, walls, parameters, draws, observation rows, scratch), which numba unpacks for
 free, instead of twenty arguments. ``advance_rows(actions, sim)`` (a step of every robot) and
-``first_sense_row(b, sim)`` (a reset) are called from each task's own compiled step and reset loops, which then
-score the task and write the observation in the same call.
+``first_sense_row(b, sim)`` (a reset) are called by the family's compiled step and reset
+(:func:`polyenvs.buckybot.env.step_task` and ``reset_task``), which score the task's rows and write their
+observations in the same call.
 
 Walls. A tip is allowed when its mean landing point keeps the body ``body_radius_cm`` off every wall and the
 straight motion there crosses no wall (the action mask is exactly this test). The noisy landing is used when its
@@ -573,21 +574,28 @@ def write_info(b, state):
 
 
 @njit(cache=True)
+def plan_slot(b, sim):
+    """Robot ``b``'s plan slot, the index of its walls (and of a task's per-plan tables): 0 where every robot
+    shares one plan, else ``b``."""
+    return 0 if sim[A_WALLS].shape[0] == 1 else b
+
+
+@njit(cache=True)
 def first_sense_row(b, sim):
     """First readings of freshly placed robot ``b`` (one draw row of its block); ``sim``: :data:`SIM_ARRAYS`."""
     state, walls, normals, cursor = sim[A_STATE], sim[A_WALLS], sim[A_NORMALS], sim[A_CURSOR]
     z = normals[b, cursor[b]]
     cursor[b] += 1
-    sense_row(b, state, walls[0 if walls.shape[0] == 1 else b], sim[A_PARAMS], z, sim[A_OBS])
+    sense_row(b, state, walls[plan_slot(b, sim)], sim[A_PARAMS], z, sim[A_OBS])
     write_info(b, state)
 
 
 @njit(cache=True)
-def write_base_metrics(b, state, out, columns):
-    """The metrics every task reports (:data:`BASE_METRICS`) into ``out[b, columns]``, ``columns`` their columns
-    in that order (``OutColumns.metric_columns(*BASE_METRICS)``)."""
-    for j in range(len(columns)):
-        out[b, columns[j]] = state[b, _BASE_METRIC_STATE[j]]
+def write_base_metrics(b, state, out, first):
+    """The metrics every task reports (:data:`BASE_METRICS`, in that order) into ``out[b]`` from column ``first``
+    on: a task's first metrics (``BuckybotEnv.task_columns`` puts them there)."""
+    for j in range(len(_BASE_METRIC_STATE)):
+        out[b, first + j] = state[b, _BASE_METRIC_STATE[j]]
 
 
 @njit(cache=True)

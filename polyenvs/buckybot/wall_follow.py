@@ -7,17 +7,9 @@ import math
 import numpy as np
 
 from polyenvs.buckybot import simulator as S
-from polyenvs.buckybot.env import BuckybotEnv, BuckybotParams
+from polyenvs.buckybot.env import BuckybotEnv, BuckybotParams, reset_task, step_task
 from polyenvs.buckybot.floor_plans import LAYOUT_SPLIT
 from polyenvs.buckybot.geometry import STEP_LENGTH_CM
-from polyenvs.buckybot.simulator import (
-    A_STATE,
-    A_WALLS,
-    BASE_METRICS,
-    advance_rows,
-    first_sense_row,
-    write_base_metrics,
-)
 from polyenvs.core.floor_plan import FloorPlan
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import documents_layouts
@@ -34,8 +26,6 @@ OUT = BuckybotEnv.task_columns(REWARD_TERMS, METRICS)
 _R_PROGRESS, _R_DISTANCE, _R_BLOCKED = OUT.term_columns("progress", "distance", "blocked")
 _M_ERROR, _M_PERIMETER = OUT.metric_columns("wall_distance_error_cm", "perimeter_fraction")
 _M_LAPS, _M_PROGRESS = OUT.metric_columns("laps", "progress_cm")
-_M_BASE = OUT.metric_columns(*BASE_METRICS)
-_REWARD, _TERMINATED = OUT.reward, OUT.terminated
 
 _PERIMETER_BIN_CM = 10.0
 # Columns of the task state: pose terms after the last step (x, y, unit normal towards the nearest wall, angle
@@ -56,73 +46,67 @@ def _pose_terms(b, state, slot_info, task):
 
 
 @njit(cache=True)
-def _write_out(b, state, task, slot_info, out):
-    write_base_metrics(b, state, out, _M_BASE)
+def _write_metrics(b, state, task, slot_info, out):
     out[b, _M_ERROR] = task[b, _ERROR_SUM] / max(state[b, S.STEPS], 1.0)
     out[b, _M_PERIMETER] = task[b, _FOLLOWED] / slot_info[2]
     out[b, _M_LAPS] = math.floor(max(task[b, _WINDING], 0.0) / (2 * math.pi))
     out[b, _M_PROGRESS] = task[b, _PROGRESS]
-    out[b, _REWARD] = out[b, _R_PROGRESS] + out[b, _R_DISTANCE] + out[b, _R_BLOCKED]
-    out[b, _TERMINATED] = 0.0  # never terminates
+
+
+@njit(cache=True)
+def _start_row(b, sim, task_arrays, out):
+    """Freshly placed robot ``b``: nothing followed yet, its pose terms."""
+    state, slot = sim[S.A_STATE], task_arrays[4][S.plan_slot(b, sim)]
+    task, followed = task_arrays[0], task_arrays[1]
+    followed[b, :] = False
+    task[b, :] = 0.0
+    _pose_terms(b, state, slot, task)
+    _write_metrics(b, state, task, slot, out)
+    return False  # never terminates
+
+
+@njit(cache=True)
+def _score_row(b, sim, task_arrays, out):
+    """Robot ``b`` after its tip: progress along the wall, distance error, the wall it followed."""
+    state, w = sim[S.A_STATE], S.plan_slot(b, sim)
+    task, followed, bins, seg_bins, slot, tp = task_arrays
+    x, y = state[b, S.X], state[b, S.Y]
+    # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
+    progress = (x - task[b, _PX]) * -task[b, _NY] + (y - task[b, _PY]) * task[b, _NX]
+    task[b, _PROGRESS] += progress
+    error = state[b, S.WALL_DISTANCE] - tp[_D_STAR]
+    task[b, _ERROR_SUM] += abs(error)
+    if abs(error) <= tp[_TOLERANCE]:  # following: mark the nearest wall's bins within reach
+        k = int(state[b, S.WALL_SEGMENT])
+        first, stop = seg_bins[w, k, 0], seg_bins[w, k, 1]
+        # Bins sit evenly along the wall: only those within reach of the foot along it can be within reach.
+        wall = sim[S.A_WALLS][w, k]
+        along = ((state[b, S.FOOT_X] - wall[0]) * wall[2] + (state[b, S.FOOT_Y] - wall[1]) * wall[3]) * wall[4]
+        spread = tp[_REACH] * math.sqrt(wall[4]) * (stop - first)  # reach in bins
+        centre = along * (stop - first) - 0.5
+        lo, hi = max(first, first + int(math.ceil(centre - spread))), min(stop, first + int(centre + spread) + 1)
+        for i in range(lo, hi):
+            if not followed[b, i] and math.hypot(bins[w, i, 0] - x, bins[w, i, 1] - y) <= tp[_REACH]:
+                followed[b, i] = True
+                task[b, _FOLLOWED] += bins[w, i, 2]
+    angle0 = task[b, _ANGLE]
+    _pose_terms(b, state, slot[w], task)
+    task[b, _WINDING] += (task[b, _ANGLE] - angle0 + math.pi) % (2 * math.pi) - math.pi
+    out[b, _R_PROGRESS] = progress / STEP_LENGTH_CM
+    out[b, _R_DISTANCE] = -(error * error) / tp[_NORM]
+    out[b, _R_BLOCKED] = -1.0 if state[b, S.BLOCKED] > 0.5 else 0.0
+    _write_metrics(b, state, task, slot[w], out)
+    return False  # never terminates
 
 
 @njit(cache=True)
 def _reset_kernel(rows, kernel):
-    """Sense and score freshly placed rows ``rows`` (``kernel.task``: ``BuckybotWallFollowEnv._task_arrays()``)."""
-    sim, out = kernel.sim, kernel.out
-    state, walls = sim[A_STATE], sim[A_WALLS]
-    task, followed, bins, seg_bins, slot, tp = kernel.task
-    shared = walls.shape[0] == 1
-    for n in range(rows.shape[0]):
-        b = rows[n]
-        w = 0 if shared else b
-        first_sense_row(b, sim)
-        followed[b, :] = False
-        task[b, :] = 0.0
-        _pose_terms(b, state, slot[w], task)
-        out[b, :] = 0.0
-        _write_out(b, state, task, slot[w], out)
+    reset_task(rows, kernel, _start_row, REWARD_TERMS)
 
 
 @njit(cache=True)
 def _step_kernel(actions, kernel):
-    """Step every row with an action >= 0 and score it (``kernel.task``: ``BuckybotWallFollowEnv._task_arrays()``)."""
-    sim, out = kernel.sim, kernel.out
-    advance_rows(actions, sim)
-    state, walls = sim[A_STATE], sim[A_WALLS]
-    task, followed, bins, seg_bins, slot, tp = kernel.task
-    shared = walls.shape[0] == 1
-    for b in range(actions.shape[0]):
-        if actions[b] < 0:
-            continue
-        w = 0 if shared else b
-        blocked = state[b, S.BLOCKED] > 0.5
-        x, y = state[b, S.X], state[b, S.Y]
-        # Progress along the tangent z x (centre-to-wall) of the wall nearest before the tip: counter-clockwise.
-        progress = (x - task[b, _PX]) * -task[b, _NY] + (y - task[b, _PY]) * task[b, _NX]
-        task[b, _PROGRESS] += progress
-        error = state[b, S.WALL_DISTANCE] - tp[_D_STAR]
-        task[b, _ERROR_SUM] += abs(error)
-        if abs(error) <= tp[_TOLERANCE]:  # following: mark the nearest wall's bins within reach
-            k = int(state[b, S.WALL_SEGMENT])
-            first, stop = seg_bins[w, k, 0], seg_bins[w, k, 1]
-            # Bins sit evenly along the wall: only those within reach of the foot along it can be within reach.
-            wall = walls[w, k]
-            along = ((state[b, S.FOOT_X] - wall[0]) * wall[2] + (state[b, S.FOOT_Y] - wall[1]) * wall[3]) * wall[4]
-            spread = tp[_REACH] * math.sqrt(wall[4]) * (stop - first)  # reach in bins
-            centre = along * (stop - first) - 0.5
-            lo, hi = max(first, first + int(math.ceil(centre - spread))), min(stop, first + int(centre + spread) + 1)
-            for i in range(lo, hi):
-                if not followed[b, i] and math.hypot(bins[w, i, 0] - x, bins[w, i, 1] - y) <= tp[_REACH]:
-                    followed[b, i] = True
-                    task[b, _FOLLOWED] += bins[w, i, 2]
-        angle0 = task[b, _ANGLE]
-        _pose_terms(b, state, slot[w], task)
-        task[b, _WINDING] += (task[b, _ANGLE] - angle0 + math.pi) % (2 * math.pi) - math.pi
-        out[b, _R_PROGRESS] = progress / STEP_LENGTH_CM
-        out[b, _R_DISTANCE] = -(error * error) / tp[_NORM]
-        out[b, _R_BLOCKED] = -1.0 if blocked else 0.0
-        _write_out(b, state, task, slot[w], out)
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_arguments(BuckybotParams)

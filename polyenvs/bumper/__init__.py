@@ -11,7 +11,6 @@ Paper: Ken Dye, "Mapping with only a bumper" (``../shared/seeds/001_*.txt``).
 | ``explore_v1`` | ``polyenvs/BumperCartExplore-v1``: a budget of cycles, coverage against its upper bound |
 | ``explore_v2`` | ``polyenvs/BumperCartExplore-v2``: v1 with each bump credited to the wall its bumper touched |
 | ``localize`` | ``polyenvs/BumperCartLocalize-v0``: active localization with the paper's filter inside the environment |
-| ``vector`` | their native vector envs |
 | ``bump_space`` | the paper's bump-space filter as compiled kernels (the estimator and the localization task run it) |
 | ``rendering`` | top-down frames |
 """

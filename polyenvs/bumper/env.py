@@ -2,12 +2,22 @@
 (touch as much of an unknown map's walls as possible).
 
 The environment is a batch of carts ("rows") like the simulator, so a native vector env is the same class with
-more rows. The base knows no task: one compiled call cycles every row (:func:`polyenvs.bumper.cart.cycle_row`) and
-writes the cycle's log (the observation's first parts), then the task scores the rows (its own compiled kernel,
-its reward terms and metrics declared by name, the kernel's columns made from those names) and may append parts of
-its own to the observation. A task subclasses :class:`BumperCartEnv` and provides ``reward_names``,
-``metric_names``, ``out_columns``, ``task_observation_sizes`` (with ``task_observation_low`` / ``_high``) and the
-``_task_*`` hooks below; :class:`BumperCartExploreEnv` here and ``polyenvs/bumper/localize.py`` are the models.
+more rows. The base knows no task and owns what tasks share: one compiled call cycles every row that has an action
+(:func:`polyenvs.bumper.cart.cycle_row`), writes the cycle's log (the observation's first parts), scores the row
+with the task's compiled ``_score_row(b, sim, task, out)`` (its reward terms and own metrics into ``out[b]``; it
+returns whether the episode terminated) and writes the base metrics (:data:`BASE_METRICS`, wherever the task
+declares them), the reward (the sum of the task's terms) and the terminated column. A task subclasses
+:class:`BumperCartEnv` with its declared names (``reward_names``, ``metric_names``, ``out_columns`` from them),
+``task_observation_sizes`` (with ``task_observation_low`` / ``_high``), the ``_task_*`` hooks below and its
+compiled step, one line that hands ``_score_row`` to the base's driver::
+
+    @njit(cache=True)
+    def _step_kernel(actions, kernel):
+        step_task(actions, kernel, _score_row, REWARD_TERMS)
+
+(``staticmethod(_step_kernel)`` on the class). :class:`BumperCartExploreEnv` here is the model;
+``polyenvs/bumper/localize.py`` runs Python between the cycle and the score (its filter draws from each row's
+generator), so it cycles with :func:`cycle_rows` and scores with :func:`score_task`.
 """
 
 from __future__ import annotations
@@ -24,7 +34,7 @@ from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
 from polyenvs.bumper.maps import LAYOUT_MAX_SEGMENTS, LAYOUT_ROOM_BOUNDS, LAYOUT_SPLIT, BumperMap, layout_map, make_map
 from polyenvs.bumper.odometry import TICK_CM
-from polyenvs.core.columns import OutColumns, spans
+from polyenvs.core.columns import OutColumns, indices, spans, write_reward
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import check_layouts, documents_layouts
 from polyenvs.core.parameters import documents_arguments, physical_parameters
@@ -33,7 +43,18 @@ from polyenvs.core.streams import RowStreams
 from polyenvs.core.validation import check_action, check_in_range, show
 from polyenvs.core.window import check_window_scale
 
-__all__ = ["LOG_SIZE", "OBSERVATION_STRUCTURE", "BumperCartEnv", "BumperCartExploreEnv", "LocalizationContext"]
+__all__ = [
+    "BASE_METRICS",
+    "LOG_SIZE",
+    "OBSERVATION_STRUCTURE",
+    "SIM_ARRAYS",
+    "BumperCartEnv",
+    "BumperCartExploreEnv",
+    "LocalizationContext",
+    "cycle_rows",
+    "score_task",
+    "step_task",
+]
 
 #: The parts of the cycle's log, every task's first observation parts: name -> size. Ticks are signed encoder
 #: counts (left, right) of each stage of the cycle, in the order of the state's ``TICKS`` block; bump is 1 if the
@@ -45,18 +66,27 @@ OBSERVATION_STRUCTURE = spans(OBSERVATION_PARTS)
 LOG_SIZE = OBSERVATION_STRUCTURE["bump"][1]
 _TICKS_OBS, _TICKS_END = OBSERVATION_STRUCTURE["turn_ticks"][0], OBSERVATION_STRUCTURE["backup_ticks"][1]
 _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
+#: The metrics the base counts and writes for every task that declares them (among its ``metric_names``, anywhere):
+#: the bumps, the dead-reckoning error (from the true start against the true position: the paper's Part 2 drift)
+#: and the bumps that made the cart slip.
+BASE_METRICS = ("bumps", "odometry_error_cm", "large_slips")
+#: The arrays the compiled step takes, as one tuple ``sim`` in this order: the carts' state, the walls (a map slot
+#: axis first), the parameters, the draw blocks and cursors, the observation rows, the cycles of each episode, the
+#: base's tallies (bumps, large slips) and the ``_out`` column of each base metric (-1 where the task has none).
+SIM_ARRAYS = ("state", "walls", "params", "normals", "cursor", "obs", "cycles", "tallies", "base_columns")
+_SIM = indices(SIM_ARRAYS)
+A_STATE, A_WALLS, A_PARAMS, A_NORMALS = _SIM["state"], _SIM["walls"], _SIM["params"], _SIM["normals"]
+A_CURSOR, A_OBS, A_CYCLES = _SIM["cursor"], _SIM["obs"], _SIM["cycles"]
+_A_TALLIES, _A_BASE_COLUMNS = _SIM["tallies"], _SIM["base_columns"]
+_BUMP_TALLY, _SLIP_TALLY = range(2)
 #: Explore's reward term and metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("touch",)
 METRICS = ("wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
 OUT = OutColumns(REWARD_TERMS, METRICS)
 _R_TOUCH = OUT.term_column("touch")
-_M_TOUCHED, _M_BUMPS = OUT.metric_columns("wall_fraction_touched", "bumps")
-_M_ODOMETRY, _M_SLIPS = OUT.metric_columns("odometry_error_cm", "large_slips")
-_REWARD = OUT.reward
+_M_TOUCHED = OUT.metric_column("wall_fraction_touched")
 #: Points of the paths kept for rendering (older ones are dropped, so memory stays bounded).
 TRAIL_POINTS = 3000
-#: Columns of Explore's per-row task state (what :func:`touch_row` counts): touched wall fraction, bumps, large slips.
-TOUCHED, BUMPS, SLIPS = range(3)
 
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
@@ -112,31 +142,81 @@ class LocalizationContext:
 
 
 @njit(cache=True)
-def _cycle_kernel(actions, kernel):
-    """Cycle every row that has an action and write the cycle's log into its observation row. ``kernel.sim =
-    (state, walls, params, normals, cursor, obs, cycles)``, as :class:`BumperCartEnv` packs it; ``walls`` has a map
-    slot axis first: one slot shared by every row, or one per row (``layouts="train"`` or ``"test"``)."""
-    state, walls, params, normals, cursor, obs, cycles = kernel.sim
-    shared = walls.shape[0] == 1
+def _cycle(b, turn, sim):
+    """Cycle row ``b`` by ``turn``, write the cycle's log into its observation row and tally its bump and slip.
+    ``walls`` has a map slot axis first: one slot shared by every row, or one per row (``layouts="train"`` or
+    ``"test"``)."""
+    state, walls, params, normals, cursor, obs, cycles, tallies, _ = sim
+    row = state[b]
+    cycle_row(row, turn, normals[b, cursor[b]], params, walls[0 if walls.shape[0] == 1 else b])
+    cursor[b] += 1
+    cycles[b] += 1.0
+    for k in range(_TICKS_END - _TICKS_OBS):
+        obs[b, _TICKS_OBS + k] = row[C.TICKS + k]
+    obs[b, _BUMP_OBS] = row[C.BUMP]
+    tallies[b, _BUMP_TALLY] += row[C.BUMP]
+    tallies[b, _SLIP_TALLY] += row[C.BIG_SLIP]
+
+
+@njit(cache=True)
+def cycle_rows(actions, kernel):
+    """Cycle every row that has an action (``actions[b, 1] >= 0.5``: a row that was just reset neither moves nor
+    scores), without scoring it: a task that scores with :func:`score_task` calls this first."""
     for b in range(actions.shape[0]):
-        if actions[b, 1] < 0.5:
-            continue  # no action: a row that was just reset neither moves nor scores
-        row = state[b]
-        cycle_row(row, actions[b, 0], normals[b, cursor[b]], params, walls[0 if shared else b])
-        cursor[b] += 1
-        cycles[b] += 1.0
-        for k in range(_TICKS_END - _TICKS_OBS):
-            obs[b, _TICKS_OBS + k] = row[C.TICKS + k]
-        obs[b, _BUMP_OBS] = row[C.BUMP]
+        if actions[b, 1] >= 0.5:
+            _cycle(b, actions[b, 0], kernel.sim)
+
+
+@njit(cache=True)
+def _write_base_metrics(b, sim, out):
+    """The :data:`BASE_METRICS` the task declares, into their columns of ``out[b]``."""
+    row, tallies, columns = sim[A_STATE][b], sim[_A_TALLIES], sim[_A_BASE_COLUMNS]
+    if columns[0] >= 0:
+        out[b, columns[0]] = tallies[b, _BUMP_TALLY]
+    if columns[1] >= 0:
+        out[b, columns[1]] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
+    if columns[2] >= 0:
+        out[b, columns[2]] = tallies[b, _SLIP_TALLY]
+
+
+@njit(inline="always")
+def _finish_row(b, kernel, score_row, terms):
+    """Score row ``b`` with the task's ``score_row``, then write its base metrics, reward and terminated flag."""
+    terminated = score_row(b, kernel.sim, kernel.task, kernel.out)
+    _write_base_metrics(b, kernel.sim, kernel.out)
+    write_reward(b, kernel.out, len(terms), terminated)
+
+
+@njit(inline="always")
+def step_task(actions, kernel, score_row, terms):
+    """A task's compiled step: cycle every row that has an action, then score it with ``score_row(b, sim, task,
+    out)`` (returns terminated) and write its base metrics, its reward (the sum of its ``terms``, the task's reward
+    term names) and its terminated flag.
+
+    Inlined into the task's own cached ``_step_kernel``, where ``score_row`` is a global compiled function: numba
+    can cache neither a function taking another as an argument nor a closure, but it caches this. The cache is
+    checked against the task's file only: after editing a driver, delete the caches (:mod:`polyenvs.core.jit`)."""
+    for b in range(actions.shape[0]):
+        if actions[b, 1] >= 0.5:
+            _cycle(b, actions[b, 0], kernel.sim)
+            _finish_row(b, kernel, score_row, terms)
+
+
+@njit(inline="always")
+def score_task(actions, kernel, score_row, terms):
+    """:func:`step_task` for rows :func:`cycle_rows` has cycled already: score them, without cycling."""
+    for b in range(actions.shape[0]):
+        if actions[b, 1] >= 0.5:
+            _finish_row(b, kernel, score_row, terms)
 
 
 @njit(cache=True)
 def touch_row(b, row, touch) -> float:
     """Row ``b``'s share of the wall newly touched by its last cycle (its state row ``row``), marking the cell and
-    counting the bump and any large slip. ``touch = (task, touched, cell_first, cell_count, cell_share, credited)``,
-    as :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first, as the walls; ``credited``
-    the state column of the wall a bump credits)."""
-    task, touched, cell_first, cell_count, cell_share, credited = touch
+    adding it to the row's touched fraction. ``touch = (touched_fraction, touched, cell_first, cell_count,
+    cell_share, credited)``, as :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first,
+    as the walls; ``credited`` the state column of the wall a bump credits)."""
+    touched_fraction, touched, cell_first, cell_count, cell_share, credited = touch
     w = 0 if cell_first.shape[0] == 1 else b
     fresh = 0.0
     if row[C.BUMP] > 0.5:
@@ -146,27 +226,21 @@ def touch_row(b, row, touch) -> float:
         if touched[b, cell] == 0:
             touched[b, cell] = 1
             fresh = cell_share[w, cell]
-        task[b, BUMPS] += 1.0
-    task[b, TOUCHED] += fresh
-    task[b, SLIPS] += row[C.BIG_SLIP]
+    touched_fraction[b] += fresh
     return fresh
 
 
 @njit(cache=True)
-def _touch_kernel(actions, kernel):
-    """Score every row that cycled (``kernel.task``: :meth:`BumperCartExploreEnv._task_arrays`)."""
-    state, out, task = kernel.sim[0], kernel.out, kernel.task[0]
-    for b in range(actions.shape[0]):
-        if actions[b, 1] < 0.5:
-            continue
-        row = state[b]
-        fresh = touch_row(b, row, kernel.task)
-        out[b, _R_TOUCH] = 100.0 * fresh
-        out[b, _M_TOUCHED] = task[b, TOUCHED]
-        out[b, _M_BUMPS] = task[b, BUMPS]
-        out[b, _M_ODOMETRY] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
-        out[b, _M_SLIPS] = task[b, SLIPS]
-        out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
+def _score_row(b, sim, touch, out):
+    """Row ``b`` after its cycle: the wall its bump newly touched (never terminates)."""
+    out[b, _R_TOUCH] = 100.0 * touch_row(b, sim[A_STATE][b], touch)
+    out[b, _M_TOUCHED] = touch[0][b]
+    return False
+
+
+@njit(cache=True)
+def _step_kernel(actions, kernel):
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 class BumperCartEnv(RowsEnv):
@@ -175,11 +249,12 @@ class BumperCartEnv(RowsEnv):
 
     A task provides ``reward_names``, ``metric_names`` and ``out_columns`` (its declared names), the parts it adds
     to the observation after the log (``task_observation_sizes``, with per-entry bounds ``task_observation_low``
-    and ``task_observation_high``), the reset options it takes (``task_option_names``) and the hooks
-    ``_task_init`` (its arrays, once the map slots exist), ``_task_install_map`` (a map slot got a new room),
-    ``_task_arrays`` (the tuple its kernel takes), ``_task_prepare`` (draw a row's task on the reset's generator,
-    writing nothing), ``_task_commit`` (install it), ``_task_step`` (score the rows that cycled, after the log is
-    written), ``_task_info`` / ``_vector_task_info`` (its ``info`` keys) and ``draw_task`` (its layer of a frame).
+    and ``task_observation_high``), the reset options it takes (``task_option_names``), its compiled step
+    (``_step_kernel``, see the module docstring) and the hooks ``_task_init`` (its arrays, once the map slots
+    exist), ``_task_install_map`` (a map slot got a new room), ``_task_arrays`` (the tuple its step gets as
+    ``task``), ``_task_prepare`` (draw a row's task on the reset's generator, writing nothing), ``_task_commit``
+    (install it), ``_task_info`` / ``_vector_task_info`` (its ``info`` keys) and ``draw_task`` (its layer of a
+    frame).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
@@ -199,6 +274,7 @@ class BumperCartEnv(RowsEnv):
     credits_latest_contact = False
     #: The cart's physical parameters, which the constructor takes as keywords (``**cart``).
     params_class: type[CartModel] = CartModel
+    _step_kernel = None  # staticmethod: the task's compiled step, a call of step_task
 
     def __init__(self, *, map=default_map, layouts: str = "default", render_mode: str | None = None,
                  window_scale: float = 1.0, num_rows: int = 1, **cart):  # fmt: skip
@@ -226,11 +302,14 @@ class BumperCartEnv(RowsEnv):
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
         self._cycles = np.zeros(n)
+        self._tallies = np.zeros((n, 2))  # each episode's bumps and large slips
+        columns = self.out_columns
+        base_columns = [columns.metric_column(name) if name in columns.metrics else -1 for name in BASE_METRICS]
         self._allocate_maps()
-        # What the kernels take (see _cycle_kernel).
-        sim = (self.state, self._walls, self.params, self.streams.normals, self.streams.cursor, self._observations,
-               self._cycles)  # fmt: skip
-        self._pack_kernel(sim, self._task_arrays())
+        arrays = dict(state=self.state, walls=self._walls, params=self.params, normals=self.streams.normals,
+                      cursor=self.streams.cursor, obs=self._observations, cycles=self._cycles, tallies=self._tallies,
+                      base_columns=np.array(base_columns, dtype=np.int64))  # fmt: skip
+        self._pack_kernel(tuple(arrays[name] for name in SIM_ARRAYS), self._task_arrays())
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
 
@@ -309,10 +388,6 @@ class BumperCartEnv(RowsEnv):
 
     def _task_commit(self, row: int, sample: Any) -> None:
         """Install what :meth:`_task_prepare` drew (nothing here raises; the row's map is installed)."""
-
-    def _task_step(self, actions: np.ndarray) -> None:
-        """Score the rows that cycled (``actions[b, 1] >= 0.5``) into ``_out``, after the log is written."""
-        raise NotImplementedError
 
     def _task_info(self, row: int) -> dict[str, Any]:
         return {}
@@ -398,6 +473,7 @@ class BumperCartEnv(RowsEnv):
             place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
             self.streams.restart(r.row, r.rng, r.reseeded)
             self._cycles[r.row] = 0.0
+            self._tallies[r.row] = 0.0
             self._observations[r.row] = 0.0
             self._out[r.row] = 0.0
             self._task_commit(r.row, r.task)
@@ -410,8 +486,7 @@ class BumperCartEnv(RowsEnv):
 
     def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
-        _cycle_kernel(actions, self._kernel)
-        self._task_step(actions)
+        self._step_kernel(actions, self._kernel)
 
     def _row_generator(self, row: int) -> np.random.Generator | None:
         return self.streams.generators[row]
@@ -593,7 +668,7 @@ class BumperCartExploreEnv(BumperCartEnv):
 
     def _task_init(self) -> None:
         """Per map slot, each segment's first wall cell and cell count and each cell's share of the wall length;
-        ``_touched`` marks each row's touched cells."""
+        ``_touched`` marks each row's touched cells, ``_task`` sums their shares."""
         slots, n_walls = self._walls.shape[:2]
         if self.layouts == "default":
             n_cells = len(self.world.wall_cells(self.cell_cm)[2])
@@ -606,7 +681,7 @@ class BumperCartExploreEnv(BumperCartEnv):
         self._slot_cell_count = np.zeros((slots, n_walls), dtype=np.int64)
         self._slot_cell_share = np.zeros((slots, n_cells))
         self._touched = np.zeros((self._batch_size, n_cells), dtype=np.uint8)
-        self._task = np.zeros((self._batch_size, 3))
+        self._task = np.zeros(self._batch_size)  # each row's touched wall fraction
 
     def _task_install_map(self, slot: int, world: BumperMap) -> None:
         first, count, lengths = world.wall_cells(self.cell_cm)
@@ -639,8 +714,7 @@ class BumperCartExploreEnv(BumperCartEnv):
         self._touched[row] = 0
         self._task[row] = 0.0
 
-    def _task_step(self, actions: np.ndarray) -> None:
-        _touch_kernel(actions, self._kernel)
+    _step_kernel = staticmethod(_step_kernel)
 
     def _task_info(self, row: int) -> dict[str, Any]:
         return {"touched_cells": int(np.count_nonzero(self._touched[row]))}

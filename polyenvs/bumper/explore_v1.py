@@ -4,14 +4,11 @@ about 84% of the paper's arena by 200 cycles)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from gymnasium.error import ResetNeeded
 
-from polyenvs.bumper import cart as C
 from polyenvs.bumper.cart import CartModel
-from polyenvs.bumper.env import BUMPS, SLIPS, TOUCHED, BumperCartExploreEnv, touch_row
+from polyenvs.bumper.env import A_STATE, BumperCartExploreEnv, step_task, touch_row
 from polyenvs.bumper.maps import LAYOUT_SPLIT
 from polyenvs.core.columns import OutColumns
 from polyenvs.core.jit import njit
@@ -26,9 +23,7 @@ REWARD_TERMS = ("touch",)
 METRICS = ("coverage", "wall_fraction_touched", "bumps", "odometry_error_cm", "large_slips")
 OUT = OutColumns(REWARD_TERMS, METRICS)
 _R_TOUCH = OUT.term_column("touch")
-_M_COVERAGE, _M_TOUCHED, _M_BUMPS = OUT.metric_columns("coverage", "wall_fraction_touched", "bumps")
-_M_ODOMETRY, _M_SLIPS = OUT.metric_columns("odometry_error_cm", "large_slips")
-_REWARD = OUT.reward
+_M_COVERAGE, _M_TOUCHED = OUT.metric_columns("coverage", "wall_fraction_touched")
 
 
 def coverage_bound(cell_share: np.ndarray, cycles: int) -> float:
@@ -38,25 +33,20 @@ def coverage_bound(cell_share: np.ndarray, cycles: int) -> float:
 
 
 @njit(cache=True)
-def _coverage_kernel(actions, kernel):
-    """Score every row that cycled (``kernel.task``: :meth:`BumperCartExploreV1Env._task_arrays`)."""
-    state, out = kernel.sim[0], kernel.out
-    touch, bound = kernel.task
-    task = touch[0]
-    shared = bound.shape[0] == 1
-    for b in range(actions.shape[0]):
-        if actions[b, 1] < 0.5:
-            continue
-        row = state[b]
-        fresh = touch_row(b, row, touch)
-        limit = bound[0 if shared else b]
-        out[b, _R_TOUCH] = 100.0 * fresh / limit
-        out[b, _M_COVERAGE] = task[b, TOUCHED] / limit
-        out[b, _M_TOUCHED] = task[b, TOUCHED]
-        out[b, _M_BUMPS] = task[b, BUMPS]
-        out[b, _M_ODOMETRY] = math.hypot(row[C.X] - row[C.DR_X], row[C.Y] - row[C.DR_Y])
-        out[b, _M_SLIPS] = task[b, SLIPS]
-        out[b, _REWARD] = out[b, _R_TOUCH]  # never terminates: the terminated column stays 0
+def _score_row(b, sim, task, out):
+    """Row ``b`` after its cycle: the wall its bump newly touched, over its room's bound (never terminates)."""
+    touch, bound = task
+    fresh = touch_row(b, sim[A_STATE][b], touch)
+    limit = bound[0 if bound.shape[0] == 1 else b]
+    out[b, _R_TOUCH] = 100.0 * fresh / limit
+    out[b, _M_COVERAGE] = touch[0][b] / limit
+    out[b, _M_TOUCHED] = touch[0][b]
+    return False
+
+
+@njit(cache=True)
+def _step_kernel(actions, kernel):
+    step_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 @documents_arguments(CartModel)
@@ -151,8 +141,7 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     def _task_arrays(self) -> tuple:
         return (super()._task_arrays(), self._bound)
 
-    def _task_step(self, actions: np.ndarray) -> None:
-        _coverage_kernel(actions, self._kernel)
+    _step_kernel = staticmethod(_step_kernel)
 
     def step(self, action):
         if self._cycles[0] >= self.budget_cycles:

@@ -5,8 +5,10 @@ A task of the cart's family base (:class:`polyenvs.bumper.env.BumperCartEnv`): t
 writes the logs; this task runs one :class:`polyenvs.estimators.bumper.BumpSpaceMCL` per row on them (one compiled
 call over every row's particles, :func:`polyenvs.bumper.bump_space.update_rows`, its motion noise drawn from each
 row's own seeded generator), judges its estimate against the true pose at the bump, appends a summary of the
-belief to the observation and scores the cycles it took. Reward terms, metrics and the belief's parts are declared
-by name here; the kernel's columns come from those names.
+belief to the observation and scores the cycles it took. Its filter runs in Python between the cycle and the score
+(the draws and a reseeding come from each row's generator), so its step cycles with
+:func:`polyenvs.bumper.env.cycle_rows` and scores with :func:`polyenvs.bumper.env.score_task`. Reward terms, metrics
+and the belief's parts are declared by name here; the kernel's columns come from those names.
 """
 
 from __future__ import annotations
@@ -20,7 +22,16 @@ import numpy as np
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.bump_space import BumpSpaceFilter, densest_cluster, log_index, update_rows
 from polyenvs.bumper.cart import CartModel
-from polyenvs.bumper.env import LOG_SIZE, OBSERVATION_STRUCTURE, BumperCartEnv
+from polyenvs.bumper.env import (
+    A_CYCLES,
+    A_OBS,
+    A_STATE,
+    LOG_SIZE,
+    OBSERVATION_STRUCTURE,
+    BumperCartEnv,
+    cycle_rows,
+    score_task,
+)
 from polyenvs.bumper.maps import LAYOUT_SPLIT
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
@@ -45,8 +56,7 @@ OUT = OutColumns(REWARD_TERMS, METRICS)
 _R_TIME, _R_LOCALIZED = OUT.term_columns("time", "localized")
 _M_LOCALIZED, _M_CYCLES, _M_DISTANCE = OUT.metric_columns("localized", "cycles_to_localize", "distance_cm")
 _M_POSITION, _M_HEADING = OUT.metric_columns("position_error_cm", "heading_error_deg")
-_M_BUMPS, _M_EMPTY = OUT.metric_columns("bumps", "empty_sets")
-_REWARD, _TERMINATED = OUT.reward, OUT.terminated
+_M_EMPTY = OUT.metric_column("empty_sets")
 #: The reward at the cycle the cart counts as localized (on top of that cycle's -1), so that localizing at the last
 #: cycle of the budget still returns more than never localizing.
 LOCALIZED_BONUS = 10.0
@@ -63,8 +73,8 @@ _DRIVE_OBS, _BACKUP_OBS = OBSERVATION_STRUCTURE["drive_ticks"][0], OBSERVATION_S
 _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
 
 # Columns of the per-row task state: consecutive cycles within tolerance, localized (0/1), cycles to localize,
-# distance driven, bumps, emptied particle sets.
-_HOLD, _DONE, _CYCLES, _DISTANCE, _BUMPS, _EMPTY = range(6)
+# distance driven, emptied particle sets.
+_HOLD, _DONE, _CYCLES, _DISTANCE, _EMPTY = range(5)
 # The estimates' columns (update_rows): x, y, heading, the cluster's particle count, survivors.
 _EX, _EY, _EH, _EMASS, _EKEPT = range(5)
 # The task's packed parameters.
@@ -135,37 +145,36 @@ def _observe_belief(b, obs, particles, estimate, tp):
 
 
 @njit(cache=True)
-def _score_kernel(actions, kernel):
-    """Judge and score every row that cycled (``kernel.task``: :meth:`BumperCartLocalizeEnv._task_arrays`)."""
-    state, obs, cycles = kernel.sim[0], kernel.sim[5], kernel.sim[6]
-    task, estimates, particles, tp = kernel.task
-    out = kernel.out
-    for b in range(actions.shape[0]):
-        if actions[b, 1] < 0.5:
-            continue
-        row, est = state[b], estimates[b]
-        for stage in (_DRIVE_OBS, _BACKUP_OBS):  # what the odometer shows: the mean wheel travel of each
-            task[b, _DISTANCE] += 0.5 * (abs(obs[b, stage]) + abs(obs[b, stage + 1])) * tp[_TICK]
-        task[b, _BUMPS] += obs[b, _BUMP_OBS]
-        position = math.hypot(est[_EX] - row[C.BUMP_X], est[_EY] - row[C.BUMP_Y])
-        heading = abs((est[_EH] - row[C.BUMP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi)
-        within = position <= tp[_TOL_CM] and heading <= tp[_TOL_RAD] and est[_EKEPT] > 0
-        task[b, _HOLD] = task[b, _HOLD] + 1.0 if within else 0.0
-        terminated = task[b, _HOLD] >= tp[_HOLD_CYCLES]
-        task[b, _CYCLES] = cycles[b]
-        task[b, _DONE] = 1.0 if terminated else 0.0
-        _observe_belief(b, obs, particles[b], est, tp)
-        out[b, _R_TIME] = -1.0
-        out[b, _R_LOCALIZED] = LOCALIZED_BONUS if terminated else 0.0
-        out[b, _M_LOCALIZED] = task[b, _DONE]
-        out[b, _M_CYCLES] = task[b, _CYCLES]
-        out[b, _M_DISTANCE] = task[b, _DISTANCE]
-        out[b, _M_POSITION] = position
-        out[b, _M_HEADING] = math.degrees(heading)
-        out[b, _M_BUMPS] = task[b, _BUMPS]
-        out[b, _M_EMPTY] = task[b, _EMPTY]
-        out[b, _REWARD] = out[b, _R_TIME] + out[b, _R_LOCALIZED]
-        out[b, _TERMINATED] = task[b, _DONE]
+def _score_row(b, sim, task_arrays, out):
+    """Row ``b`` after its cycle and its filter's update: judge the estimate, summarise the belief; terminates once
+    the estimate held within tolerance for ``hold_cycles``."""
+    row, obs = sim[A_STATE][b], sim[A_OBS]
+    task, estimates, particles, tp = task_arrays
+    est = estimates[b]
+    for stage in (_DRIVE_OBS, _BACKUP_OBS):  # what the odometer shows: the mean wheel travel of each
+        task[b, _DISTANCE] += 0.5 * (abs(obs[b, stage]) + abs(obs[b, stage + 1])) * tp[_TICK]
+    position = math.hypot(est[_EX] - row[C.BUMP_X], est[_EY] - row[C.BUMP_Y])
+    heading = abs((est[_EH] - row[C.BUMP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi)
+    within = position <= tp[_TOL_CM] and heading <= tp[_TOL_RAD] and est[_EKEPT] > 0
+    task[b, _HOLD] = task[b, _HOLD] + 1.0 if within else 0.0
+    terminated = task[b, _HOLD] >= tp[_HOLD_CYCLES]
+    task[b, _CYCLES] = sim[A_CYCLES][b]
+    task[b, _DONE] = 1.0 if terminated else 0.0
+    _observe_belief(b, obs, particles[b], est, tp)
+    out[b, _R_TIME] = -1.0
+    out[b, _R_LOCALIZED] = LOCALIZED_BONUS if terminated else 0.0
+    out[b, _M_LOCALIZED] = task[b, _DONE]
+    out[b, _M_CYCLES] = task[b, _CYCLES]
+    out[b, _M_DISTANCE] = task[b, _DISTANCE]
+    out[b, _M_POSITION] = position
+    out[b, _M_HEADING] = math.degrees(heading)
+    out[b, _M_EMPTY] = task[b, _EMPTY]
+    return terminated
+
+
+@njit(cache=True)
+def _step_kernel(actions, kernel):
+    score_task(actions, kernel, _score_row, REWARD_TERMS)
 
 
 def _document_task_arguments(cls):
@@ -310,7 +319,7 @@ class BumperCartLocalizeEnv(BumperCartEnv):
             self.task.position_tolerance_cm, math.radians(self.task.heading_tolerance_deg), self.task.hold_cycles,
             x0, y0, x1 - x0, y1 - y0, math.hypot(x1 - x0, y1 - y0), n, TICK_CM,
         ])  # fmt: skip
-        self._state = np.zeros((rows, 6))
+        self._state = np.zeros((rows, 5))
         self._estimates = np.zeros((rows, 5))
         self._particles = np.zeros((rows, n, 3))
         self._noise = np.zeros((rows, n, 3, 3), dtype=np.float32)  # float32 draws, as BumpSpaceMCL's
@@ -337,7 +346,10 @@ class BumperCartLocalizeEnv(BumperCartEnv):
         estimate[_EKEPT] = 0.0
         _observe_belief(row, self._observations, self._particles[row], estimate, self._task_params)
 
-    def _task_step(self, actions: np.ndarray) -> None:
+    def _advance(self, actions: np.ndarray) -> None:
+        """Cycle the carts, update each one's filter on its log, then score them."""
+        self.streams.refill()
+        cycle_rows(actions, self._kernel)
         moved = np.flatnonzero(actions[:, 1] >= 0.5).tolist()
         for b in moved:  # each cart's localizer draws from that cart's own generator
             self.streams.generators[b].standard_normal(dtype=np.float32, out=self._noise[b])
@@ -349,7 +361,9 @@ class BumperCartLocalizeEnv(BumperCartEnv):
                 self._particles[b] = self.localizer.seed_particles(self.streams.generators[b], world)
                 self._estimate_afresh(b)
                 self._state[b, _EMPTY] += 1.0
-        _score_kernel(actions, self._kernel)
+        self._step_kernel(actions, self._kernel)
+
+    _step_kernel = staticmethod(_step_kernel)
 
     def _task_info(self, row: int) -> dict[str, Any]:
         estimate = self._estimates[row, :3].copy()

@@ -14,11 +14,16 @@ bound to module-level constants, which numba freezes into the compiled code, so 
 
 :func:`spans` does the same for an observation's named parts (``observation_structure``) and :func:`indices` for
 any other named sequence (the arrays a kernel takes as one tuple).
+
+:func:`write_reward` writes what every task's row ends with, the reward (the sum of its terms) and the terminated
+flag: a family's compiled step calls it after the task scored the row, so no task writes either by hand.
 """
 
 from __future__ import annotations
 
-__all__ = ["OutColumns", "indices", "spans"]
+from polyenvs.core.jit import njit
+
+__all__ = ["OutColumns", "indices", "spans", "write_reward"]
 
 
 def _check_names(kind: str, names) -> tuple[str, ...]:
@@ -109,3 +114,19 @@ class OutColumns:
     def metric_slice(self) -> slice:
         """The metrics' columns."""
         return slice(len(self.terms), self.reward)
+
+
+@njit(cache=True)
+def write_reward(b, out, terms, terminated):
+    """Row ``b``'s reward and terminated flag, the last two columns of ``out`` (an :class:`OutColumns` table).
+
+    The reward is the sum of the first ``terms`` columns (the task's reward terms) in their declared order,
+    starting from the first term rather than from 0.0, so that a lone term of -0.0 stays -0.0 and every sum is the
+    one a task's own ``a + b + c`` gave; ``terminated`` (a bool) is written as 1.0 or 0.0.
+    """
+    reward = out[b, 0] if terms > 0 else 0.0
+    for j in range(1, terms):
+        reward += out[b, j]
+    width = out.shape[1]
+    out[b, width - 2] = reward
+    out[b, width - 1] = 1.0 if terminated else 0.0

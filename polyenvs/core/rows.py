@@ -26,7 +26,12 @@ protocol between a family and this base, documented here, not calls for users.
   each row's episode, for time limits), ``_check_actions(actions)`` (a batch, for the vector env), and
   ``_get_info(row)`` / ``_vector_info()`` (one row's info; every row's, in the vector convention);
 - optionally ``_on_row0_step()`` (after row 0 moved: trails for rendering) and ``_make_renderer()`` (an object
-  whose ``render(env)`` draws row 0 and ``close()`` closes its window), built at the first ``render()``.
+  whose ``render(env)`` draws row 0 and ``close()`` closes its window), built at the first ``render()``;
+- optionally ``budget_spent()``: the rows whose episode has used a budget of its own (the cart's ``budget_cycles``),
+  which the vector env truncates there, as the single env's ``step`` does; by default none.
+
+The native vector env of a task is its class's ``VectorEnv`` (:class:`RowsVectorEnv` with ``env_class`` the task,
+:mod:`polyenvs.core.vector_entry`): a task writes no vector class, its registry row says ``native_vector=True``.
 
 Conventions every family inherits from here:
 
@@ -42,7 +47,7 @@ Conventions every family inherits from here:
 from __future__ import annotations
 
 import copy
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -54,6 +59,7 @@ from gymnasium.vector.utils import batch_space
 from polyenvs.core.columns import OutColumns
 from polyenvs.core.jit import KernelArgs
 from polyenvs.core.validation import check_int, check_options, show
+from polyenvs.core.vector_entry import NativeVector
 
 __all__ = [
     "NO_ACTION",
@@ -110,6 +116,8 @@ class RowsEnv(gym.Env):
     out_columns: OutColumns = OutColumns((), ())
     #: Rows this instance simulates (its ``num_rows``): 1 for ``gym.make``; :class:`RowsVectorEnv` builds more.
     _batch_size = 1
+    #: Each task class's native vector env, ``TaskEnv.VectorEnv`` (set below, once :class:`RowsVectorEnv` exists).
+    VectorEnv: ClassVar[NativeVector]
 
     @property
     def all_metric_names(self) -> tuple[str, ...]:
@@ -195,6 +203,10 @@ class RowsEnv(gym.Env):
     def _on_row0_step(self) -> None:
         """Called after row 0 moved (not after a restart): rendering trails."""
 
+    def budget_spent(self) -> np.ndarray:
+        """Per row, whether its episode has used a budget of its own (it ends there, truncated): none here."""
+        return np.zeros(self._batch_size, dtype=bool)
+
     def _make_renderer(self):
         raise NotImplementedError
 
@@ -250,20 +262,25 @@ class BatchVectorEnv(VectorEnv):
 
     Its constructor takes ``num_envs``, ``max_episode_steps``, ``render_mode`` (one of ``metadata["render_modes"]``
     or ``None``) and ``autoreset_mode``, checks them, and hands the rest to the subclass's ``_build(num_envs,
-    render_mode, kwargs)``, which builds the batch and returns one sub-environment's ``(observation_space,
-    action_space)`` and its frame rate. A subclass also provides ``_check_batch_actions(actions)``,
-    ``_reset_rows(seeds, options)`` (validate everything, then restart every row: ``seeds[i]`` is row i's new
-    seed, or ``None`` to continue its own generator), ``_restart(rows)`` (the rows of a finished episode, on their
-    own generators), ``_advance_rows(actions, restart)`` (step the rows not in the ``restart`` mask, restart those
-    that are: they neither move nor score), ``_step_result(restart)`` (rewards, terminated, truncated by the
-    batch's own rules), ``_row_steps()`` (steps into each row's episode), ``_observations()`` (the batch's observation rows) and ``_info()`` (every row's info in
-    the vector convention).
+    render_mode, kwargs)``, which builds the batch and returns one row's ``(observation_space, action_space)`` and
+    its frame rate. A subclass also provides ``_check_batch_actions(actions)``, ``_reset_rows(seeds, options)``
+    (validate everything, then restart every environment: ``seeds[e]`` is environment e's new seed, or ``None`` to
+    continue its own generator), ``_restart(rows)`` (the rows of a finished episode, on their own generators),
+    ``_advance_rows(actions, restart)`` (step the rows not in the ``restart`` mask, restart those that are: they
+    neither move nor score), ``_step_result(restart)`` (rewards, terminated, truncated by the batch's own rules),
+    ``_row_steps()`` (steps into each row's episode), ``_observations()`` (the batch's observation rows) and
+    ``_info()`` (every row's info in the vector convention); optionally ``_final_info(done)`` (what the rows in
+    ``done`` report of the episode they finished: by default their ``_info()``).
 
-    Seeding as ``SyncVectorEnv``: ``reset(seed=s)`` seeds row ``i`` with ``s + i``; ``max_episode_steps``
-    truncates as Gymnasium's ``TimeLimit`` does (also on the step that terminates).
+    An environment is ``rows_per_env`` rows (``_build`` sets it: the swarm's robots; 1 elsewhere) that share one
+    generator and one episode, so they restart together; ``num_envs`` counts environments and ``self.num_envs``,
+    Gymnasium's, rows. Seeding as ``SyncVectorEnv``: ``reset(seed=s)`` seeds environment ``e`` with ``s + e``;
+    ``max_episode_steps`` truncates as Gymnasium's ``TimeLimit`` does (also on the step that terminates).
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: Rows of one environment (set by ``_build`` where it is more than one).
+    rows_per_env = 1
 
     def __init__(
         self,
@@ -285,13 +302,13 @@ class BatchVectorEnv(VectorEnv):
         spaces, render_fps = self._build(num_envs, render_mode, kwargs)
         self.metadata = {**self.metadata, "render_fps": render_fps, "autoreset_mode": autoreset_mode}
         self.autoreset_mode = autoreset_mode
-        self.num_envs = num_envs
+        self.num_envs = num_envs * self.rows_per_env
         self.max_episode_steps = max_episode_steps
         self.render_mode = render_mode
         self.single_observation_space, self.single_action_space = spaces
-        self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self.action_space = batch_space(self.single_action_space, num_envs)
-        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._started = False
         self._closed = False
 
@@ -300,15 +317,16 @@ class BatchVectorEnv(VectorEnv):
             raise ClosedEnvironmentError("this vector env is closed")
 
     def _seeds(self, seed) -> list[int | None]:
-        """Row i's seed for this reset, as ``SyncVectorEnv`` seeds sub-environment i."""
-        n = self.num_envs
+        """Environment e's seed for this reset, as ``SyncVectorEnv`` seeds sub-environment e: ``seed + e``, or the
+        list's (one per environment, or one per row, of which an environment takes its first row's)."""
+        n = self.num_envs // self.rows_per_env
         if seed is None:
             return [None] * n
-        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            return [int(seed) + i for i in range(n)]
-        if isinstance(seed, (list, tuple)) and len(seed) == n:
-            return list(seed)
-        raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+        if not isinstance(seed, (list, tuple)):
+            return [check_int("seed", seed, 0) + e for e in range(n)]
+        if len(seed) not in (n, self.num_envs):
+            raise ValueError(f"seed must be None, an int or a list of {n} ints/None, got {show(seed)}")
+        return [None if s is None else check_int("seed", s, 0) for s in seed[:: len(seed) // n]]
 
     def reset(self, *, seed=None, options: dict[str, Any] | None = None):
         self._check_open()
@@ -338,12 +356,15 @@ class BatchVectorEnv(VectorEnv):
         observations = self._observations()
         for row in np.flatnonzero(done).tolist():
             final_obs[row] = observations[row].copy()
-        final_info = only_rows(self._info(), done)
+        final_info = self._final_info(done)
         self._restart(np.flatnonzero(done).tolist())
         info = self._info()
         info["final_obs"], info["_final_obs"] = final_obs, done.copy()
         info["final_info"], info["_final_info"] = final_info, done.copy()
         return self._observations().copy(), rewards, terminated, truncated, info
+
+    def _final_info(self, done: np.ndarray) -> dict[str, Any]:
+        return only_rows(self._info(), done)
 
 
 class RowsVectorEnv(BatchVectorEnv):
@@ -364,8 +385,8 @@ class RowsVectorEnv(BatchVectorEnv):
     """
 
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
-    #: The batched-rows class this vector env drives (set by each subclass).
-    env_class: type[RowsEnv] = RowsEnv
+    #: The batched-rows class this vector env drives (``TaskEnv.VectorEnv`` is this class bound to ``TaskEnv``).
+    env_class: type[RowsEnv]
 
     def _build(self, num_envs, render_mode, kwargs):
         # The class itself with num_envs rows: the same validation, spaces and kernels as the single env.
@@ -405,9 +426,9 @@ class RowsVectorEnv(BatchVectorEnv):
             core._on_row0_step()
 
     def _step_result(self, restart):
-        out = self._core._out
-        rewards = out[:, self._core._reward_column].copy()
-        return rewards, out[:, self._core._terminated_column] > 0.5, np.zeros(self.num_envs, dtype=bool)
+        core = self._core
+        out = core._out
+        return out[:, core._reward_column].copy(), out[:, core._terminated_column] > 0.5, core.budget_spent()
 
     def _row_steps(self) -> np.ndarray:
         return self._core._row_steps()
@@ -431,6 +452,9 @@ class RowsVectorEnv(BatchVectorEnv):
         if not self._closed:
             self._core.close()
             self._closed = True
+
+
+RowsEnv.VectorEnv = NativeVector(RowsVectorEnv)
 
 
 def only_rows(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:

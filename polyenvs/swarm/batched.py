@@ -19,24 +19,28 @@ truncated, rows that left terminated); it is then reset in the same step (``auto
 show the new episode's first observation and ``info["final_obs"]`` the last one, and
 ``info["final_info"]["episode_metrics"]`` holds, on the rows of the environments that ended, their swarm metrics
 (``SwarmEnv.episode_metrics``): Gymnasium's same-step convention, which SB3-style adapters translate.
+
+The seeding and the autoreset are the shared ones of :class:`polyenvs.core.rows.BatchVectorEnv`, with an environment
+of N rows where the other families have one; :class:`SwarmBatchVectorEnv` is that base over a ``SwarmBatch``, which
+the single-robot ids' native vector env (:mod:`polyenvs.swarm.vector`) shares.
 """
 
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 import numpy as np
-from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector import AutoresetMode
 
-from polyenvs.core.validation import check_int, check_options, real_array, show
+from polyenvs.core.rows import BatchVectorEnv, only_rows, vector_convention
+from polyenvs.core.validation import check_options, real_array, show
 from polyenvs.registry import REGISTRY
 from polyenvs.swarm.batch import SwarmBatch
-from polyenvs.swarm.env import SwarmEnv
+from polyenvs.swarm.env import RobotRows, SwarmEnv
 
-__all__ = ["SwarmVectorEnv", "make_task", "task_names"]
+__all__ = ["SwarmBatchVectorEnv", "SwarmVectorEnv", "make_task", "task_names"]
 
 
 def task_names() -> dict[str, str]:
@@ -61,90 +65,105 @@ def make_task(task, kwargs: dict) -> SwarmEnv:
     raise ValueError(f"task must be one of {sorted(names)}, a SwarmEnv subclass or a SwarmEnv, got {show(task)}")
 
 
-class SwarmVectorEnv(VectorEnv):
+class SwarmBatchVectorEnv(RobotRows, BatchVectorEnv):
+    """The shared :class:`~polyenvs.core.rows.BatchVectorEnv` over a :class:`~polyenvs.swarm.batch.SwarmBatch`:
+    each environment ``n_robots`` rows, ending when all its robots have left (terminated) or at the task's
+    ``max_cycles`` (the robots still in it truncated). A subclass's ``_build`` makes the task and returns
+    :meth:`_run`'s result; it gives ``_info()``."""
+
+    #: The precision actions are read at before they drive the wheels (the single env reads float32).
+    action_dtype: type[np.floating] = np.float64
+
+    def _run(self, task: SwarmEnv, num_envs: int):
+        """Batch ``num_envs`` environments of ``task``; one row's spaces and the frame rate, as ``_build`` returns."""
+        #: The task: its parameters (``task.platform``, ``task.max_cycles``, ...) and episodes.
+        self.task = task
+        self.batch = SwarmBatch(task, num_envs)
+        self.rows_per_env = task.n_robots
+        self.observation_structure = task.observation_structure
+        self.reward_names = task.reward_names
+        spaces = (task.observation_space("robot_0"), task.action_space("robot_0"))
+        return spaces, task.metadata["render_fps"]
+
+    def _reset_rows(self, seeds, options) -> None:
+        check_options(options, ())
+        current = self.batch.generators
+        generators = [
+            current[e] if s is None and current[e] is not None else seeding.np_random(s)[0] for e, s in enumerate(seeds)
+        ]
+        self.batch.reset(range(len(seeds)), generators)
+
+    def _restart(self, rows) -> None:
+        self.batch.reset(sorted({row // self.rows_per_env for row in rows}))
+
+    def _check_batch_actions(self, actions) -> np.ndarray:
+        """The ``(num_envs, 2)`` motor powers, as float64 of their ``action_dtype`` values."""
+        values = real_array("actions", actions, self.action_dtype)  # complex, bool, string and object refused
+        if values.shape != (self.num_envs, 2) or not (np.abs(values) <= 1.0).all():
+            raise ValueError(f"actions must be an array of shape ({self.num_envs}, 2) in [-1, 1] without NaN")
+        return values.astype(np.float64, copy=False)
+
+    def _advance_rows(self, actions, restart) -> None:
+        if restart.any():  # next-step autoreset: these environments only start their new episode
+            restarting = restart[:: self.rows_per_env]
+            self.batch.reset(np.flatnonzero(restarting))
+            self.batch.step(actions, ~restarting)
+        else:
+            self.batch.step(actions)
+
+    def _step_result(self, restart):
+        batch = self.batch
+        left = (batch.active == 0).reshape(-1, self.rows_per_env)
+        truncated = batch.cycles >= self.task.max_cycles  # the swarm's own cap
+        done = left.all(axis=1) | truncated
+        terminated_rows = (left & done[:, None]).reshape(-1)
+        truncated_rows = (~left & truncated[:, None]).reshape(-1)
+        return batch.rewards.sum(axis=1), terminated_rows, truncated_rows
+
+    def _row_steps(self) -> np.ndarray:
+        return np.repeat(self.batch.cycles, self.rows_per_env)
+
+    def _observations(self) -> np.ndarray:
+        return self.batch.observations
+
+    def render(self):
+        """Nothing: this vector env does not render (``render_mode`` is ``None``; render a single environment)."""
+        self._check_open()
+        return None
+
+    def close(self, **kwargs):
+        self._closed = True
+
+
+class SwarmVectorEnv(SwarmBatchVectorEnv):
     """``num_envs`` swarm environments of ``n_robots`` robots each, as ``num_envs * n_robots`` rows.
 
     Args:
         task: "corridor_v0", "obstacle_field_v0" or "formation_v0" (a swarm module of the registry, by name or
             module path), a :class:`~polyenvs.swarm.env.SwarmEnv` subclass, or a ``SwarmEnv`` (then no keywords).
-        num_envs: environments in the batch (1-65536).
+        num_envs: environments in the batch (1-1,000,000).
         **kwargs: the task's keywords (``n_robots``, ``max_cycles``, noise, platform ...; no ``render_mode``).
+
+    ``reset(seed=s)`` seeds environment ``e`` with ``s + e`` (a list: one seed per environment, or one per row, of
+    which environment e takes its first row's; without a seed, each environment continues its own generator); the
+    swarm takes no reset options. ``info`` is empty but at the end of an environment's episode (see the module
+    docstring).
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
-
     def __init__(self, task="corridor_v0", num_envs: int = 16, **kwargs):
-        task = make_task(task, kwargs)
-        self.n_envs = check_int("num_envs", num_envs, 1, 65536)
+        super().__init__(num_envs, max_episode_steps=None, autoreset_mode=AutoresetMode.SAME_STEP, task=task, **kwargs)
+
+    def _build(self, num_envs, render_mode, kwargs):
+        task = make_task(kwargs.pop("task"), kwargs)
         if task.render_mode is not None:
             raise ValueError("render_mode: the batched swarm does not render; render a single environment")
-        #: The task: its parameters (``task.platform``, ``task.max_cycles``, ...) and episodes.
-        self.task = task
-        self.batch = SwarmBatch(task, self.n_envs)
-        self.n_robots = task.n_robots
-        self.num_envs = self.n_envs * self.n_robots
-        self.single_observation_space = task.observation_space("robot_0")
-        self.single_action_space = task.action_space("robot_0")
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.max_cycles = task.max_cycles
-        self._started = False  # step() needs a first reset()
+        self.n_envs, self.n_robots, self.max_cycles = num_envs, task.n_robots, task.max_cycles
+        return self._run(task, num_envs)
 
-    @property
-    def pose(self) -> np.ndarray:
-        """``(num_envs, 3)`` true poses of every row (the simulation's own array)."""
-        return self.batch.pose
+    def _info(self) -> dict[str, Any]:
+        return {}  # per-step info for every robot would cost more than the step at this scale
 
-    @property
-    def active(self) -> np.ndarray:
-        """``(num_envs,)`` uint8: 1 while the row's robot is in its environment's episode (the simulation's own)."""
-        return self.batch.active
-
-    # --- Gymnasium VectorEnv API ------------------------------------------------------------------------------
-    def reset(self, *, seed=None, options=None):
-        """Reset every environment; environment ``e`` gets seed ``seed + e`` (a list gives one seed per
-        environment, or one per row, of which environment e takes row ``e * n_robots``'s). The swarm takes no
-        reset options: ``options`` must be ``None`` or ``{}`` (anything else raises and changes nothing)."""
-        check_options(options, ())
-        e = self.n_envs
-        if seed is None:
-            seeds = [None] * e
-        elif isinstance(seed, (list, tuple)):
-            if len(seed) == self.num_envs:  # one per row (an SB3 adapter's): environment e takes its first row's
-                seed = seed[:: self.n_robots]
-            if len(seed) != e:
-                raise ValueError(f"seed: {len(seed)} seeds for {e} environments ({self.num_envs} rows)")
-            seeds = list(seed)
-        else:
-            seeds = [check_int("seed", seed, 0) + i for i in range(e)]
-        self.batch.reset(range(e), [seeding.np_random(s)[0] for s in seeds])
-        self._started = True
-        return self.batch.observations.copy(), {}
-
-    def step(self, actions):
-        if not self._started:
-            raise ResetNeeded("call reset() before step()")
-        e, n = self.n_envs, self.n_robots
-        command = real_array("actions", actions)  # complex, bool, string and object input refused, not cast
-        if command.shape != (self.num_envs, 2) or not (np.abs(command) <= 1.0).all():
-            raise ValueError(f"actions must be an array of shape ({self.num_envs}, 2) in [-1, 1] without NaN")
-        batch = self.batch
-        batch.step(command)
-        obs = batch.observations
-        rewards = batch.rewards.sum(axis=1)
-        left = (batch.active == 0).reshape(e, n)
-        truncated_env = batch.cycles >= self.max_cycles
-        done_env = left.all(axis=1) | truncated_env
-        infos = {}
-        row_terminated = (left & done_env[:, None]).reshape(-1)
-        row_truncated = (~left & truncated_env[:, None]).reshape(-1)
-        if done_env.any():
-            rows = np.repeat(done_env, n)
-            infos["final_obs"] = np.where(rows[:, None], obs, 0.0).astype(np.float32)
-            infos["_final_obs"] = rows
-            metrics = batch.env_metrics()
-            episode = {k: np.where(rows, np.repeat(v, n), 0.0) for k, v in metrics.items()}
-            infos["final_info"] = {"episode_metrics": episode, "_episode_metrics": rows}
-            infos["_final_info"] = rows
-            batch.reset(np.flatnonzero(done_env))
-        return batch.observations.copy(), rewards, row_terminated, row_truncated, infos
+    def _final_info(self, done: np.ndarray) -> dict[str, Any]:
+        """Each finished environment's swarm metrics (``SwarmEnv.episode_metrics``), on each of its rows."""
+        metrics = {name: np.repeat(value, self.n_robots) for name, value in self.batch.env_metrics().items()}
+        return only_rows(vector_convention({}, metrics, self.num_envs), done)

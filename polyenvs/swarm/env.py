@@ -65,6 +65,7 @@ __all__ = [
     "MAX_SPEED_FACTOR",
     "PARAMETER_RANGES",
     "PETTINGZOO_PROBE_OPTION",
+    "RobotRows",
     "STILL_M",
     "STOPPED_WINDOW_S",
     "SwarmAECEnv",
@@ -168,7 +169,24 @@ VERSION_HISTORY = """- v0: initial version (2026-11-30; in the registry 2026-12-
   and source (2026-12-01), ``layouts=`` (held-out training and test layouts, 2026-12-02)."""
 
 
-class SwarmEnv(SharedVersionHistory, ParallelEnv):
+class RobotRows:
+    """The robots of a surface over a :class:`~polyenvs.swarm.batch.SwarmBatch` (its ``batch``), one row each: the
+    PettingZoo environment's N, a vector env's E x N."""
+
+    batch: SwarmBatch
+
+    @property
+    def pose(self) -> np.ndarray:
+        """``(rows, 3)`` true poses: x, y (m), heading (rad). The simulation's own array."""
+        return self.batch.pose
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(rows,)`` uint8: 1 while the row's robot is in its environment's episode. The simulation's own array."""
+        return self.batch.active
+
+
+class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
     """Base class of the swarm tasks (see the task modules for the full documentation)."""
 
     version_history = VERSION_HISTORY
@@ -294,16 +312,6 @@ class SwarmEnv(SharedVersionHistory, ParallelEnv):
     def metric_names(self) -> tuple[str, ...]:
         """The episode metrics, the family's then the task's."""
         return (*METRIC_NAMES, *self.terms_class.metric_names)
-
-    @property
-    def pose(self) -> np.ndarray:
-        """``(N, 3)`` true poses: x, y (m), heading (rad). The simulation's own array."""
-        return self.batch.pose
-
-    @property
-    def active(self) -> np.ndarray:
-        """``(N,)`` uint8: 1 while the robot is in the episode. The simulation's own array."""
-        return self.batch.active
 
     @property
     def goal(self) -> np.ndarray:

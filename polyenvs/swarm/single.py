@@ -7,9 +7,11 @@ import gymnasium as gym
 from gymnasium.error import ResetNeeded
 
 from polyenvs.core.validation import check_options
+from polyenvs.core.vector_entry import NativeVector
 from polyenvs.swarm.corridor_v0 import CorridorEnv
 from polyenvs.swarm.env import SwarmEnv
 from polyenvs.swarm.obstacle_field_v0 import ObstacleFieldEnv
+from polyenvs.swarm.vector import SingleRobotVectorEnv
 
 __all__ = ["APLiteCorridorEnv", "APLiteObstacleFieldEnv", "single_robot_swarm"]
 
@@ -30,6 +32,8 @@ def single_robot_swarm(swarm_class: type[SwarmEnv], kwargs: dict) -> SwarmEnv:
 class _SingleRobot(gym.Env):
     swarm_class: type[SwarmEnv] = CorridorEnv
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+    #: Each id's native vector env (``gym.make_vec``): ``APLiteCorridorEnv.VectorEnv``.
+    VectorEnv = NativeVector(SingleRobotVectorEnv)
 
     def __init__(self, **kwargs):
         self.swarm = single_robot_swarm(self.swarm_class, kwargs)
