@@ -11,8 +11,8 @@ import numpy as np
 from polyenvs.buckybot import simulator as S
 from polyenvs.buckybot.geometry import SENSOR_AZIMUTHS_RAD, SENSOR_HORIZONTAL_OFFSET_CM, TRUNCATED_EDGE_CM
 from polyenvs.buckybot.sensors import horizontal_range
-from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, WALL, Canvas, with_legend
-from polyenvs.core.window import FrameRenderer
+from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, with_legend
+from polyenvs.core.window import TopDownRenderer
 
 __all__ = ["BuckybotRenderer", "FRAME_WIDTH_PX"]
 
@@ -27,7 +27,7 @@ TIP = (90, 50, 0)
 _HEXAGON_ANGLES = np.radians(np.arange(6) * 60.0 + 30.0)
 
 
-class BuckybotRenderer(FrameRenderer):
+class BuckybotRenderer(TopDownRenderer):
     """Renders row 0 of a :class:`~polyenvs.buckybot.env.BuckybotEnv`; ``human`` mode opens a pygame window lazily.
 
     Every frame covers ``view_bounds`` (the plan's, or the box every random room fits in), so one renderer makes
@@ -36,14 +36,8 @@ class BuckybotRenderer(FrameRenderer):
 
     caption = "polyenvs Buckybot"
 
-    def __init__(self, render_mode: str, fps: int, view_bounds, window_scale: float = 1.0):
-        super().__init__(render_mode, fps, window_scale)
-        self.view_bounds = tuple(float(v) for v in view_bounds)
-
     def frame(self, env) -> np.ndarray:
-        canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
-        seg = env.plan.segments
-        canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
+        canvas = self.canvas_with_walls(env.plan.segments)
         state = env.sim.state[0]
         pos, heading, face = state[S.X : S.Y + 1], state[S.HEADING], int(state[S.FACE])
         # Dead-reckoned and true paths (the last few thousand points).

@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from polyenvs.bumper import cart as C
-from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, WALL, Canvas, with_legend
-from polyenvs.core.window import FrameRenderer
+from polyenvs.core.raster import DEAD_RECKONED_PATH, FRAME_WIDTH_PX, TRUE_PATH, Canvas, with_legend
+from polyenvs.core.window import TopDownRenderer
 
 __all__ = ["BumperRenderer", "FRAME_WIDTH_PX", "draw_belief", "draw_touched_cells"]
 
@@ -60,23 +60,19 @@ def draw_belief(canvas: Canvas, particles: np.ndarray, estimate) -> None:
     canvas.points(np.array([[x, y]]), ESTIMATE, radius_px=4.0)
 
 
-class BumperRenderer(FrameRenderer):
+class BumperRenderer(TopDownRenderer):
     """Renders row 0 of a :class:`~polyenvs.bumper.env.BumperCartEnv` (the map, the task's layer, the paths, the
     cart); every frame covers the map's bounds, so one instance makes frames of one size."""
 
     caption = "polyenvs bumper cart"
 
     def __init__(self, render_mode: str, fps: int, bounds, window_scale: float = 1.0):
-        super().__init__(render_mode, fps, window_scale)
         x0, y0, x1, y1 = bounds
         pad = 0.05 * max(x1 - x0, y1 - y0)
-        self.view_bounds = (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
+        super().__init__(render_mode, fps, (x0 - pad, y0 - pad, x1 + pad, y1 + pad), window_scale)
 
     def frame(self, env) -> np.ndarray:
-        canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
-        world = env.world
-        seg = world.segments
-        canvas.lines(seg[:, :2], seg[:, 2:], WALL, width_px=3.0)
+        canvas = self.canvas_with_walls(env.world.segments)
         env.draw_task(canvas)
         true_path, dead_reckoned, bumps = (np.array(p, dtype=np.float64).reshape(-1, 2) for p in env._paths)
         if len(dead_reckoned) > 1:

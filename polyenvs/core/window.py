@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from polyenvs.core.extras import install_hint
+from polyenvs.core.raster import FRAME_WIDTH_PX, WALL, Canvas
 from polyenvs.core.validation import check_in_range
 
-__all__ = ["FrameRenderer", "FrameWindow", "WINDOW_SCALE_RANGE", "check_window_scale"]
+__all__ = ["FrameRenderer", "FrameWindow", "TopDownRenderer", "WINDOW_SCALE_RANGE", "check_window_scale"]
 
 #: ``window_scale`` bounds: a quarter of a 480-pixel frame is still legible, eight times fills a 4K screen.
 WINDOW_SCALE_RANGE = (0.25, 8.0)
@@ -89,3 +90,18 @@ class FrameRenderer:
 
     def close(self) -> None:
         self._window.close()
+
+
+class TopDownRenderer(FrameRenderer):
+    """A renderer of a plan seen from above: every frame covers ``view_bounds`` (x0, y0, x1, y1), so one instance
+    makes frames of one size, and starts from the walls (:meth:`canvas_with_walls`)."""
+
+    def __init__(self, render_mode: str, fps: float, view_bounds, window_scale: float = 1.0):
+        super().__init__(render_mode, fps, window_scale)
+        self.view_bounds = tuple(float(v) for v in view_bounds)
+
+    def canvas_with_walls(self, segments: np.ndarray) -> Canvas:
+        """A blank frame with the wall ``segments`` (x1, y1, x2, y2 rows) drawn on it."""
+        canvas = Canvas(self.view_bounds, width=FRAME_WIDTH_PX)
+        canvas.lines(segments[:, :2], segments[:, 2:], WALL, width_px=3.0)
+        return canvas

@@ -16,8 +16,8 @@ from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import (
     WALL_MARGIN_M,
+    ObstacleFieldEpisodes,
     box_walls,
-    drawn_field,
     hex_lattice,
     lattice_pairs,
     layout_obstacle_slots,
@@ -228,7 +228,7 @@ class FormationTerms(TaskTerms):
 
 
 @documents_layouts(LAYOUT_SPLIT)
-class FormationEnv(SwarmEnv):
+class FormationEnv(ObstacleFieldEpisodes, SwarmEnv):
     """N Maxelbot-like robots in a hexagonal lattice of spacing R (``robot_0``, the leader, at its centre) cross an
     obstacle field to a goal light while keeping formation.
 
@@ -296,6 +296,8 @@ class FormationEnv(SwarmEnv):
     terms_class = FormationTerms
     #: The robot that broadcasts (drawn in its own colour).
     leader = LEADER
+    default_radius_m = OBSTACLE_RADIUS_M
+    layout_goal_span = LAYOUT_GOAL_SPAN
 
     def __init__(self, *, n_robots: int = N_ROBOTS, spacing_m: float = 0.9, n_obstacles: int = N_OBSTACLES,
                  goal_radius_m: float | None = None, comm_range_m: float | None = None, max_cycles: int = MAX_CYCLES,
@@ -320,13 +322,6 @@ class FormationEnv(SwarmEnv):
         extent = self._lattice_radius
         length, width = FIELD_LENGTH_M + 2 * extent, max(FIELD_WIDTH_M, 2 * extent + 4.0)
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
-
-    def sample_episode(self, rng: np.random.Generator) -> Episode:
-        return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
-
-    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
-        count, margin = drawn_field(rng, layouts)
-        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts), margin)
 
     def _field(self, rng: np.random.Generator, count: int, goal_span, radii, margin: float = WALL_MARGIN_M) -> Episode:
         """The lattice at the start, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``:

@@ -17,6 +17,7 @@ __all__ = [
     "LAYOUT_COUNTS",
     "TRAIN_WALL_MARGIN_M",
     "WALL_MARGIN_M",
+    "ObstacleFieldEpisodes",
     "box_walls",
     "drawn_field",
     "episode_kinds",
@@ -137,3 +138,21 @@ def episode_kinds(env) -> frozenset[str]:
     single-robot id, which holds a swarm of one as ``swarm``)."""
     swarm = getattr(env, "swarm", env)
     return layout_kinds(swarm.layout.walls, swarm.circles, swarm.pose[:, :2], swarm.goal, swarm.platform.radius_m)
+
+
+class ObstacleFieldEpisodes:
+    """The episodes of a task that scatters obstacles over a field, mixed in before :class:`SwarmEnv`: the default
+    field's ``n_obstacles`` obstacles of radii in :attr:`default_radius_m`, or a drawn field's count, radii (the
+    task's split) and wall margin (:func:`drawn_field`). The task draws the field itself, in ``_field``."""
+
+    #: The default field's obstacle radii (m), and the span of a drawn field's goal height (fractions of the width).
+    default_radius_m: tuple[float, float]
+    layout_goal_span: tuple[float, float]
+
+    def sample_episode(self, rng: np.random.Generator):
+        return self._field(rng, self.n_obstacles, None, self.default_radius_m)
+
+    def sample_layout_episode(self, rng: np.random.Generator, layouts: str):
+        count, margin = drawn_field(rng, layouts)
+        radii = self.layout_split.parameters[0].interval(layouts)
+        return self._field(rng, count, self.layout_goal_span, radii, margin)

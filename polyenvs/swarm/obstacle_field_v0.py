@@ -16,8 +16,8 @@ from polyenvs.core.parameters import documents_arguments, parameter
 from polyenvs.swarm.env import Episode, Layout, SwarmEnv, SwarmParams, module_constructors
 from polyenvs.swarm.layouts import (
     WALL_MARGIN_M,
+    ObstacleFieldEpisodes,
     box_walls,
-    drawn_field,
     layout_obstacle_slots,
     random_obstacles,
     start_block,
@@ -57,7 +57,7 @@ class ObstacleFieldParams(SwarmParams):
 
 @documents_layouts(LAYOUT_SPLIT)
 @documents_arguments(ObstacleFieldParams)
-class ObstacleFieldEnv(SwarmEnv):
+class ObstacleFieldEnv(ObstacleFieldEpisodes, SwarmEnv):
     """N Maxelbot-like robots cross an open field with obstacles at seeded random places to a goal light.
 
     ## Description
@@ -117,6 +117,8 @@ class ObstacleFieldEnv(SwarmEnv):
     default_platform = "maxelbot"
 
     params_class = ObstacleFieldParams
+    default_radius_m = OBSTACLE_RADIUS_M
+    layout_goal_span = LAYOUT_GOAL_SPAN
 
     def __init__(self, *, n_robots: int = N_ROBOTS, n_obstacles: int = N_OBSTACLES, max_cycles: int = MAX_CYCLES,
                  layouts: str = "default", **kwargs):  # fmt: skip
@@ -131,13 +133,6 @@ class ObstacleFieldEnv(SwarmEnv):
         _, side = self._block()
         length, width = FIELD_LENGTH_M + side, max(FIELD_WIDTH_M, side + 3.0)
         return Layout(walls=box_walls(0.0, 0.0, length, width), bounds=(0.0, 0.0, length, width))
-
-    def sample_episode(self, rng: np.random.Generator) -> Episode:
-        return self._field(rng, self.n_obstacles, None, OBSTACLE_RADIUS_M)
-
-    def sample_layout_episode(self, rng: np.random.Generator, layouts: str) -> Episode:
-        count, margin = drawn_field(rng, layouts)
-        return self._field(rng, count, LAYOUT_GOAL_SPAN, LAYOUT_SPLIT.parameters[0].interval(layouts), margin)
 
     def _field(self, rng: np.random.Generator, count: int, goal_span, radii, margin: float = WALL_MARGIN_M) -> Episode:
         """Starts in their block, the goal at a height drawn in ``goal_span`` (fractions of the width; ``None``: the

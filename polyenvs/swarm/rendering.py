@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from polyenvs.core.raster import FRAME_WIDTH_PX, WALL, Canvas, with_legend
-from polyenvs.core.window import FrameRenderer
+from polyenvs.core.raster import FRAME_WIDTH_PX, with_legend
+from polyenvs.core.window import TopDownRenderer
 from polyenvs.swarm.batch import BEAM_M
 
 __all__ = ["FRAME_WIDTH_PX", "SwarmRenderer"]
@@ -28,19 +28,13 @@ BEAM_HIT = (40, 160, 60)
 BEAM_NONE = (205, 205, 205)
 
 
-class SwarmRenderer(FrameRenderer):
+class SwarmRenderer(TopDownRenderer):
     """Renders a :class:`~polyenvs.swarm.env.SwarmEnv`; ``human`` mode opens a pygame window lazily."""
 
     caption = "polyenvs swarm"
 
-    def __init__(self, render_mode: str, fps: int, bounds, window_scale: float = 1.0):
-        super().__init__(render_mode, fps, window_scale)
-        self.bounds = tuple(float(v) for v in bounds)
-
     def frame(self, env) -> np.ndarray:
-        canvas = Canvas(self.bounds, width=FRAME_WIDTH_PX)
-        walls = env.layout.walls
-        canvas.lines(walls[:, :2], walls[:, 2:], WALL, width_px=3.0)
+        canvas = self.canvas_with_walls(env.layout.walls)
         canvas.disc(env.goal, env.goal_radius_m, LIGHT_HALO)
         canvas.disc(env.goal, 0.1, LIGHT)
         for x, y, r in env.circles:
