@@ -112,8 +112,6 @@ class ToyWanderEnv(BuckybotEnv):
     {version_history}
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     task_observation_sizes = OBSERVATION_PARTS
     task_observation_low = (0.0,)
@@ -297,8 +295,6 @@ class ToyBumpEnv(BumperCartEnv):
     - v0: a toy.
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     _step_kernel = staticmethod(_step_kernel)
 '''

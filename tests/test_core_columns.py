@@ -85,11 +85,11 @@ def test_kernels_columns_are_the_info_keys(env_id):
             env.reset()
 
 
-def test_a_table_that_disagrees_with_the_names_is_refused():
-    from polyenvs.buckybot.goal import BuckybotGoalEnv
+def test_the_names_are_read_from_the_declaration():
+    """A task declares its names once, in ``out_columns``: the reward terms and the metrics (a Buckybot task's own,
+    after the family's) are read from it, so the kernels' columns and ``info`` cannot drift apart."""
+    from polyenvs.buckybot.goal import METRICS, REWARD_TERMS, BuckybotGoalEnv
 
-    class Drifted(BuckybotGoalEnv):
-        metric_names = (*BuckybotGoalEnv.metric_names, "extra")
-
-    with pytest.raises(TypeError, match="out_columns"):
-        Drifted()
+    env = BuckybotGoalEnv()
+    assert env.reward_names == REWARD_TERMS and env.metric_names == METRICS
+    assert env.all_metric_names == (*BuckybotGoalEnv.base_metric_names, *METRICS) == env.out_columns.metrics

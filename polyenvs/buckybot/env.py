@@ -278,8 +278,8 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
     base_metric_names = tuple(S.BASE_METRICS)
 
     @property
-    def all_metric_names(self) -> tuple[str, ...]:
-        return self.base_metric_names + self.metric_names
+    def metric_names(self) -> tuple[str, ...]:
+        return self.all_metric_names[len(self.base_metric_names) :]
 
     @classmethod
     def task_columns(cls, reward_names: tuple[str, ...], metric_names: tuple[str, ...]) -> OutColumns:

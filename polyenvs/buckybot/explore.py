@@ -147,8 +147,6 @@ class BuckybotExploreEnv(BuckybotEnv):
     {version_history}
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     default_floor_plan = "office"
 

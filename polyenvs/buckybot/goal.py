@@ -145,8 +145,6 @@ class BuckybotGoalEnv(BuckybotEnv):
     {version_history}
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     default_floor_plan = "l_room"
     task_option_names = ("goal",)

@@ -207,8 +207,6 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     {version_history}
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
 
     def __init__(

@@ -7,7 +7,7 @@ more rows. The base knows no task and owns what tasks share: one compiled call c
 with the task's compiled ``_score_row(b, sim, task, out)`` (its reward terms and own metrics into ``out[b]``; it
 returns whether the episode terminated) and writes the base metrics (:data:`BASE_METRICS`, wherever the task
 declares them), the reward (the sum of the task's terms) and the terminated column. A task subclasses
-:class:`BumperCartEnv` with its declared names (``reward_names``, ``metric_names``, ``out_columns`` from them),
+:class:`BumperCartEnv` with its declaration (``out_columns``, from its reward terms' and metrics' names),
 ``task_observation_sizes`` (with ``task_observation_low`` / ``_high``), the ``_task_*`` hooks below and its
 compiled step, one line that hands ``_score_row`` to the base's driver::
 
@@ -247,7 +247,7 @@ class BumperCartEnv(RowsEnv):
     """Base class of the bump-only cart's tasks (see :class:`BumperCartExploreEnv` for the full documentation of
     what they share: the cart, the cycle, the log, the layouts, the starting state, the arguments).
 
-    A task provides ``reward_names``, ``metric_names`` and ``out_columns`` (its declared names), the parts it adds
+    A task provides ``out_columns`` (its declaration: its reward terms' and metrics' names), the parts it adds
     to the observation after the log (``task_observation_sizes``, with per-entry bounds ``task_observation_low``
     and ``task_observation_high``), the reset options it takes (``task_option_names``), its compiled step
     (``_step_kernel``, see the module docstring) and the hooks ``_task_init`` (its arrays, once the map slots
@@ -656,8 +656,6 @@ class BumperCartExploreEnv(BumperCartEnv):
       BumperCartExplore-v2 credits the bumper's.
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     credits_latest_contact = True
 

@@ -115,8 +115,6 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     * v0: 200 cycles, the reward 100 x the wall fraction touched.
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
 
     def __init__(self, *, budget_cycles: int = 50, map=BumperCartExploreEnv.default_map, layouts: str = "default",

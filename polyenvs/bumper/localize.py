@@ -286,8 +286,6 @@ class BumperCartLocalizeEnv(BumperCartEnv):
       0-199 with random turns, the random bounce and ``greedy_split``: none of the 600 episodes).
     """
 
-    reward_names = REWARD_TERMS
-    metric_names = METRICS
     out_columns = OUT
     task_observation_sizes = BELIEF_PARTS
     task_observation_low = _LOW

@@ -11,9 +11,9 @@ protocol between a family and this base, documented here, not calls for users.
   the instance simulates; ``gym.make`` builds one, :class:`RowsVectorEnv` builds ``num_envs`` (``cls(num_rows=n,
   **kwargs)``, the same validation, spaces and kernels as the single env);
 
-- ``out_columns``: the named columns (:class:`polyenvs.core.columns.OutColumns`) of the ``_out`` table its kernels
-  write, reward terms, metrics, reward and terminated, from the task's declared names (``reward_names`` and
-  ``all_metric_names`` must be those names: the kernels' columns and ``info``'s keys come from one declaration);
+- ``out_columns``: the task's declaration, the named columns (:class:`polyenvs.core.columns.OutColumns`) of the
+  ``_out`` table its kernels write (reward terms, metrics, reward and terminated); ``reward_names`` and the metric
+  names, and so ``info``'s keys, are read from it, so the kernels' columns and ``info`` cannot drift apart;
 - in ``__init__``: ``action_space``, ``observation_space``, then :meth:`RowsEnv._allocate_rows` (the observation
   rows and the ``_out`` table), and :meth:`RowsEnv._pack_kernel` (what its compiled kernels take, as one
   :class:`polyenvs.core.jit.KernelArgs`: the simulator's tuple of arrays, ``_out`` and the task's tuple);
@@ -109,10 +109,8 @@ def copy_generator(rng: np.random.Generator) -> np.random.Generator:
 class RowsEnv(gym.Env):
     """Base class of batched-rows environments (see the module docstring for what a family provides)."""
 
-    #: Names of the reward terms and of the task metrics, in the order of ``info`` (and of ``out_columns``).
-    reward_names: tuple[str, ...] = ()
-    metric_names: tuple[str, ...] = ()
-    #: The columns of the ``_out`` table the kernels write, made from those names by the task's module.
+    #: The task's declaration: its reward terms and metrics by name, laid out as the columns of the ``_out`` table
+    #: the kernels write (made by the task's module); ``info``'s keys come from the same names.
     out_columns: OutColumns = OutColumns((), ())
     #: Rows this instance simulates (its ``num_rows``): 1 for ``gym.make``; :class:`RowsVectorEnv` builds more.
     _batch_size = 1
@@ -120,8 +118,19 @@ class RowsEnv(gym.Env):
     VectorEnv: ClassVar[NativeVector]
 
     @property
+    def reward_names(self) -> tuple[str, ...]:
+        """The reward terms, in the order of ``info`` (``reward_<name>``)."""
+        return self.out_columns.terms
+
+    @property
     def all_metric_names(self) -> tuple[str, ...]:
-        return self.metric_names
+        """Every episode metric, the family's and the task's, in the order of ``info["episode_metrics"]``."""
+        return self.out_columns.metrics
+
+    @property
+    def metric_names(self) -> tuple[str, ...]:
+        """The task's own metrics (a family whose base reports metrics of its own leaves those out)."""
+        return self.all_metric_names
 
     def _use_rows(self, num_rows) -> None:
         """Simulate ``num_rows`` rows (checked: an integer in [1, 1,000,000]); a family's constructor calls this
@@ -132,11 +141,6 @@ class RowsEnv(gym.Env):
         """The arrays the kernels write: observation rows and ``_out`` (the columns of ``out_columns``: reward
         terms, metrics, reward, terminated per row); and the actions batch."""
         columns = self.out_columns
-        if columns.terms != tuple(self.reward_names) or columns.metrics != tuple(self.all_metric_names):
-            raise TypeError(
-                f"{type(self).__name__}.out_columns {columns} does not match its reward_names {self.reward_names} "
-                f"and metric names {self.all_metric_names}"
-            )
         n = self._batch_size
         self._observations = np.zeros((n, *self.observation_space.shape), dtype=self.observation_space.dtype)
         self._out = np.zeros((n, columns.width))
