@@ -25,6 +25,7 @@ from tests.cli_helpers import run_main
 
 ROOT = Path(__file__).resolve().parent.parent
 GOAL, WALL, EXPLORE = "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotExplore-v0"
+QUICK_GOAL = ["leaderboard", "--only", "BuckybotGoal", "--episodes", "1", "--jobs", "1"]
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -224,6 +225,10 @@ def test_errors_are_one_line_without_traceback(args, fragment):
         (["record", GOAL, "--env-kwargs", '{"nonsense": 1}'], "nonsense"),
         (["record", GOAL, "--policy-kwargs", '{"clearance_cm": -1}'], "clearance_cm"),
         (["leaderboard", "--episodes", "0"], "--episodes"),
+        # with a run that is short where a wrong check lets it go ahead (a result file in the directory fails it)
+        ([*QUICK_GOAL, "--backend", "slurm"], "--backend must be one of local, ray, got 'slurm'"),
+        ([*QUICK_GOAL, "--address", "auto"], "--address joins a Ray cluster: it needs --backend ray"),
+        ([*QUICK_GOAL, "--backend", "local", "--address", "auto"], "--address joins a Ray cluster"),
         (["evaluate"], "env_id"),
         ([], "command"),
     ],
@@ -233,6 +238,14 @@ def test_bad_arguments_are_one_line_naming_the_flag(args, fragment, capsys, tmp_
     code, out, err = run_main(args, capsys)
     assert_one_line_error(code, err, fragment)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_leaderboard_on_ray_without_ray_gives_the_install_hint(capsys, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_main([*QUICK_GOAL, "--backend", "ray"], capsys)
+    assert_one_line_error(code, err, 'the ray backend needs Ray: pip install ".[distributed]" in a polyenvs clone')
+    assert list(tmp_path.iterdir()) == []  # refused before any evaluation
 
 
 def test_unexpected_errors_inside_an_environment_show_their_traceback(monkeypatch, capsys):

@@ -14,6 +14,7 @@ from polyenvs.evaluation.agents import DEFAULT_AGENTS_DIR
 from polyenvs.evaluation.protocol import REPRODUCE_EPISODES
 from polyenvs.files import check_writable_directory
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS
+from polyenvs.pool import backend_description, check_backend
 from polyenvs.registry import REGISTRY, EnvEntry, ParallelEnvEntry
 
 __all__ = ["DEFAULT_LEADERBOARD_DIR", "REFERENCE_RESULTS_DIR", "REFERENCE_TABLE", "add_parser", "run"]
@@ -32,7 +33,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description=f"Evaluate random, every hand baseline and every committed trained agent "
         f"({DEFAULT_AGENTS_DIR}/<env>/<algo>/seed<N>/, in the current directory or else in the checkout polyenvs runs "
         f"from; a line says which and what it holds) on every environment, on its default and (where it takes "
-        f"layouts=) held-out layouts, in parallel over the CPUs (--jobs), and write the table ranked by each "
+        f"layouts=) held-out layouts, in parallel over the CPUs (--jobs) or on Ray (--backend ray), and write the table ranked by each "
         f"environment's task score, with charts beside it (matplotlib: the plots extra). By default results go to {DEFAULT_LEADERBOARD_DIR}/ (untracked); "
         f"--update-reference refreshes the committed {REFERENCE_RESULTS_DIR}/ and {REFERENCE_TABLE}; --reproduce "
         "checks this machine against them.",
@@ -56,6 +57,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--jobs",
         default=None,
         help=f"evaluations run in parallel, 1 to {MAX_JOBS} (default: the CPU count); the results are the same",
+    )
+    p.add_argument(
+        "--backend",
+        default="local",
+        help="where the evaluations run: local (a process pool of --jobs workers, default) or ray (Ray tasks of one "
+        "CPU each, on a local Ray instance of --jobs CPUs or, with --address, a running cluster; needs "
+        "polyenvs[distributed]); the results are the same",
+    )
+    p.add_argument(
+        "--address",
+        default=None,
+        help="with --backend ray: a running cluster's address (ray://... or auto); every node needs polyenvs and "
+        "the agents at the paths they have here; the result files are written here",
     )
     p.add_argument(
         "--agents-dir",
@@ -100,6 +114,8 @@ class _Plan:
     missing: dict[str, str]
     agents_found: str
     workers: int
+    backend: str
+    address: str | None  # with --backend ray: the cluster to join (None: a local instance)
     reference_dir: Path | None  # with --reproduce: the reference results the sample is checked against
 
 
@@ -215,6 +231,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
     else:
         agents_dir, looked = _agents(args)
     workers = int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else os.cpu_count() or 1
+    check_backend(args.backend, args.address)
     results_dir, output = _outputs(args)
     rows = [row for row in REGISTRY if args.only is None or args.only in row.id]
     if not rows:
@@ -234,7 +251,8 @@ def _plan(args: argparse.Namespace) -> _Plan:
     if reference_dir is not None and results_dir.absolute() == reference_dir.absolute():
         raise CliError(f"--results-dir {results_dir} is the reference that --reproduce checks")
     workers = min(workers, MAX_JOBS)
-    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found, workers, reference_dir)
+    return _Plan(episodes, results_dir, output, agents_dir, env_ids, missing, agents_found, workers, args.backend,
+                 args.address, reference_dir)  # fmt: skip
 
 
 def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[dict]:
@@ -245,6 +263,8 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
         if plan.missing:
             bar.message(f"left out: {_missing_line(plan.missing)}")
         bar.message(plan.agents_found)
+        if plan.backend == "ray":
+            bar.message(f"evaluations on {backend_description(plan.backend, plan.workers, plan.address)}")
         bar.start(total)
 
     try:
@@ -257,6 +277,8 @@ def _evaluate(args: argparse.Namespace, plan: _Plan, bar: ProgressBar) -> list[d
             agents_dir=plan.agents_dir,
             extra_agents=args.policy or (),
             workers=plan.workers,
+            backend=plan.backend,
+            address=plan.address,
         )
     finally:
         bar.close()

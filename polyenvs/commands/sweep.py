@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 from polyenvs.commands.flags import int_flag
-from polyenvs.errors import InputError
 from polyenvs.limits import MAX_EPISODES, MAX_JOBS, MAX_SEED, MAX_TIMESTEPS
+from polyenvs.pool import backend_description, check_backend
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY, sweep
 
 __all__ = ["add_parser", "run"]
@@ -75,12 +75,7 @@ def run(args: argparse.Namespace) -> int:
     workers = (
         int_flag("--jobs", args.jobs, 1, MAX_JOBS) if args.jobs is not None else min(os.cpu_count() or 1, MAX_JOBS)
     )
-    if args.backend not in sweep.BACKENDS:
-        raise InputError(f"--backend must be one of {', '.join(sweep.BACKENDS)}, got {args.backend!r}")
-    if args.address is not None and args.backend != "ray":
-        raise InputError("--address joins a Ray cluster: it needs --backend ray")
-    if args.backend == "ray":
-        sweep.import_ray()
+    check_backend(args.backend, args.address)
     jobs = sweep.plan_jobs(
         args.envs,
         args.algos,
@@ -91,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
         episodes=episodes,
         checkpoint_every=checkpoint_every,
     )
-    where = f"Ray ({args.address or f'a local instance, {workers} CPUs'})" if args.backend == "ray" else None
-    print(f"{len(jobs)} job{'s' if len(jobs) != 1 else ''} on {where or f'{min(workers, len(jobs))} local workers'}")
+    busy = min(workers, len(jobs)) if args.backend == "local" else workers  # a local Ray instance has --jobs CPUs
+    print(f"{len(jobs)} job{'s' if len(jobs) != 1 else ''} on {backend_description(args.backend, busy, args.address)}")
     from polyenvs.training.train import interrupted_note
 
     for job in jobs:

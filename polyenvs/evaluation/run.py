@@ -5,8 +5,13 @@ Policies: random, every hand baseline, and every trained agent committed under t
 (:mod:`~polyenvs.evaluation.protocol`), on the default layouts and on the held-out ones. Each evaluation is a result
 file of its own (:mod:`~polyenvs.evaluation.results`), written atomically; a re-run skips what is done unless asked
 to redo it, and re-runs (saying why) a file that is unreadable, not a result, for another number of episodes, or
-(for an agent) for another version of the model (its SHA-256 differs). The evaluations run one by one or on a
-process pool (``workers``), with the same results.
+(for an agent) for another version of the model (its SHA-256 differs). The evaluations run one by one here, or
+through :func:`polyenvs.pool.run_jobs` on a local process pool (``workers``) or on Ray (``backend="ray"``: a local
+instance of ``workers`` CPUs or, with ``address``, a running cluster), with the same results: each evaluation is
+seeded on its own, and its result file is written here, in the parent, as it finishes (a run killed midway keeps what
+finished, and a re-run does the rest). On a cluster the nodes read the trained agents' models from the same paths
+as here: every node needs polyenvs and the agents directory at the same place (a shared file system, or the same
+checkout), but not the results directory.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from polyenvs.evaluation.protocol import (
 )
 from polyenvs.evaluation.results import evaluation_title, load_result, provenance, result_path
 from polyenvs.files import write_json_atomic
+from polyenvs.pool import check_backend, run_jobs
 from polyenvs.registry import ParallelEnvEntry, entry
 
 __all__ = ["Listeners", "run_leaderboard", "step_budget"]
@@ -63,7 +69,7 @@ class _Evaluation:
         return evaluation_title(self.env_id, self.name, self.layouts)
 
 
-def run_leaderboard(
+def run_leaderboard(  # noqa: PLR0913 - keyword-only after the two the command always gives, each documented
     env_ids: list[str],
     episodes: int | None,
     *,
@@ -73,6 +79,8 @@ def run_leaderboard(
     agents_dir: Path | None = None,
     extra_agents: list[str] | tuple[str, ...] = (),
     workers: int = 1,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict]:
     """Evaluate ``random``, every hand baseline and every trained agent on each environment, on the default layouts
     and (where the environment takes ``layouts=``) the held-out ones; returns the documents. ``episodes`` per
@@ -85,9 +93,11 @@ def run_leaderboard(
     any episode runs. Results already in ``results_dir`` for ``episodes`` episodes (and, for an agent, the same
     model) are reused unless ``redo``; anything else there is evaluated again and ``listeners.progress`` says which
     file and why (:class:`Listeners`: by default lines are printed). With ``workers`` > 1 the evaluations run on that
-    many processes (:func:`polyenvs.pool.run_local`), with the same results as one by one. An agent's document
-    carries ``"agent": {"algo", "label", "training_seed", ...}``.
+    many processes, and with ``backend="ray"`` on Ray (``address``: a running cluster's; see
+    :func:`polyenvs.pool.run_jobs`), with the same results as one by one. An agent's document carries
+    ``"agent": {"algo", "label", "training_seed", ...}``.
     """
+    check_backend(backend, address)
     listeners = listeners if listeners is not None else Listeners()
     agents = _agents_of(env_ids, agents_dir, extra_agents)
     plan = _plan_evaluations(env_ids, episodes, results_dir, redo, listeners.progress, agents)
@@ -108,8 +118,8 @@ def run_leaderboard(
             f"({done}/{len(todo)})"
         )
 
-    if workers > 1 and len(todo) > 1:
-        _evaluate_in_pool(todo, workers, finish, listeners.on_episode)
+    if backend == "ray" or (workers > 1 and len(todo) > 1):
+        _evaluate_in_pool(todo, workers, finish, listeners.on_episode, backend, address)
     else:
         _evaluate_in_turn(todo, finish, listeners.on_episode)
     for item in plan:
@@ -190,9 +200,8 @@ def step_budget(env_id: str) -> int:
     return row.max_cycles if isinstance(row, ParallelEnvEntry) else row.max_episode_steps
 
 
-def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode) -> None:
-    from polyenvs.pool import run_local
-
+def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode, backend: str, address) -> None:
+    """The evaluations as jobs on ``backend``'s workers; ``finish`` writes each one's file here as it comes back."""
     jobs = [(i, item.env_id, item.policy, item.episodes, layouts_kwargs(item.layouts)) for i, item in enumerate(todo)]
     # Longest first (steps an episode may take, times episodes), so that the workers finish together instead of one
     # running an 8,000-step evaluation alone at the end; the order changes no result (each is seeded on its own).
@@ -205,6 +214,6 @@ def _evaluate_in_pool(todo: list[_Evaluation], workers: int, finish, on_episode)
             on_episode(episode)
 
     def on_error(job, exc: BaseException) -> None:
-        raise exc  # as the serial run would: the pool cancels the rest
+        raise exc  # as the serial run would (on Ray, a RayTaskError that is also the job's error): the rest is cancelled
 
-    run_local(_evaluate_one, jobs, workers, on_result, on_error)
+    run_jobs(_evaluate_one, jobs, workers, on_result, on_error, backend=backend, address=address)

@@ -9,9 +9,9 @@ A job is :func:`polyenvs.training.train.train` of its :meth:`Job.request` into
 to ``<out>/results/<env id with / as __>__agent__<algo>__seed<N>.json`` (the leaderboard's result file for that
 agent). The jobs run on a local process pool (``--jobs`` workers, one torch thread each) or, with ``--backend ray``,
 as Ray tasks (one CPU each) on a local Ray instance or, with ``--address``, on a running cluster; the pool or Ray
-schedules them. Jobs are reproducible from their seeds, and a re-run skips what is done: ``train`` returns a
-finished run without training, and a readable result file for the same number of episodes is kept. A job that was
-interrupted (Ctrl-C, or the sweep killed outright: its run.json says completed false) is resumed from its last saved
+schedules them (:func:`polyenvs.pool.run_jobs`, which the leaderboard's evaluations run on too). Jobs are
+reproducible from their seeds, and a re-run skips what is done: ``train`` returns a finished run without training,
+and a readable result file for the same number of episodes is kept. A job that was interrupted (Ctrl-C, or the sweep killed outright: its run.json says completed false) is resumed from its last saved
 model (the request's ``resume=True``: the checkpoint every ``DEFAULT_CHECKPOINT_EVERY`` timesteps, or what Ctrl-C
 saved), or trained again from the start if it saved none; its run.json lists the timesteps it resumed at
 (``resumed_at``).
@@ -31,9 +31,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from polyenvs.core.extras import install_hint
 from polyenvs.errors import InputError, shown
 from polyenvs.files import check_writable_directory
+from polyenvs.pool import one_line, run_jobs
 from polyenvs.registry import bare_id, slug
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
 
@@ -41,12 +41,10 @@ if TYPE_CHECKING:
     from polyenvs.training.train import TrainRequest
 
 __all__ = [
-    "BACKENDS",
     "DEFAULT_SWEEP_DIR",
     "Job",
     "describe_result",
     "done_before",
-    "import_ray",
     "plan_jobs",
     "run_job",
     "run_sweep",
@@ -55,8 +53,6 @@ __all__ = [
 
 #: Where ``polyenvs sweep`` writes by default (gitignored, like every run's output).
 DEFAULT_SWEEP_DIR = Path("runs/sweep")
-BACKENDS = ("local", "ray")
-RAY_HINT = f"the ray backend needs Ray: {install_hint('distributed')}"
 
 
 @dataclass(frozen=True)
@@ -107,11 +103,6 @@ class Job:
 # ------------------------------------------------------------------------------------------------------- jobs
 
 
-def _one_line(exc: BaseException) -> str:
-    message = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
-
-
 def run_job(job: Job) -> dict[str, Any]:
     """Train ``job`` (or find it finished), evaluate it (or find its result) and return what happened.
 
@@ -124,10 +115,8 @@ def run_job(job: Job) -> dict[str, Any]:
     from polyenvs.evaluation.results import load_result, provenance
     from polyenvs.evaluation.statistics import interquartile_mean
     from polyenvs.files import write_json_atomic
-    from polyenvs.pool import single_threaded_torch
     from polyenvs.training.train import finished_run, read_run, train
 
-    single_threaded_torch()  # also where a Ray task runs it, which has no pool initializer
     out_dir, result_file = Path(job.out_dir), Path(job.result_file)
     try:
         trained = finished_run(out_dir, job.env_id, job.algo, job.seed) is None
@@ -154,7 +143,7 @@ def run_job(job: Job) -> dict[str, Any]:
             write_json_atomic(result_file, doc)
         returns = [float(e["return"]) for e in doc["episodes"]]
     except Exception as exc:  # reported by the driver, which carries on with the other jobs
-        return {"job": asdict(job), "error": _one_line(exc)}
+        return {"job": asdict(job), "error": one_line(exc)}
     return {
         "job": asdict(job),
         "trained": trained,
@@ -285,58 +274,6 @@ def _check_job_dir(out_dir: Path, env_id: str, algo: str, seed: int) -> None:
         raise InputError(message) from None
 
 
-# ------------------------------------------------------------------------------------------------- backends
-
-
-def import_ray():
-    try:
-        import ray
-    except ImportError:
-        raise InputError(RAY_HINT) from None
-    return ray
-
-
-def _run_local(jobs: list[Job], workers: int, report) -> None:
-    from polyenvs.pool import run_local
-
-    def died(job: Job, exc: BaseException) -> None:  # run_job reports its own errors: the worker died
-        report({"job": asdict(job), "error": _one_line(exc)})
-
-    run_local(run_job, jobs, workers, on_result=lambda _, result: report(result), on_error=died)
-
-
-def _run_ray(jobs: list[Job], workers: int, address: str | None, report) -> None:
-    ray = import_ray()
-    started = not ray.is_initialized()
-    if started:
-        if address is None:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-        else:
-            try:
-                ray.init(address=address, log_to_driver=False)
-            except (ConnectionError, RuntimeError, ValueError) as exc:
-                raise InputError(f"--address {address}: cannot join the Ray cluster: {_one_line(exc)}") from None
-    try:
-        remote = ray.remote(num_cpus=1, max_retries=0)(run_job)
-        refs = {remote.remote(job): job for job in jobs}
-        pending = list(refs)
-        try:
-            while pending:
-                done, pending = ray.wait(pending, num_returns=1)
-                for ref in done:
-                    try:
-                        report(ray.get(ref))
-                    except Exception as exc:  # the worker died
-                        report({"job": asdict(refs[ref]), "error": _one_line(exc)})
-        except BaseException:
-            for ref in pending:
-                ray.cancel(ref, force=True)
-            raise
-    finally:
-        if started:
-            ray.shutdown()
-
-
 # -------------------------------------------------------------------------------------------------- the sweep
 
 
@@ -406,10 +343,11 @@ def run_sweep(
             todo.append(job)
         else:
             report(result)
-    if todo and backend == "ray":
-        _run_ray(todo, workers, address, report)
-    elif todo:
-        _run_local(todo, workers, report)
+
+    def died(job: Job, exc: BaseException) -> None:  # run_job reports its own errors: the worker died
+        report({"job": asdict(job), "error": one_line(exc)})
+
+    run_jobs(run_job, todo, workers, lambda _, result: report(result), died, backend=backend, address=address)
     return [results[(j.env_id, j.algo, j.seed)] for j in jobs if (j.env_id, j.algo, j.seed) in results]
 
 
