@@ -22,6 +22,10 @@ class Policy:
 
     #: Length of the per-environment memory row (0 for memoryless policies).
     memory_size: int = 0
+    #: The constructor parameters a search may tune (``polyenvs tune``): a frozen dataclass of fields declared with
+    #: :func:`polyenvs.core.parameters.parameter`, whose defaults are the constructor's (the paper's values) and whose
+    #: ranges are the search's (inside what the constructor accepts); None where nothing is tuned.
+    tunables: type | None = None
 
     def __init__(self, observation_space: spaces.Space, action_space: spaces.Space):
         self.observation_space = observation_space

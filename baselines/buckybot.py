@@ -7,6 +7,8 @@ direction 0 goes back over the last edge tipped (:mod:`polyenvs.buckybot.simulat
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from baselines.base import Policy
@@ -15,6 +17,7 @@ from polyenvs.buckybot.geometry import BODY_RADIUS_CM, STEP_LENGTH_CM
 from polyenvs.buckybot.sensors import RANGE_MAX_CM, RANGE_MIN_CM, horizontal_range, walls_from_readings
 from polyenvs.buckybot.simulator import TIP_ANGLES_RAD
 from polyenvs.core import libm
+from polyenvs.core.parameters import parameter
 from polyenvs.core.validation import check_bool, check_in_range
 
 __all__ = ["GoalSeeker", "WallFollower", "WallFollowExplorer", "decode_readings"]
@@ -35,6 +38,31 @@ def decode_readings(observation: np.ndarray, too_close_cm: float) -> tuple[np.nd
     reading = np.where(too_close, too_close_cm, np.where(no_return, np.nan, reading))
     tip_failed = bool(observation[SENSOR_OBSERVATION_STRUCTURE["tip_failed"][0]] > 0.5)
     return reading, too_close, tip_failed
+
+
+@dataclass(frozen=True)
+class WallFollowerTunables:
+    """What ``polyenvs tune`` searches for the wall follower: the spec names d* and x_s as its parameters and
+    gives no values; the defaults are ours. The search stays within a few tips of the wall (a tip is about 23 cm)."""
+
+    d_star_cm: float = parameter(50.0, 20.0, 120.0, "cm", "ours (the paper names d*, gives no value)")
+    x_s_cm: float = parameter(20.0, 0.0, 80.0, "cm", "ours (the paper names x_s, gives no value)")
+    too_close_cm: float = parameter(20.0, 5.0, RANGE_MIN_CM, "cm", "ours: below the sonar's minimum range")
+
+
+@dataclass(frozen=True)
+class WallFollowExplorerTunables(WallFollowerTunables):
+    """The explorer's: farther from the wall, so the beams sweep the rooms."""
+
+    d_star_cm: float = parameter(70.0, 20.0, 150.0, "cm", "ours")
+    x_s_cm: float = parameter(30.0, 0.0, 80.0, "cm", "ours")
+
+
+@dataclass(frozen=True)
+class GoalSeekerTunables:
+    """What ``polyenvs tune`` searches for the goal seeker."""
+
+    clearance_cm: float = parameter(40.0, 10.0, 120.0, "cm", "ours")
 
 
 class WallFollower(Policy):
@@ -70,17 +98,18 @@ class WallFollower(Policy):
     # sense (+1 counter-clockwise), last wall normal azimuth (frame), has a last wall, last action, has acted,
     # has moved (a tip succeeded, so direction 0 now means "back"), tips failed since the last success (bits)
     memory_size = 7
+    tunables = WallFollowerTunables
 
     def __init__(
         self,
         observation_space,
         action_space,
         *,
-        d_star_cm: float = 50.0,
-        x_s_cm: float = 20.0,
+        d_star_cm: float = WallFollowerTunables.d_star_cm,
+        x_s_cm: float = WallFollowerTunables.x_s_cm,
         no_backtrack: bool = False,
         clockwise_exception: bool = False,
-        too_close_cm: float = 20.0,
+        too_close_cm: float = WallFollowerTunables.too_close_cm,
         avoid_failed_tip: bool = False,
     ):
         # Validate everything before keeping anything.
@@ -157,9 +186,10 @@ class WallFollowExplorer(WallFollower):
     tips (the fixes keep it moving through doors and past wall ends).
     """
 
+    tunables = WallFollowExplorerTunables
     DEFAULTS = {
-        "d_star_cm": 70.0,
-        "x_s_cm": 30.0,
+        "d_star_cm": WallFollowExplorerTunables.d_star_cm,
+        "x_s_cm": WallFollowExplorerTunables.x_s_cm,
         "no_backtrack": True,
         "clockwise_exception": True,
         "avoid_failed_tip": True,
@@ -183,8 +213,9 @@ class GoalSeeker(Policy):
     """
 
     memory_size = 1  # has moved
+    tunables = GoalSeekerTunables
 
-    def __init__(self, observation_space, action_space, clearance_cm: float = 40.0):
+    def __init__(self, observation_space, action_space, clearance_cm: float = GoalSeekerTunables.clearance_cm):
         clearance_cm = check_in_range("clearance_cm", clearance_cm, 0.0, RANGE_MAX_CM, low_open=True)
         super().__init__(observation_space, action_space)
         self.clearance_cm = clearance_cm

@@ -37,10 +37,13 @@ obstacles in between, ours also turns from L1 and R2 and weaves between the wall
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from baselines.base import Policy
 from polyenvs.core import libm
+from polyenvs.core.parameters import check_parameters, parameter
 from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import structure_for
 from polyenvs.swarm.formation_v0 import OBSERVATION_PARTS as FORMATION_PARTS
@@ -53,18 +56,37 @@ __all__ = ["APLite", "APLiteGoalSeeking", "FormationController", "observation_la
 #: obstacle field) or the formation's leader (``formation_v0``). The length of an observation tells them apart.
 TASK_PARTS = ({}, FORMATION_PARTS)
 
-#: The appendix's constants.
-RANGE_IN = 30.0
+#: The appendix's constants that stay fixed (its force law's are :class:`APLiteTunables`): the power cap, the time step
+#: and mass (which only scale the force law's gains), the noise floor and the starting speed.
 MAX_SPEED = 70
-K_MID = 5.0
-K_SIDE = 4.0
-FRICTION = 0.5
 STEP = 1.0
 MASS = 1.0
-ALPHA = 1.0
-GOAL_FORCE = 100.0
 READING_FILTER = 30.0
 INITIAL_VELOCITY = 70.0
+
+
+@dataclasses.dataclass(frozen=True)
+class APLiteTunables:
+    """AP-lite's force law, the appendix's values (what ``polyenvs tune`` searches, and what an :class:`APLite`
+    accepts): the reactive range, the gains of the middle and side sensors, the goal force, the speed retention
+    (friction) and the turn gain."""
+
+    range_in: float = parameter(30.0, 5.0, 60.0, "in", "paper: 30 inches")
+    k_mid: float = parameter(5.0, 0.0, 20.0, "", "paper appendix")
+    k_side: float = parameter(4.0, 0.0, 20.0, "", "paper appendix")
+    goal_force: float = parameter(100.0, 10.0, 300.0, "", "paper appendix: Fx = 100")
+    friction: float = parameter(0.5, 0.0, 0.95, "", "paper appendix: FR = 0.5")
+    alpha: float = parameter(1.0, 0.1, 3.0, "", "paper appendix")
+
+    def __post_init__(self):
+        check_parameters(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class FormationTunables(APLiteTunables):
+    """The formation controller's: AP-lite's force law and the springs' stiffness."""
+
+    spring_k: float = parameter(300.0, 50.0, 1000.0, "1/m", "the feasibility study: 200-400 holds a hexagon")
 
 
 def observation_layout(dim: int) -> dict[str, tuple[int, int]]:
@@ -87,6 +109,8 @@ class APLite(Policy):
             paper's AP-lite reads on it (all four on the Maxelbot, the two outer-most on the X80Pro).
         sensors: read these sensors instead of the platform's (indices 0..3).
         sensor_angles_deg: the virtual sensor angles S0..S3.
+        range_in, k_mid, k_side, goal_force, friction, alpha: the force law (:class:`APLiteTunables`, whose
+            ranges they must be in).
 
     Attributes:
         last_stopped: per robot of the last batch, whether AP-lite commanded (0, 0).
@@ -94,10 +118,16 @@ class APLite(Policy):
     """
 
     memory_size = 1
+    tunables: type[APLiteTunables] = APLiteTunables
 
     def __init__(self, observation_space, action_space, *, platform: str = "maxelbot", sensors=None,
-                 sensor_angles_deg=SENSOR_ANGLES_DEG):  # fmt: skip
+                 sensor_angles_deg=SENSOR_ANGLES_DEG, **force_law):  # fmt: skip
         super().__init__(observation_space, action_space)
+        law_names = {f.name for f in dataclasses.fields(APLiteTunables)}
+        unknown = sorted(set(force_law) - law_names)
+        if unknown:
+            raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
+        self.law = APLiteTunables(**force_law)
         robot = get_platform(platform)
         self.ir_scale = robot.ir_scale
         if sensors is None:
@@ -109,7 +139,8 @@ class APLite(Policy):
         angles = np.radians(self.sensor_angles_deg)
         mask = np.zeros(4)
         mask[list(self.sensors)] = 1.0
-        gain = np.array([K_SIDE, K_MID, K_MID, K_SIDE]) * mask
+        law = self.law
+        gain = np.array([law.k_side, law.k_mid, law.k_mid, law.k_side]) * mask
         self._cos, self._sin = gain * libm.cos(angles), gain * libm.sin(angles)
         self.structure = observation_layout(observation_space.shape[0])
         self.last_stopped = np.zeros(0, dtype=bool)
@@ -125,7 +156,7 @@ class APLite(Policy):
     def goal_force(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The attractive force in the robot's frame: (100, 0), along the heading (the paper's)."""
         n = obs.shape[0]
-        return np.full(n, GOAL_FORCE), np.zeros(n)
+        return np.full(n, self.law.goal_force), np.zeros(n)
 
     def extra_force(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Forces a subclass adds to the goal and obstacle forces (none in AP-lite)."""
@@ -150,7 +181,7 @@ class APLite(Policy):
         raw = raw_from_observation(obs[:, a:b], self.ir_scale)
         seen = raw > READING_FILTER
         with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.where(seen, np.maximum(RANGE_IN - inches_from_raw(raw), 0.0), 0.0)
+            r = np.where(seen, np.maximum(self.law.range_in - inches_from_raw(raw), 0.0), 0.0)
         fx, fy = self.goal_force(obs)
         ex, ey = self.extra_force(obs)
         # Sensor by sensor, in order (not a matrix product, whose rounding depends on the batch size).
@@ -158,7 +189,7 @@ class APLite(Policy):
             fx = fx - r[:, s] * self._cos[s]
             fy = fy - r[:, s] * self._sin[s]
         fx, fy = fx + ex, fy + ey
-        vx = FRICTION * v + STEP * fx / MASS
+        vx = self.law.friction * v + STEP * fx / MASS
         vy = STEP * fy / MASS
         v = np.hypot(vx, vy)
         delta = libm.arctan2(STEP * fy / MASS, STEP * fx / MASS)
@@ -166,8 +197,9 @@ class APLite(Policy):
         w = np.where(delta > np.pi / 2, np.pi - delta, np.where(delta < -np.pi / 2, -np.pi - delta, delta))
         theta_new = libm.arctan2(vy, vx)
         moving = (theta_new >= -np.pi / 2) & (theta_new <= np.pi / 2)
-        right = np.trunc(v + v * ALPHA * w)
-        left = np.trunc(v - v * ALPHA * w)
+        alpha = self.law.alpha
+        right = np.trunc(v + v * alpha * w)
+        left = np.trunc(v - v * alpha * w)
         over = (right > MAX_SPEED) | (left > MAX_SPEED)
         right_larger = right >= left
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -191,7 +223,7 @@ class APLiteGoalSeeking(APLite):
     def goal_force(self, obs):
         a = self.structure["light"][0]
         bearing = np.pi * obs[:, a]
-        return GOAL_FORCE * np.cos(bearing), GOAL_FORCE * np.sin(bearing)
+        return self.law.goal_force * np.cos(bearing), self.law.goal_force * np.sin(bearing)
 
 
 class FormationController(APLiteGoalSeeking):
@@ -219,8 +251,10 @@ class FormationController(APLiteGoalSeeking):
         Others: see :class:`APLite`.
     """
 
-    def __init__(self, observation_space, action_space, *, spacing_m: float = 0.9, spring_k: float = 300.0,
-                 comm_range_m: float = 3.0, **kwargs):  # fmt: skip
+    tunables = FormationTunables
+
+    def __init__(self, observation_space, action_space, *, spacing_m: float = 0.9,
+                 spring_k: float = FormationTunables.spring_k, comm_range_m: float = 3.0, **kwargs):  # fmt: skip
         super().__init__(observation_space, action_space, **kwargs)
         self.spacing_m = check_in_range("spacing_m", spacing_m, 0.3, 5.0)
         self.spring_k = check_in_range("spring_k", spring_k, 0.0, 5000.0)

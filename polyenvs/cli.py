@@ -22,7 +22,7 @@ import sys
 from gymnasium.error import DependencyNotInstalled
 
 from polyenvs import __version__
-from polyenvs.commands import collect, evaluate, leaderboard, localize, record, sweep, train
+from polyenvs.commands import collect, evaluate, leaderboard, localize, record, sweep, train, tune
 from polyenvs.commands import list as list_command
 from polyenvs.commands.flags import CliError
 from polyenvs.errors import InputError
@@ -32,7 +32,7 @@ from polyenvs.registry import bare_id, entry
 __all__ = ["ID_ARGUMENTS", "build_parser", "main", "superseded_notes"]
 
 #: The subcommands, in the order ``polyenvs --help`` lists them (each imports nothing heavy until it runs).
-COMMANDS = (train, sweep, localize, list_command, evaluate, leaderboard, record, collect)
+COMMANDS = (train, tune, sweep, localize, list_command, evaluate, leaderboard, record, collect)
 #: The arguments by which the commands name environments: an id (evaluate, record, collect, train), localize's
 #: ``--env`` and sweep's ``--envs``.
 ID_ARGUMENTS = ("env_id", "env", "envs")

@@ -23,24 +23,71 @@ from baselines.beast.planner import DEFAULT_CONFIGS, BeastPlanner
 from baselines.beast.zero_tip import ZeroTipController
 from polyenvs.beast.model import stance_orientation
 from polyenvs.beast.sensors import TILT_AXES, observation_layout_of
+from polyenvs.core.parameters import parameter
 from polyenvs.core.validation import check_bool, check_in_range, check_int
 
 __all__ = ["Crawl", "RollingGait", "SharpTurn", "Righting"]
 
 
+#: The paper's power budget (12 W with all limbs moving) implies joints at about 15 deg/s; the gaits run at 20.
+_RATE_SOURCE = "ours: the feasibility study's (the paper's 12 W implies about 15)"
+
+
+@dataclasses.dataclass(frozen=True)
+class RollingGaitTunables:
+    """What ``polyenvs tune`` searches for the rolling gait: the joint rate and the tip keyframe, as offsets from
+    the polyhedron's (:data:`baselines.beast.planner.DEFAULT_CONFIGS`): the body's tilt about the tipping edge at the
+    keyframe (the first angle of its rotation) and the landing foot's pre-placed roll."""
+
+    rate_deg_s: float = parameter(20.0, 5.0, 45.0, "deg/s", _RATE_SOURCE)
+    tip_offset_deg: float = parameter(0.0, -10.0, 10.0, "deg", "ours: the feasibility study's keyframe")
+    roll_offset_deg: float = parameter(0.0, -8.0, 8.0, "deg", "ours: the feasibility study's keyframe")
+
+
+@dataclasses.dataclass(frozen=True)
+class SharpTurnTunables:
+    """What ``polyenvs tune`` searches for the sharp turn."""
+
+    rate_deg_s: float = parameter(20.0, 5.0, 45.0, "deg/s", _RATE_SOURCE)
+
+
+@dataclasses.dataclass(frozen=True)
+class RightingTunables:
+    """What ``polyenvs tune`` searches for the righting routine."""
+
+    rate_deg_s: float = parameter(30.0, 5.0, 60.0, "deg/s", "ours")
+
+
+@dataclasses.dataclass(frozen=True)
+class CrawlTunables:
+    """What ``polyenvs tune`` searches for the crawl."""
+
+    rate_deg_s: float = parameter(20.0, 5.0, 45.0, "deg/s", _RATE_SOURCE)
+    stride: float = parameter(CrawlConfig.stride, 0.02, 0.2, "m", "ours")
+    margin: float = parameter(CrawlConfig.margin, 0.0, 0.06, "m", "ours")
+
+
 class _ControllerPolicy(Policy):
-    """A controller object per environment, found through the handle in that environment's memory row."""
+    """A controller object per environment, found through the handle in that environment's memory row; the planner
+    runs at ``rate_deg_s`` with the polyhedron's tip keyframe turned by ``keyframe_offsets_deg`` (tilt, roll)."""
 
     memory_size = 1
 
-    def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0):
+    def __init__(self, observation_space, action_space, rate_deg_s: float = 20.0, keyframe_offsets_deg=(0.0, 0.0)):
         super().__init__(observation_space, action_space)
         self.rate_deg_s = check_in_range("rate_deg_s", rate_deg_s, 5.0, 90.0)
         n_limbs = n_limbs_of(int(np.prod(observation_space.shape)))
         if action_space.shape != (3 * n_limbs,):
             raise ValueError(f"action_space must have shape ({3 * n_limbs},), got {action_space.shape}")
         self.polyhedron = polyhedron_of(n_limbs)
-        config = dataclasses.replace(DEFAULT_CONFIGS[self.polyhedron], rate_deg_s=self.rate_deg_s)
+        base = DEFAULT_CONFIGS[self.polyhedron]
+        tilt, roll = keyframe_offsets_deg
+        config = dataclasses.replace(
+            base,
+            rate_deg_s=self.rate_deg_s,
+            tip_rotation_deg=(base.tip_rotation_deg[0] + tilt, *base.tip_rotation_deg[1:]),
+            roll_deg=base.roll_deg + roll,
+        )
         self.planner = BeastPlanner(self.polyhedron, joint_ranges=joint_ranges_of(observation_space), config=config)
         self._controllers: dict[int, object] = {}
         self._handles = itertools.count(1)
@@ -90,6 +137,8 @@ class RollingGait(_ControllerPolicy):
 
     Args:
         rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s (paper's power budget: ~15).
+        tip_offset_deg, roll_offset_deg: the tip keyframe's tilt about the edge and the landing foot's pre-placed
+            roll, added to the polyhedron's, each in [-10, 10] deg (:class:`RollingGaitTunables`).
         max_tumbles: stop (hold the stance) after this many tumbles, in [1, 1000]; None rolls on.
         disabled_limbs: 1-based limbs known to be broken (paper section 5): lifted first if standing, never landed.
         zero_tip: the paper's zero-tip tumbles instead (section 3, 4-beast only; :mod:`baselines.beast.zero_tip`):
@@ -97,16 +146,26 @@ class RollingGait(_ControllerPolicy):
             about twice as slow. Only the strip's first tumble can be made so; then the policy holds its stance.
     """
 
+    tunables = RollingGaitTunables
+
     def __init__(
         self,
         observation_space,
         action_space,
-        rate_deg_s: float = 20.0,
+        rate_deg_s: float = RollingGaitTunables.rate_deg_s,
         max_tumbles: int | None = None,
         disabled_limbs=(),
         zero_tip: bool = False,
+        *,
+        tip_offset_deg: float = RollingGaitTunables.tip_offset_deg,
+        roll_offset_deg: float = RollingGaitTunables.roll_offset_deg,
     ):
-        super().__init__(observation_space, action_space, rate_deg_s)
+        offsets = (
+            check_in_range("tip_offset_deg", tip_offset_deg, -10.0, 10.0),
+            check_in_range("roll_offset_deg", roll_offset_deg, -8.0, 8.0),
+        )
+        super().__init__(observation_space, action_space, rate_deg_s, offsets)
+        self.tip_offset_deg, self.roll_offset_deg = offsets
         self._require_tumbles()
         self.zero_tip = check_bool("zero_tip", zero_tip)
         if self.zero_tip and self.planner.n_limbs != 4:
@@ -124,7 +183,13 @@ class RollingGait(_ControllerPolicy):
             "max_tumbles": self.max_tumbles,
             "disabled_limbs": list(self.disabled_limbs),
             "zero_tip": self.zero_tip,
+            **self._keyframe_offsets(),
         }
+
+    def _keyframe_offsets(self) -> dict:
+        """The keyframe's offsets where they are not the polyhedron's (descriptions made before them stay as they were)."""
+        offsets = {"tip_offset_deg": self.tip_offset_deg, "roll_offset_deg": self.roll_offset_deg}
+        return offsets if any(offsets.values()) else {}
 
     def make_controller(self, observation):
         controller = ZeroTipController if self.zero_tip else RollingGaitController
@@ -153,12 +218,14 @@ class SharpTurn(_ControllerPolicy):
         rate_deg_s, max_tumbles: as for :class:`RollingGait` (max_tumbles default 4).
     """
 
+    tunables = SharpTurnTunables
+
     def __init__(
         self,
         observation_space,
         action_space,
         pivot: int | str | None = None,
-        rate_deg_s: float = 20.0,
+        rate_deg_s: float = SharpTurnTunables.rate_deg_s,
         max_tumbles: int = 4,
     ):
         super().__init__(observation_space, action_space, rate_deg_s)
@@ -196,7 +263,11 @@ class Righting(_ControllerPolicy):
     :class:`RollingGait`.
     """
 
-    def __init__(self, observation_space, action_space, rate_deg_s: float = 30.0, roll_after: bool = False):
+    tunables = RightingTunables
+
+    def __init__(
+        self, observation_space, action_space, rate_deg_s: float = RightingTunables.rate_deg_s, roll_after: bool = False
+    ):
         super().__init__(observation_space, action_space, rate_deg_s)
         self.roll_after = check_bool("roll_after", roll_after)
 
@@ -234,6 +305,8 @@ class Crawl(_ControllerPolicy):
         max_cycles: stop (hold) after this many crawl cycles of four steps, in [1, 1000]; None walks on.
     """
 
+    tunables = CrawlTunables
+
     def __init__(
         self,
         observation_space,
@@ -241,9 +314,9 @@ class Crawl(_ControllerPolicy):
         disabled_limbs=(1,),
         *,
         heading_deg: float = 0.0,
-        rate_deg_s: float = 20.0,
-        stride: float = CrawlConfig.stride,
-        margin: float = CrawlConfig.margin,
+        rate_deg_s: float = CrawlTunables.rate_deg_s,
+        stride: float = CrawlTunables.stride,
+        margin: float = CrawlTunables.margin,
         max_cycles: int | None = None,
     ):
         super().__init__(observation_space, action_space, rate_deg_s)

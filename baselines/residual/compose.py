@@ -11,6 +11,7 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines.factory import available_policies, make_baseline
+from baselines.tuned import is_tuned_path, load_tuned_policy
 from polyenvs.core.validation import check_bool, check_in_range, check_int
 
 __all__ = ["MAX_HOLD", "MAX_SCALE", "ResidualComposer", "ResidualSpec", "make_composer"]
@@ -132,8 +133,8 @@ def make_composer(
     spec: ResidualSpec, env_id: str, observation_space, action_space, seed: int | None = None
 ) -> ResidualComposer:
     """The composer of ``spec`` for ``env_id``: ``ValueError`` naming the parameter for an action space that is not
-    a Box (``env``), a ``baseline`` that is not one of the id's hand baselines (random and trained models are not
-    bases: a residual corrects a fixed, known controller) or a ``seed`` that is not ``None`` or an integer >= 0
+    a Box (``env``), a ``baseline`` that is not one of the id's hand baselines or a tuned one's directory
+    (``polyenvs tune``'s; random and trained models are not bases: a residual corrects a fixed, known controller) or a ``seed`` that is not ``None`` or an integer >= 0
     (it seeds a stochastic baseline)."""
     if seed is not None:
         check_int("seed", seed, 0)
@@ -142,7 +143,13 @@ def make_composer(
                              for s in (observation_space, action_space))  # fmt: skip
         raise ValueError(f"env: a residual policy needs Box observations and actions, {env_id} has {kinds}")
     choices = [name for name in available_policies(env_id) if name != "random"]
-    if spec.baseline not in choices:
-        raise ValueError(f"baseline {spec.baseline!r} is not a hand baseline of {env_id}; choose from {choices}")
-    base = make_baseline(spec.baseline, env_id, observation_space, action_space, seed=seed)
+    if is_tuned_path(spec.baseline):
+        base = load_tuned_policy(spec.baseline, env_id, observation_space, action_space, seed=seed)
+    elif spec.baseline in choices:
+        base = make_baseline(spec.baseline, env_id, observation_space, action_space, seed=seed)
+    else:
+        raise ValueError(
+            f"baseline {spec.baseline!r} is not a hand baseline of {env_id} nor a tuned one's directory; "
+            f"choose from {choices}"
+        )
     return ResidualComposer(spec, base, observation_space, action_space)

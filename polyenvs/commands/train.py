@@ -147,8 +147,9 @@ def _add_residual_flags(p: argparse.ArgumentParser) -> None:
         "--residual",
         default=None,
         metavar="NAME",
-        help="train a residual agent: a correction of this hand baseline's actions (paper, or a name polyenvs list "
-        "gives the id), started at the baseline; Box actions (Gymnasium ids and the PettingZoo swarms)",
+        help="train a residual agent: a correction of this hand baseline's actions (paper, a name polyenvs list "
+        "gives the id, or a directory polyenvs tune wrote), started at the baseline; Box actions (Gymnasium ids and "
+        "the PettingZoo swarms)",
     )
     p.add_argument("--residual-scale", default=None, help="the correction is S x the agent's action, 0 < S <= 2 "
                    "(default 0.5)")  # fmt: skip

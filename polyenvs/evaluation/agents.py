@@ -4,7 +4,9 @@ A committed agent is a training directory (``model.zip``, optional ``vecnormaliz
 ``benchmarks/agents/<env id with / as __>/<algo>/seed<N>/`` (:func:`find_agents`), one per training seed; an agent
 named on the command line is any training directory whose ``run.json`` names its environment
 (:func:`agent_from_path`). Either is loaded against its environment before any evaluation (:func:`check_agent`),
-and its results name its model by SHA-256 (:func:`agent_checksum`).
+and its results name its model by SHA-256 (:func:`agent_checksum`). A tuned hand baseline (``polyenvs tune``'s
+directory, :mod:`baselines.tuned`) is an agent of algorithm :data:`TUNED` the same way, one per tuning seed at
+``<env>/tuned_<baseline>/seed<N>/``: its row sits beside the baseline's, and the verdict compares agents with it.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from baselines.tuned import TUNED_FILE, is_tuned_path, read_tuned, tuned_checksum
 from polyenvs.errors import InputError
 from polyenvs.evaluation.episodes import make_agent, make_env
 from polyenvs.evaluation.protocol import old_versions_quietly
@@ -20,6 +23,7 @@ from polyenvs.registry import bare_id, slug
 
 __all__ = [
     "DEFAULT_AGENTS_DIR",
+    "TUNED",
     "Agent",
     "agent_checksum",
     "agent_from_path",
@@ -30,8 +34,11 @@ __all__ = [
     "default_agents_dirs",
     "find_agents",
     "training_layouts",
+    "unfinished",
 ]
 
+#: The algorithm of a tuned hand baseline's agent (its directory ``tuned_<baseline>``).
+TUNED = "tuned"
 #: Where committed trained agents live (relative to the repository root, like the reference results).
 DEFAULT_AGENTS_DIR = Path("benchmarks/agents")
 
@@ -66,6 +73,14 @@ class Agent:
         }
 
 
+def unfinished(agent: Agent) -> str:
+    """How far an interrupted agent got: its timesteps, or a tuned baseline's trials."""
+    run = agent.run
+    if agent.algo == TUNED:
+        return f"tuned for {run.get('finished_trials')} of {run.get('trials')} trials"
+    return f"trained {run.get('timesteps')} of {run.get('requested_timesteps')} requested timesteps"
+
+
 def training_layouts(run: dict) -> str:
     """The layouts a training run drew its episodes from (its ``env_kwargs``' ``layouts``; "default" where it set
     none, as every run did before ``polyenvs train`` followed the Procgen protocol)."""
@@ -98,16 +113,36 @@ _DERIVED_DIR = re.compile(r"(?P<algo>[a-z0-9_]+?)_(?P<how>residual|bc)_(?P<basel
 
 
 def _algo_dir(path: Path, algos) -> tuple[str, dict[str, str | None]]:
-    """``(algorithm, {"residual": baseline or None, "bc": baseline or None})`` an agents directory's name says."""
+    """``(algorithm, {"residual": baseline or None, "bc": baseline or None})`` an agents directory's name says; for
+    a tuned baseline's, ``(TUNED, {"tuned": baseline})``."""
     if path.name in algos:
         return path.name, {"residual": None, "bc": None}
+    if path.name.startswith(f"{TUNED}_"):
+        return TUNED, {"tuned": path.name.removeprefix(f"{TUNED}_")}
     match = _DERIVED_DIR.fullmatch(path.name)
     if match is None or match["algo"] not in algos:
         raise InputError(
             f"{path}: unknown algorithm directory; known: {', '.join(algos)} (or <algo>_residual_<baseline>, "
-            "<algo>_bc_<baseline>)"
+            f"<algo>_bc_<baseline>, {TUNED}_<baseline>)"
         )
     return match["algo"], {"residual": None, "bc": None, match["how"]: match["baseline"]}
+
+
+def _tuned_agent(env_id: str, seed_dir: Path, baseline: str, seed: int) -> Agent:
+    """The tuned baseline in ``seed_dir`` (``tuned_<baseline>/seed<N>``), checked against where it sits."""
+    try:
+        doc = read_tuned(seed_dir)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    for what, found, expected in (
+        ("env_id", bare_id(doc["env_id"]), env_id),
+        ("policy", doc["policy"], baseline),
+        ("seed", doc.get("seed"), seed),
+    ):
+        if found != expected:
+            raise InputError(f"{seed_dir / TUNED_FILE}: {what} is {found!r}, but the directory says {expected!r}")
+    label = f"{TUNED}_{baseline}"
+    return Agent(env_id, TUNED, str(seed_dir), label, f"agent__{label}__seed{seed}", seed, doc)
 
 
 def _bases(run: dict) -> dict[str, str | None]:
@@ -140,12 +175,15 @@ def find_agents(agents_dir: Path | None, env_id: str) -> list[Agent]:
     agents = []
     order = {name: i for i, name in enumerate(ALGOS)}  # ppo, dqn, maskable_ppo, sac, td3
     algo_dirs = [p for p in base.iterdir() if p.is_dir() and not p.name.startswith(".")]
-    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(_algo_dir(p, ALGOS)[0]), p.name)):
+    for algo_dir in sorted(algo_dirs, key=lambda p: (order.get(_algo_dir(p, ALGOS)[0], len(order)), p.name)):
         algo, bases = _algo_dir(algo_dir, ALGOS)
         label = algo_dir.name
         seed_dirs = [p for p in algo_dir.iterdir() if p.is_dir() and not p.name.startswith(".")]
         for seed_dir in sorted(seed_dirs, key=lambda p: (_seed_number(p), p.name)):
             seed = _seed_number(seed_dir)
+            if algo == TUNED:
+                agents.append(_tuned_agent(env_id, seed_dir, str(bases["tuned"]), seed))
+                continue
             try:
                 _, _, run_file = trained.resolve_model_files(seed_dir)
                 if run_file is None:
@@ -211,7 +249,16 @@ def agents_line(agents_dir: Path | None, env_ids: list[str], looked: list[Path] 
 
 
 def agent_from_path(path: str) -> Agent:
-    """An extra agent named on the command line (``--policy PATH``): its run.json must name its environment."""
+    """An extra agent named on the command line (``--policy PATH``): its run.json (a tuned baseline's tuned.json)
+    must name its environment."""
+    slug = re.sub(r"[^A-Za-z0-9._-]+", "_", str(path)).strip("_.") or "model"
+    if is_tuned_path(path):
+        try:
+            doc = read_tuned(path)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+        seed = doc.get("seed") if isinstance(doc.get("seed"), int) else None
+        return Agent(bare_id(doc["env_id"]), TUNED, str(path), str(path), f"agent__{slug}", seed, doc)
     trained = _trained()
     try:
         model_file, _, run_file = trained.resolve_model_files(path)
@@ -223,7 +270,6 @@ def agent_from_path(path: str) -> Agent:
         raise InputError(f"{path}: the leaderboard needs the run.json beside the model to know its environment")
     algo = run.get("algo") or "model"
     seed = run.get("seed") if isinstance(run.get("seed"), int) else None
-    slug = re.sub(r"[^A-Za-z0-9._-]+", "_", str(path)).strip("_.") or "model"
     return Agent(bare_id(str(env_id)), algo, str(path), str(path), f"agent__{slug}", seed, run)
 
 
@@ -239,7 +285,9 @@ def check_agent(agent: Agent, envs: dict) -> str:
 
 def agent_checksum(agent: Agent) -> str:
     """The SHA-256 of ``agent``'s model files (the model and its normalisation statistics), without loading them:
-    a result names the model it evaluated by it."""
+    a result names the model it evaluated by it. A tuned baseline's is of its baseline and parameters."""
+    if agent.algo == TUNED:
+        return tuned_checksum(agent.run)
     trained = _trained()
     model_file, normalize_file, _ = trained.resolve_model_files(agent.path)
     return trained.model_checksum(model_file, normalize_file)

@@ -32,8 +32,9 @@ __all__ = ["INSTALL_HINT", "available", "interval_plot", "learning_curve_plot", 
 
 INSTALL_HINT = install_hint("plots")
 #: Colours by kind of row (matplotlib's tab10): random grey, the paper's algorithm blue, an upper anchor navy (both
-#: can be drawn on one row), other hand baselines light blue, trained agents orange.
-COLOURS = {"random": "#7f7f7f", "paper": "#1f77b4", "anchor": "#08306b", "baseline": "#9ecae1", "agent": "#ff7f0e"}
+#: can be drawn on one row), other hand baselines light blue, tuned hand baselines teal, trained agents orange.
+COLOURS = {"random": "#7f7f7f", "paper": "#1f77b4", "anchor": "#08306b", "baseline": "#9ecae1", "tuned": "#1b9e77",
+           "agent": "#ff7f0e"}  # fmt: skip
 #: The trained algorithms' lines: tab10 without random's grey and the paper's blue, each colour solid, then
 #: dash-dotted, then dotted (never dashed: a hand policy's level is), so that any number of algorithms can be drawn.
 SERIES_STYLES = tuple(
@@ -106,8 +107,10 @@ def _normalised_groups(tables: dict[str, dict]) -> dict[str, list[np.ndarray]]:
         rand = next(r["score"]["value"] for r in rows if r["kind"] == "random")
         anchor = next(r["score"]["value"] for r in rows if r["kind"] == anchor_kind)
         for row in rows:
-            name = {"random": "random", "paper": "paper's algorithm"}.get(row["kind"], row["label"])
-            if row["kind"] in ("random", "paper", "agent"):
+            name = {"random": "random", "paper": "paper's algorithm", "tuned": "tuned hand baselines"}.get(
+                row["kind"], row["label"]
+            )
+            if row["kind"] in ("random", "paper", "tuned", "agent"):
                 groups.setdefault(name, []).extend((run - rand) / (anchor - rand) for run in row["score_runs"])
     return groups
 
@@ -123,7 +126,7 @@ def performance_profile_plot(tables: dict[str, dict]):
     series = itertools.cycle(SERIES_STYLES)
     for name, runs in groups.items():
         curve, low, high = performance_profile(runs, TAUS, n_boot=PROFILE_BOOTSTRAPS)
-        kind = {"random": "random", "paper's algorithm": "paper"}.get(name)
+        kind = {"random": "random", "paper's algorithm": "paper", "tuned hand baselines": "tuned"}.get(name)
         colour, style = (COLOURS[kind], "-") if kind else next(series)
         axes.plot(TAUS, curve, color=colour, linestyle=style, linewidth=2, label=name)
         axes.fill_between(TAUS, low, high, color=colour, alpha=0.2)

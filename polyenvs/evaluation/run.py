@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from polyenvs.errors import InputError
-from polyenvs.evaluation.agents import Agent, agent_from_path, check_agent, find_agents
+from polyenvs.evaluation.agents import Agent, agent_from_path, check_agent, find_agents, unfinished
 from polyenvs.evaluation.episodes import evaluate
 from polyenvs.evaluation.protocol import (
     EVAL_SEED,
@@ -163,10 +163,7 @@ def _plan_evaluations(env_ids, episodes, results_dir, redo, progress, agents) ->
                 sha = check_agent(agent, envs) if agent is not None else None
                 name = agent.name if agent is not None else policy
                 if agent is not None and agent.run.get("completed") is False:
-                    progress(
-                        f"{env_id} {name}: trained {agent.run.get('timesteps')} of "
-                        f"{agent.run.get('requested_timesteps')} requested timesteps (interrupted); included as it is"
-                    )
+                    progress(f"{env_id} {name}: {unfinished(agent)} (interrupted); included as it is")
                 for layout in LAYOUTS:  # every row takes layouts= (tests/test_layouts.py)
                     path = result_path(results_dir, env_id, key, layout)
                     item = _Evaluation(env_id, policy, name, path, layout, count, agent)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from polyenvs.evaluation.agents import TUNED
 from polyenvs.evaluation.protocol import result_layouts
 from polyenvs.evaluation.statistics import aggregate_with_two_level_ci, interquartile_mean, iqm_with_stratified_ci
 from polyenvs.registry import entry
@@ -64,11 +65,11 @@ def _seed_scores(groups: list[np.ndarray] | None, score) -> list[float] | None:
     return [float(aggregate(g)) for g in groups]
 
 
-def _kind(label: str, agent: bool, env_id: str, score) -> str:
+def _kind(label: str, agent: dict | None, env_id: str, score) -> str:
     from baselines import paper_policy
 
-    if agent:
-        return "agent"
+    if agent is not None:
+        return "tuned" if agent.get("algo") == TUNED else "agent"
     if label == "random":
         return "random"
     if score is not None and label == score.upper_anchor:
@@ -91,7 +92,7 @@ def _row(env_id: str, group_key: str, docs: list[dict], held_out: list[dict], sc
     layouts = {d["agent"].get("training_layouts", "default") for d in docs} if agent else set()
     return {
         "label": label,
-        "kind": _kind(label, agent, env_id, score),
+        "kind": _kind(label, docs[0]["agent"] if agent else None, env_id, score),
         "returns": np.concatenate(runs),
         "iqm": iqm,
         "low": low,
