@@ -1,4 +1,5 @@
-"""``polyenvs list``: every environment with its spaces (one robot's) and a line.
+"""``polyenvs list``: every environment with its spaces (one robot's) and a line; with ``--policies``, every
+environment's hand baselines and the parameters each may have tuned (``polyenvs tune``).
 
 An environment whose optional extra is not installed (the beasts without ``mujoco``) is listed with the line that
 installs it instead of its spaces; a superseded id (kept registered for the results made with it) with its newer
@@ -21,14 +22,58 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "list", help="every environment (Gymnasium id or PettingZoo module) with its spaces (one robot's) and a line"
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument(
+        "--policies",
+        action="store_true",
+        help="list each environment's hand baselines and their tunable parameters (start [range] unit) instead",
+    )
     p.set_defaults(func=run)
     return p
+
+
+def _policies() -> list[dict]:
+    """Per environment: its hand baselines, the paper's marked, each with its tunable parameters."""
+    import dataclasses
+
+    from baselines import paper_policy
+    from baselines.factory import tunable_parameters
+    from baselines.table import hand_baselines
+    from polyenvs.registry import REGISTRY
+
+    return [
+        {
+            "id": entry.id,
+            "paper": paper_policy(entry.id),
+            "baselines": {
+                name: [dataclasses.asdict(p) for p in tunable_parameters(name, entry.id)]
+                for name in hand_baselines(entry.id).names
+            },
+        }
+        for entry in REGISTRY
+    ]
+
+
+def _print_policies(rows: list[dict]) -> None:
+    for row in rows:
+        print(row["id"])
+        for name, tunables in row["baselines"].items():
+            paper = " (paper)" if name == row["paper"] else ""
+            params = "; ".join(f"{p['name']} = {p['start']:g} [{p['low']:g}, {p['high']:g}] {p['unit']}".rstrip()
+                               for p in tunables)  # fmt: skip
+            print(f"  {name}{paper}: {params or 'nothing to tune'}")
 
 
 def run(args: argparse.Namespace) -> int:
     import polyenvs
     from polyenvs.registry import REGISTRY
 
+    if args.policies:
+        rows = _policies()
+        if args.json:
+            print(json.dumps(rows, indent=1))
+        else:
+            _print_policies(rows)
+        return 0
     rows = [_row(entry) for entry in REGISTRY]
     if args.json:
         print(json.dumps([dict(zip(FIELDS, r, strict=True)) for r in rows], indent=1))
