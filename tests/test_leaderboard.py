@@ -323,6 +323,15 @@ def test_reproduce_matches_an_agent_by_its_row_and_seed_wherever_it_was_found():
     assert other.same == 1 and other.differ == [f"{GOAL} ppo seed0: seeds 1001 differ from the reference"]
     longer = polyenvs.evaluation.results.compare_with_reference([doc("x", [1.0, 2.0, 3.0, 4.0])], reference)
     assert longer.same == 0 and "the reference has 3 episodes" in longer.absent[0]
+    # A metric added since the reference was made (the beasts' power) is not compared; one it recorded is.
+    added = doc("x", [1.0, 2.0])
+    for episode in added["episodes"]:
+        episode["metrics"]["mean_power_w"] = 3.0
+    assert polyenvs.evaluation.results.compare_with_reference([added], reference).same == 2
+    added["episodes"][0]["metrics"]["m"] = 1.5
+    assert polyenvs.evaluation.results.compare_with_reference([added], reference).same == 1
+    del added["episodes"][1]["metrics"]["m"]  # one it recorded and the code no longer reports
+    assert polyenvs.evaluation.results.compare_with_reference([added], reference).same == 0
 
 
 @pytest.mark.parametrize("extra", [["--quick"], ["--update-reference"], ["--agents-dir", "."], ["--policy", "x"]])

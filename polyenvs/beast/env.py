@@ -13,7 +13,9 @@ termination, running metrics, from the tick's :class:`~polyenvs.beast.sensors.St
 - a diverged simulation (non-finite or huge state) never reaches the user: the episode is truncated with
   ``info["sim_unstable"] = True``, the last finite observation and a zero reward;
 - ``info`` always holds the named reward terms (``reward_<name>``, summing to the reward), ``sim_unstable`` and the
-  running ``episode_metrics`` (final at the episode's end, which ``polyenvs evaluate`` reports).
+  running ``episode_metrics`` (final at the episode's end, which ``polyenvs evaluate`` reports);
+- the actuators' mechanical power of each tick (the summary's ``power``) makes the metrics :data:`POWER_METRICS`
+  (and :data:`TRAVEL_METRICS` on a task that travels) of a task that lists them in its ``metric_names``.
 """
 
 from __future__ import annotations
@@ -39,10 +41,16 @@ from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, parameter, physical_parameters
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
 
-__all__ = ["BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
+__all__ = ["POWER_METRICS", "TRAVEL_METRICS", "BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
 
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
 STANCE_TICKS = 20
+#: The actuators' mechanical power over an episode, from each tick's (W): the mean over the ticks and the largest.
+POWER_METRICS = ("mean_power_w", "peak_power_w")
+#: The power metrics of a task that travels (one with ``distance_m``): those and the cost of transport, the energy
+#: (the ticks' power times 10 ms, J) over the robot's weight (its bodies' masses, with the layout's, times MuJoCo's
+#: gravity, N) times ``distance_m`` (m); 0 while ``distance_m`` is not positive, so that it stays finite.
+TRAVEL_METRICS = (*POWER_METRICS, "cost_of_transport")
 _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 #: A drawn start state is rounded to 1e-9 (m, rad, m/s, rad/s): numpy's matrix products and transcendental functions
 #: run CPU-specific kernels (OpenBLAS's per-core-type GEMM, AVX-512 or AVX2 SIMD sines) that differ in the last bit,
@@ -319,6 +327,8 @@ class BeastEnv(MujocoEnv):
             round(self.switch_debounce_ms / 1000 / CONTROL_DT),
         ]
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
+        self._power_names = tuple(name for name in TRAVEL_METRICS if name in self.metric_names)
+        self._travels = "cost_of_transport" in self._power_names
         self._unstable = False
         self._elapsed = 0
         self._needs_reset = True
@@ -427,7 +437,30 @@ class BeastEnv(MujocoEnv):
         ):  # fmt: skip
             self._unstable = True
             return None, False
-        return self._task_step(S.StepSummary(*self._misc[S.SUMMARY].tolist()))
+        summary = S.StepSummary(*self._misc[S.SUMMARY].tolist())
+        result = self._task_step(summary)
+        if self._power_names:
+            self._record_power(summary.power)
+        return result
+
+    def _start_power(self) -> None:
+        """The power metrics' start, after the task's (the layout has set this episode's masses)."""
+        self._power_sum = 0.0  # W, summed over the ticks
+        gravity = float(np.linalg.norm(self.model.opt.gravity))
+        self._weight_n = mujoco.mj_getTotalmass(self.model) * gravity
+        self._metrics.update(dict.fromkeys(self._power_names, 0.0))
+
+    def _record_power(self, power: float) -> None:
+        """A tick's mechanical power (W) into the power metrics, after the task's step has written its distance."""
+        self._power_sum += power
+        m = self._metrics
+        m["mean_power_w"] = self._power_sum / self._elapsed
+        if power > m["peak_power_w"]:
+            m["peak_power_w"] = power
+        if self._travels:
+            distance = m["distance_m"]
+            energy_j = self._power_sum * CONTROL_DT
+            m["cost_of_transport"] = energy_j / (self._weight_n * distance) if distance > 0.0 else 0.0
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         options = self._check_options(options)
@@ -467,6 +500,7 @@ class BeastEnv(MujocoEnv):
             self._misc, self._obs,
         )  # fmt: skip
         self._task_reset(int(self._misc[S.FEET_MASK]))
+        self._start_power()
         info = dict.fromkeys(self._reward_keys, 0.0)
         info["sim_unstable"] = False
         info["episode_metrics"] = dict(self._metrics)

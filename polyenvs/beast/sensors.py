@@ -101,8 +101,8 @@ N_JOINT_ROWS = 12
 # heading's unit vector, then the per-step summary the tasks read.
 HALF_BAND, INV_DT, TILT_SIN, PRIVILEGED, TORQUE_NORM, DEBOUNCE_TICKS = range(6)
 PREV_X, PREV_Y, START_X, START_Y, HEAD_X, HEAD_Y = range(6, 12)
-VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ = range(12, 19)
-N_MISC = 19
+VELOCITY, DISTANCE, FEET_MASK, N_FEET, OTHER_CONTACTS, TORQUE_SQ, SPIN_SQ, POWER = range(12, 20)
+N_MISC = 20
 SUMMARY = slice(VELOCITY, N_MISC)
 
 
@@ -110,7 +110,8 @@ class StepSummary(NamedTuple):
     """The summary of one tick that a task scores (``misc[SUMMARY]``, in its columns' order; see :func:`sense`):
     velocity (m/s) along the heading and distance (m) along it from the start, the feet-on-floor bitmask (bit i =
     limb i + 1) and count, contacts of anything but a foot with the floor, mean squared torque / limit^2, squared
-    body spin (rad^2/s^2). Python floats, as the kernel wrote them."""
+    body spin (rad^2/s^2), the actuators' mechanical power (W, see :func:`sense`). Python floats, as the kernel wrote
+    them."""
 
     velocity: float
     distance: float
@@ -119,6 +120,7 @@ class StepSummary(NamedTuple):
     other_contacts: float
     torque_sq: float
     spin_sq: float
+    power: float
 
 
 @njit(cache=True)
@@ -155,8 +157,14 @@ def sense(data, tilt_axes, joints, misc, obs):
     them, which the real hard stop does not, and the observation space's bounds are the limits.
     The summary (``misc[SUMMARY]``): body velocity along the heading over the tick and distance along it from the
     start (the previous position is updated), the feet-on-floor bitmask (bit i = limb i + 1) and count, contacts of
-    anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2). The summary's
-    feet are MuJoCo's contacts; the observation's are the debounced switches (``joints[SWITCH]``).
+    anything but a foot with the floor, mean squared torque / limit^2, squared body spin (rad^2/s^2), and the
+    actuators' mechanical power P = sum over joints of max(0, tau_j qdot_j) (W: the model is SI, kg, m, s, so
+    torques are N m and joint speeds rad/s). tau_j is ``actuator_force[j]``, the torque actuator j's servo or motor
+    applied over the tick's last physics substep (clamped to its force range; actuator j drives joint j with gear
+    1, so it is the torque at the joint), and qdot_j the joint's speed at the tick's end, ``qvel[6 + j]`` after the
+    free joint's 6 dofs. Only the positive part counts: negative work (lowering the body, braking a limb) is not
+    recovered, since a worm drive does not backdrive. The summary's feet are MuJoCo's contacts; the observation's
+    are the debounced switches (``joints[SWITCH]``).
     On divergence nothing is written, so the previous observation stays the last finite one. MuJoCo resets a state
     it finds non-finite (to the model's reference pose) and counts a warning: ``warnings`` (MjData's warning counts,
     cleared by ``mj_resetData``) catches that silent reset.
@@ -255,7 +263,8 @@ def _read_switches(sensordata, joints, misc, out):
 
 @njit(cache=True)
 def _summarise_body(qpos, qvel, force, misc):
-    """The body's part of the summary: velocity and distance along the heading, squared torque, squared spin."""
+    """The body's part of the summary: velocity and distance along the heading, squared torque, squared spin, the
+    actuators' mechanical power (``force[j]`` drives the dof ``6 + j``)."""
     inv_dt = misc[INV_DT]
     hx, hy = misc[HEAD_X], misc[HEAD_Y]
     misc[VELOCITY] = ((qpos[0] - misc[PREV_X]) * hx + (qpos[1] - misc[PREV_Y]) * hy) * inv_dt
@@ -263,7 +272,10 @@ def _summarise_body(qpos, qvel, force, misc):
     misc[PREV_X] = qpos[0]
     misc[PREV_Y] = qpos[1]
     sq = 0.0
+    power = 0.0
     for j in range(force.shape[0]):
         sq += force[j] * force[j]
+        power += max(0.0, force[j] * qvel[6 + j])
     misc[TORQUE_SQ] = sq * misc[TORQUE_NORM]
     misc[SPIN_SQ] = qvel[3] * qvel[3] + qvel[4] * qvel[4] + qvel[5] * qvel[5]
+    misc[POWER] = power

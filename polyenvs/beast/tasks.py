@@ -11,7 +11,15 @@ import math
 import numpy as np
 
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import STANCE_TICKS, BeastEnv, RobotContactParams, SensorParams, TumbleCounter
+from polyenvs.beast.env import (
+    POWER_METRICS,
+    STANCE_TICKS,
+    TRAVEL_METRICS,
+    BeastEnv,
+    RobotContactParams,
+    SensorParams,
+    TumbleCounter,
+)
 from polyenvs.beast.layouts import LAYOUT_SPLIT
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.beast.mujoco_extra import mujoco
@@ -102,7 +110,9 @@ _V0_HISTORY = """    - v0: first version (MuJoCo 4.0). Since 2026-12 a drawn sta
       ends in a stance on the feet (a trained agent had "succeeded" by flopping onto its body), and BeastTurn-v0
       gives joint 1 a range of +-250 degrees and has the commanded turn (cos, sin) in its observation (Box(54)).
       Added on 2026-12-02 without changing a default episode: ``layouts=`` (held-out friction, mass, servo gain
-      and damping).
+      and damping). Added on 2026-12-05 without changing an episode (returns, lengths, observations and the other
+      metrics as before), to every beast id: the metrics ``mean_power_w``, ``peak_power_w`` and, on Tumble, Roll
+      and Turn, ``cost_of_transport`` (the actuators' mechanical power, see Episode End).
 """
 _V1_HISTORY = """    - v1: the robot's contact model by default (``RobotContactParams``): each servo stops within
       ``servo_deadband_deg`` = 0.25 of its target, where the worm drive holds the joint, and each foot switch
@@ -111,9 +121,26 @@ _V1_HISTORY = """    - v1: the robot's contact model by default (``RobotContactP
 """
 
 
-def _doc(summary, rewards, start, end, args, *, score: str, v1: str | None = None) -> str:
-    """A beast id's docstring; ``v1`` (what its reward changed, or None for a -v0 id) makes it the -v1 id's."""
+#: The power metrics every task reports after its own (``polyenvs.beast.env.POWER_METRICS``).
+_POWER = """    The last metrics are the actuators' mechanical power P, the sum over the joints of max(0, torque x joint
+    speed), sampled every 10 ms tick: the actuator's torque over the tick's last physics step (2 ms; MuJoCo's
+    ``actuator_force``) times the joint's speed at its end. The model is SI (kg, m, s; torques in N m, speeds in
+    rad/s), so P is in watts: the mechanical power the motors deliver to the joints, what the joints' damping (the
+    worm drive's friction) dissipates included; negative work is not recovered (a worm drive does not backdrive).
+    It is not the electrical power the robot draws (the paper's "under 12 W" includes the motors' and the gears'
+    losses and four microcontrollers). ``mean_power_w`` (W): the mean of P over the episode's ticks so far;
+    ``peak_power_w`` (W): the largest P of any tick so far (of the 10 ms samples: a shorter spike between them is
+    not seen)."""
+_COST_OF_TRANSPORT = """ ``cost_of_transport`` (dimensionless): the energy (the ticks' P x 10 ms, J) over
+    the robot's weight (the model's total mass, with a layout's body mass, x 9.81 m/s^2, N) times ``distance_m``;
+    0 while ``distance_m`` is not positive, so that it stays finite."""
+
+
+def _doc(summary, rewards, start, end, args, *, score: str, v1: str | None = None, travels: bool = True) -> str:
+    """A beast id's docstring; ``v1`` (what its reward changed, or None for a -v0 id) makes it the -v1 id's;
+    ``travels``: the task reports a ``distance_m`` and so a cost of transport."""
     params = SensorParams if v1 is None else RobotContactParams
+    power = _POWER + (_COST_OF_TRANSPORT if travels else "")
     history = _V0_HISTORY if v1 is None else _V0_HISTORY + _V1_HISTORY + v1
     return f"""{summary}
 {_SHARED}
@@ -128,6 +155,8 @@ def _doc(summary, rewards, start, end, args, *, score: str, v1: str | None = Non
 {start}
     ## Episode End
 {end}
+{power}
+
     A diverged simulation (non-finite or speeds over 1000) truncates the episode with ``info["sim_unstable"]``,
     the last finite observation and a reward of 0.
 
@@ -255,7 +284,7 @@ _RECOVER_SCORE = """    ``success`` (max, ceiling 1; ties broken by ``time_to_st
 class BeastTumbleEnv(BeastEnv):
     __doc__ = _doc(*_TUMBLE, score=_TUMBLE_SCORE)
     reward_names = ("progress", "success", "ctrl")
-    metric_names = ("success", "time_s", "distance_m")
+    metric_names = ("success", "time_s", "distance_m", *TRAVEL_METRICS)
 
     def __init__(self, success_reward: float = 10.0, **kwargs):
         self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
@@ -283,7 +312,7 @@ class BeastTumbleEnv(BeastEnv):
 class BeastRollEnv(BeastEnv):
     __doc__ = _doc(*_ROLL, score=_ROLL_SCORE)
     reward_names = ("forward", "ctrl")
-    metric_names = ("distance_m", "tumbles", "speed_m_s")
+    metric_names = ("distance_m", "tumbles", "speed_m_s", *TRAVEL_METRICS)
 
     def __init__(self, heading_deg: float = 0.0, **kwargs):
         self.heading_deg = check_in_range("heading_deg", heading_deg, -180.0, 180.0)
@@ -312,7 +341,7 @@ class BeastRollEnv(BeastEnv):
 class BeastTurnEnv(BeastEnv):
     __doc__ = _doc(*_TURN, score=_TURN_SCORE)
     reward_names = ("forward", "ctrl")
-    metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m")
+    metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m", *TRAVEL_METRICS)
 
     def __init__(self, turn_deg: float = 60.0, physics: dict | None = None, **kwargs):
         self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
@@ -346,9 +375,9 @@ class BeastTurnEnv(BeastEnv):
 
 
 class BeastRecoverEnv(BeastEnv):
-    __doc__ = _doc(*_RECOVER, score=_RECOVER_SCORE)
+    __doc__ = _doc(*_RECOVER, score=_RECOVER_SCORE, travels=False)
     reward_names = ("support", "success", "ctrl")
-    metric_names = ("success", "time_to_stance_s")
+    metric_names = ("success", "time_to_stance_s", *POWER_METRICS)
 
     def __init__(self, success_reward: float = 10.0, **kwargs):
         self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
@@ -491,6 +520,7 @@ class BeastRecoverV1Env(_PaysSuccessAndTime, _RobotContact, BeastRecoverEnv):
         *_RECOVER[2:4],
         _RECOVER[4] + "    | time_cost | 0.2 | reward lost per second until the stance is reached, [0, 10] |\n",
         score=_RECOVER_SCORE,
+        travels=False,
         v1="""      The reward is the score's: v0's ``support`` paid 0.03 a step for standing on three feet without
       keeping still (60 over the 20 s limit against a success bonus of 10); v1 pays the success and charges time.
 """,

@@ -187,8 +187,11 @@ def _title(doc: dict) -> str:
     return evaluation_title(doc["env_id"], name, result_layouts(doc))
 
 
-def _canonical(episode: dict) -> str:
-    return json.dumps(episode, sort_keys=True)  # floats as Python writes them: the same text is the same bits
+def _canonical(episode: dict, recorded: dict) -> str:
+    """``episode`` as text, with only the metrics that ``recorded`` (the reference's episode) has: a metric added
+    to an environment since the reference was made is new information, not a change to the episode."""
+    metrics = {k: v for k, v in episode.get("metrics", {}).items() if k in recorded.get("metrics", {})}
+    return json.dumps({**episode, "metrics": metrics}, sort_keys=True)  # the same text is the same bits
 
 
 def compare_with_reference(sample: list[dict], reference: list[dict]) -> Reproduction:
@@ -197,7 +200,8 @@ def compare_with_reference(sample: list[dict], reference: list[dict]) -> Reprodu
     and policy.
 
     Episodes are deterministic (same seed, same episode, on any machine), so a re-run episode that differs in its
-    return, its length or any metric means that this machine or this code does not reproduce the reference.
+    return, its length or any metric the reference recorded means that this machine or this code does not reproduce
+    the reference (a metric added since, such as the beasts' power, is not compared).
     """
     by_identity = {_identity(doc): doc for doc in reference}
     result = Reproduction()
@@ -208,7 +212,9 @@ def compare_with_reference(sample: list[dict], reference: list[dict]) -> Reprodu
             why = "not in the reference" if ref is None else f"the reference has {len(ref['episodes'])} episodes"
             result.absent.append(f"{_title(doc)}: {why} (evaluate it with the full protocol)")
             continue
-        differing = [a["seed"] for a, b in zip(ours, ref["episodes"], strict=False) if _canonical(a) != _canonical(b)]
+        differing = [
+            a["seed"] for a, b in zip(ours, ref["episodes"], strict=False) if _canonical(a, b) != _canonical(b, b)
+        ]
         result.same += len(ours) - len(differing)
         if differing:
             result.differ.append(f"{_title(doc)}: seeds {', '.join(map(str, differing))} differ from the reference")
