@@ -139,6 +139,10 @@ def test_a_study_killed_with_sigkill_resumes_to_the_trials_an_uninterrupted_one_
         (["--episodes", "1.5"], "--episodes must be an integer"),
         (["--env-kwargs", '{"layouts": "test"}'], "a tuning runs on layouts='train'"),
         (["--env-kwargs", '{"bogus": 1}'], "bad environment keyword arguments"),
+        (["--max-mean", "bogus=1"], "--max-mean bogus: polyenvs/BumperCartExplore-v2 has no such episode metric"),
+        (["--max-mean", "coverage"], "--max-mean must be METRIC=LIMIT"),
+        (["--max-mean", "coverage=nan"], "--max-mean coverage must be a finite number"),
+        (["--max-mean", "coverage=1", "--sampler", "cmaes"], "--max-mean needs --sampler tpe"),
     ],
 )
 def test_bad_flags_are_refused_in_one_line_before_any_work(tmp_path, capsys, args, message):
@@ -228,3 +232,15 @@ def test_polyenvs_list_policies_shows_what_each_baseline_may_tune(capsys):
         50.0, 20.0, 120.0)  # fmt: skip
     code, stdout, _ = run_main(["list", "--policies"], capsys)
     assert "  wall_follower (paper): d_star_cm = 50 [20, 120] cm;" in stdout
+
+
+def test_a_limit_keeps_the_best_trial_within_the_first_trials_mean(monkeypatch, tmp_path):
+    # Coverage capped at the detuned start's own: the trials that cover more are infeasible, however well they score.
+    _detuned(monkeypatch, CART, "detuned", "baselines.bumper:FixedTurn", turn_deg=2.0)
+    request = TuneRequest(CART, "paper", 6, seed=0, out=tmp_path, episodes=4, limits={"coverage": "first"})
+    doc = tune(request, progress=lambda _: None)
+    history = doc["history"]
+    best = history[doc["best"]["trial"]]
+    assert best["feasible"] and best["means"]["coverage"] <= history[0]["means"]["coverage"]
+    assert any(not t["feasible"] and t["value"] > best["value"] for t in history)
+    assert doc["objective"]["limits"] == {"coverage": "first"}

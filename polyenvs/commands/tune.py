@@ -1,7 +1,7 @@
 """``polyenvs tune``: search a hand baseline's tunable parameters on the training layouts (needs polyenvs[tune]).
 
 ``polyenvs tune ENV --policy NAME --trials N --seed S --out DIR [--episodes N] [--sampler tpe|cmaes]
-[--storage URL] [--env-kwargs JSON]``; the study is :mod:`polyenvs.training.tune`'s, its output directory a policy
+[--storage URL] [--env-kwargs JSON] [--max-mean METRIC=LIMIT ...]``; the study is :mod:`polyenvs.training.tune`'s, its output directory a policy
 (:mod:`baselines.tuned`).
 """
 
@@ -10,7 +10,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from polyenvs.commands.flags import int_flag, parse_json_object
+from polyenvs.commands.flags import float_flag, int_flag, parse_json_object
+from polyenvs.errors import InputError
 from polyenvs.files import check_writable_directory
 from polyenvs.limits import MAX_EPISODES, MAX_SEED
 
@@ -41,8 +42,26 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--sampler", default="tpe", help="tpe (default) or cmaes")
     p.add_argument("--storage", default=None, help="an Optuna storage URL (default: sqlite in DIR)")
     p.add_argument("--env-kwargs", default="{}", help="JSON object of environment keyword arguments")
+    p.add_argument(
+        "--max-mean",
+        action="append",
+        default=[],
+        metavar="METRIC=LIMIT",
+        help="keep an episode metric's mean over a trial's episodes at most LIMIT (a number, or 'first': the first "
+        "trial's, the baseline as it ships), e.g. mean_power_w=first; repeatable; TPE only",
+    )
     p.set_defaults(func=run)
     return p
+
+
+def _limit(text: str) -> tuple[str, float | str]:
+    """``(metric, limit)`` of a ``--max-mean METRIC=LIMIT``."""
+    from polyenvs.training.tune import FIRST
+
+    metric, sep, limit = text.partition("=")
+    if not sep or not metric:
+        raise InputError(f"--max-mean must be METRIC=LIMIT, got {text!r}")
+    return metric, FIRST if limit == FIRST else float_flag(f"--max-mean {metric}", limit, -1e300, 1e300)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -60,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
         sampler=args.sampler,
         storage=args.storage,
         env_kwargs=parse_json_object(args.env_kwargs, "--env-kwargs"),
+        limits=dict(_limit(text) for text in args.max_mean),
     )
     check_writable_directory(out, "--out")
     check_request(request)

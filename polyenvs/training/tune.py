@@ -5,7 +5,9 @@ by :func:`baselines.factory.tunable_parameters`), with Optuna's TPE or CMA-ES sa
 objective is the environment's task score (:class:`polyenvs.registry.Score`: its metric, aggregated as the
 leaderboard aggregates it) over a fixed set of episodes on the training layouts, the same episodes for every trial:
 seeds :func:`tuning_seeds` of the tuning seed, apart from the leaderboard's. The first trial is the baseline as it
-ships (the paper's values), so the search never ends below it on its own objective.
+ships (the paper's values), so the search never ends below it on its own objective. ``limits`` constrain episode
+metrics' means (the beasts' ``mean_power_w`` at most the first trial's: "on the same power"): TPE's constrained
+search, and the best trial is the best that keeps them.
 
 The study lives in an Optuna storage: ``<out>/study.db`` (SQLite), or ``storage``, a URL several workers on several
 machines share. Each trial's sampler is seeded from the tuning seed and the number of trials finished before it, so
@@ -31,7 +33,7 @@ from baselines.tuned import TUNED_FILE, read_tuned
 from polyenvs.errors import InputError
 from polyenvs.evaluation.episodes import make_agent, make_env
 from polyenvs.evaluation.protocol import old_versions_quietly
-from polyenvs.evaluation.rollout import run_episode
+from polyenvs.evaluation.rollout import is_parallel, run_episode
 from polyenvs.evaluation.statistics import interquartile_mean
 from polyenvs.files import write_json_atomic
 from polyenvs.registry import Score, bare_id, entry
@@ -46,6 +48,8 @@ TUNE_LAYOUTS = "train"
 #: The study's SQLite file in the output directory (where no ``storage`` URL is given).
 STUDY_FILE = "study.db"
 SAMPLERS = ("tpe", "cmaes")
+#: A limit that is the first trial's own mean of the metric.
+FIRST = "first"
 #: Tuning seed S runs episodes ``SEED_BASE + S * SEED_STRIDE + i``: far from the leaderboard's (1000 on) and apart
 #: for each tuning seed, so that the tuning runs are independent runs.
 SEED_BASE, SEED_STRIDE = 1_000_000, 10_000
@@ -67,6 +71,9 @@ class TuneRequest:
     storage: str | None = None
     env_kwargs: dict = field(default_factory=dict)
     command: str | None = None
+    #: Episode metric -> the most its mean over a trial's episodes may be: a number, or :data:`FIRST` (the first
+    #: trial's mean, the baseline as it ships, on the same episodes).
+    limits: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -108,11 +115,35 @@ def check_request(request: TuneRequest) -> _Target:
         raise InputError(f"--sampler must be one of {', '.join(SAMPLERS)}, got {request.sampler!r}")
     if "layouts" in request.env_kwargs:
         raise InputError(f"--env-kwargs: a tuning runs on layouts={TUNE_LAYOUTS!r}; do not set layouts")
+    if request.limits and request.sampler != "tpe":
+        raise InputError("--max-mean needs --sampler tpe (Optuna's CMA-ES sampler takes no constraints)")
+    for metric, limit in request.limits.items():
+        if limit != FIRST and (isinstance(limit, bool) or not isinstance(limit, int | float) or not np.isfinite(limit)):
+            raise InputError(f"--max-mean {metric}: the limit must be a finite number or {FIRST!r}, got {limit!r}")
     env_kwargs = {**request.env_kwargs, "layouts": TUNE_LAYOUTS}
     _check_same_study(request, env_id, str(baseline))
     with old_versions_quietly():
-        make_env(env_id, env_kwargs).close()  # a rejected keyword raises here, before the study
+        names = _metric_names(make_env(env_id, env_kwargs))  # a rejected keyword raises there, before the study
+    unknown = sorted(set(request.limits) - names)
+    if unknown:
+        raise InputError(
+            f"--max-mean {unknown[0]}: {env_id} has no such episode metric (it has {', '.join(sorted(names))})"
+        )
     return _Target(env_id, str(baseline), space, score, env_kwargs)
+
+
+def _metric_names(env) -> set[str]:
+    """The episode metrics ``env`` reports (after one step of sampled actions), and closes it."""
+    try:
+        if is_parallel(env):
+            env.reset(seed=0)
+            _, _, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+            swarm = getattr(env.unwrapped, "episode_metrics", None)
+            return set(swarm() if swarm is not None else next(iter(infos.values())).get("episode_metrics", {}))
+        env.reset(seed=0)
+        return set(env.step(env.action_space.sample())[4].get("episode_metrics", {}))
+    finally:
+        env.close()
 
 
 def _check_same_study(request: TuneRequest, env_id: str, baseline: str) -> None:
@@ -142,10 +173,14 @@ def _optuna():
     return optuna
 
 
-def _sampler(optuna, kind: str, seed: int):
-    if kind == "cmaes":
+def _sampler(optuna, request: TuneRequest, seed: int):
+    if request.sampler == "cmaes":
         return optuna.samplers.CmaEsSampler(seed=seed, warn_independent_sampling=False)
-    return optuna.samplers.TPESampler(seed=seed)
+    return optuna.samplers.TPESampler(seed=seed)  # it reads the constraints a trial sets
+
+
+def _feasible(trial) -> bool:
+    return all(c <= 0 for c in trial.user_attrs.get("constraints", []))
 
 
 def _aggregate(score: Score, values: list[float]) -> float:
@@ -177,21 +212,41 @@ class _Objective:
             agent = make_agent(target.baseline, target.env_id, self.env, seed=self.request.seed, policy_kwargs=params)
         except InputError as exc:  # a combination the baseline refuses (a turn band upside down)
             trial.set_user_attr("refused", str(exc))
+            for metric in self.request.limits:
+                trial.set_constraint(metric, float("inf"))
             raise self.optuna.TrialPruned() from None
-        values, ties = [], []
+        values, ties, limited = [], [], {m: [] for m in self.request.limits}
         for step, seed in enumerate(self.seeds):
             metrics = run_episode(self.env, agent, seed)["metrics"]
             values.append(float(metrics[score.metric]))
             if score.tie_break is not None and score.tie_break in metrics:
                 ties.append(float(metrics[score.tie_break]))
+            for metric, seen in limited.items():
+                seen.append(float(metrics[metric]))
             trial.report(score.sign * float(np.mean(values)), step)
             if trial.should_prune():
+                self._constrain(trial, limited)
                 raise self.optuna.TrialPruned()
+        self._constrain(trial, limited)
         value = _aggregate(score, values)
         tie = float(np.mean(ties)) if ties else None
         trial.set_user_attr("score", value)
         trial.set_user_attr("tie", tie)
         return _objective_value(score, value, tie)
+
+    def _constrain(self, trial, limited: dict[str, list[float]]) -> None:
+        """Set the trial's constraints (Optuna's, which TPE reads, and ours to report): how far the limited metrics'
+        means over its episodes are over their limits (the first trial's own means for a limit of :data:`FIRST`)."""
+        if not limited:
+            return
+        means = {metric: float(np.mean(seen)) for metric, seen in limited.items()}
+        done = trial.study.get_trials(deepcopy=False, states=(self.optuna.trial.TrialState.COMPLETE,))
+        first = done[0].user_attrs["means"] if done else means  # the first is the baseline as it ships
+        over = [means[m] - (first[m] if limit == FIRST else limit) for m, limit in self.request.limits.items()]
+        trial.set_user_attr("means", means)
+        trial.set_user_attr("constraints", over)
+        for metric, value in zip(self.request.limits, over, strict=True):
+            trial.set_constraint(metric, value)
 
 
 def _study(optuna, request: TuneRequest, target: _Target):
@@ -203,11 +258,11 @@ def _study(optuna, request: TuneRequest, target: _Target):
         storage=storage, study_name=name, direction="maximize", pruner=pruner, load_if_exists=True
     )
     states = optuna.trial.TrialState
-    if not study.trials:
-        study.enqueue_trial({p.name: p.start for p in target.space})
-    elif request.storage is None:  # ours alone: a trial left running was killed with the process
+    if request.storage is None:  # ours alone: a trial left running was killed with the process
         for trial in study.get_trials(deepcopy=False, states=(states.RUNNING,)):
             study.tell(trial.number, state=states.FAIL)
+    if not study.get_trials(deepcopy=False, states=(states.COMPLETE, states.PRUNED, states.WAITING)):
+        study.enqueue_trial({p.name: p.start for p in target.space})  # (again, if the kill cut it short)
     return study
 
 
@@ -225,6 +280,7 @@ def _history(study) -> list[dict]:
             "value": t.value,
             "score": t.user_attrs.get("score"),
             "tie": t.user_attrs.get("tie"),
+            **({"means": t.user_attrs["means"], "feasible": _feasible(t)} if "means" in t.user_attrs else {}),
             **({"refused": t.user_attrs["refused"]} if "refused" in t.user_attrs else {}),
         }
         for t in study.get_trials(deepcopy=False)
@@ -234,7 +290,8 @@ def _history(study) -> list[dict]:
 def _document(optuna, request: TuneRequest, target: _Target, study, wall_clock_s: float) -> dict:
     """tuned.json: the best parameters so far and everything needed to judge and repeat how they were found."""
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
-    best = max(complete, key=lambda t: t.value) if complete else None  # max keeps the earliest of equals
+    feasible = [t for t in complete if _feasible(t)]
+    best = max(feasible, key=lambda t: t.value) if feasible else None  # max keeps the earliest of equals
     start = {p.name: p.start for p in target.space}
     seeds = tuning_seeds(request.seed, request.episodes)
     return {
@@ -257,6 +314,7 @@ def _document(optuna, request: TuneRequest, target: _Target, study, wall_clock_s
             "tie_break": target.score.tie_break,
             "episodes": request.episodes,
             "episode_seeds": [seeds[0], seeds[-1]],
+            "limits": request.limits,
         },
         "env_kwargs": target.env_kwargs,
         "seed": request.seed,
@@ -287,7 +345,7 @@ def tune(request: TuneRequest, progress=print) -> dict:
     try:
         objective = _Objective(optuna, target, env, request)
         while (done := _finished(optuna, study)) < request.trials:
-            study.sampler = _sampler(optuna, request.sampler, request.seed * 1_000_003 + done)
+            study.sampler = _sampler(optuna, request, request.seed * 1_000_003 + done)
             study.optimize(objective, n_trials=1)
             trial = study.trials[-1]
             doc = _document(optuna, request, target, study, before + time.monotonic() - started)
