@@ -140,7 +140,7 @@ class RollingGait(_ControllerPolicy):
     Args:
         rate_deg_s: the joint rate the trajectories are timed for, in [5, 90] deg/s (paper's power budget: ~15).
         tip_offset_deg, roll_offset_deg: the tip keyframe's tilt about the edge and the landing foot's pre-placed
-            roll, added to the polyhedron's, each in [-10, 10] deg (:class:`RollingGaitTunables`).
+            roll, added to the polyhedron's, in [-10, 10] and [-8, 8] deg (:class:`RollingGaitTunables` says how far a search goes).
         max_tumbles: stop (hold the stance) after this many tumbles, in [1, 1000]; None rolls on.
         disabled_limbs: 1-based limbs known to be broken (paper section 5): lifted first if standing, never landed.
         zero_tip: the paper's zero-tip tumbles instead (section 3, 4-beast only; :mod:`baselines.beast.zero_tip`):
