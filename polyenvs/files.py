@@ -1,4 +1,4 @@
-"""Files written atomically, and output directories checked before any work.
+"""Files written atomically, output directories checked before any work, and locked while a process writes them.
 
 Every result file is written through :func:`atomic_path` (a hidden, gitignored temp file in the same folder,
 renamed into place, with the usual file mode), so an interrupted run never leaves a half-written file under its
@@ -18,7 +18,20 @@ from typing import Any
 
 from polyenvs.errors import InputError
 
-__all__ = ["atomic_path", "check_writable_directory", "temp_path_for", "write_json_atomic", "write_text_atomic"]
+__all__ = [
+    "LOCK_FILE",
+    "atomic_path",
+    "check_writable_directory",
+    "directory_lock",
+    "lock_holder",
+    "temp_path_for",
+    "write_json_atomic",
+    "write_text_atomic",
+]
+
+#: Held (flock) by the process writing a run's directory (training, tuning); hidden and gitignored like every
+#: temporary file.
+LOCK_FILE = ".training.lock.tmp"
 
 
 def check_writable_directory(directory: Path, flag: str, shown: Path | None = None) -> None:
@@ -90,3 +103,53 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
 
 def write_json_atomic(path: str | os.PathLike, document: Any) -> None:
     write_text_atomic(path, json.dumps(document, indent=1) + "\n")
+
+
+def lock_holder(directory: Path) -> str | None:
+    """``"pid N"`` if another process holds ``directory``'s lock (is writing its run now), else None."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no locking
+        return None
+    lock = Path(directory) / LOCK_FILE
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        try:
+            pid = lock.read_text().strip()
+        except OSError:
+            pid = ""
+        return f"pid {pid}" if pid.isdigit() else "another process"
+    finally:
+        os.close(fd)  # releases the probe's lock, if it got it
+    return None
+
+
+@contextlib.contextmanager
+def directory_lock(directory: Path, doing: str) -> Iterator[None]:
+    """Hold ``directory``'s lock for the block (the kernel releases it when the process dies, however it ends); a
+    directory another process holds raises :class:`InputError` ("... is being ``doing`` by pid N")."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no locking
+        yield
+        return
+    lock = Path(directory) / LOCK_FILE
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(f"output directory {directory} is being {doing} by {lock_holder(directory)}") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        try:
+            yield
+        finally:
+            lock.unlink(missing_ok=True)  # while still held: a finished directory keeps no lock file
+    finally:
+        os.close(fd)

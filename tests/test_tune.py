@@ -115,6 +115,8 @@ def test_a_study_killed_with_sigkill_resumes_to_the_trials_an_uninterrupted_one_
             break
         time.sleep(0.02)
     time.sleep(0.3)  # into the next trial (8 episodes of about 0.1 s), which the kill leaves running
+    second = subprocess.run(_tune_command(killed), capture_output=True, text=True, timeout=600)
+    assert second.returncode == 2 and f"is being tuned into by pid {process.pid}" in second.stderr  # not touched
     os.kill(process.pid, signal.SIGKILL)
     process.wait()
     interrupted = json.loads((killed / TUNED_FILE).read_text())

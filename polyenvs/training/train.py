@@ -30,7 +30,7 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -39,7 +39,14 @@ from polyenvs.core.extras import install_hint
 from polyenvs.core.layouts import LAYOUTS
 from polyenvs.errors import InputError, check_count, shown
 from polyenvs.evaluation.protocol import COUNTED_TRAINING_LAYOUTS as PROTOCOL_TRAINING_LAYOUTS
-from polyenvs.files import check_writable_directory, temp_path_for, write_json_atomic
+from polyenvs.files import (
+    LOCK_FILE,
+    check_writable_directory,
+    directory_lock,
+    lock_holder,
+    temp_path_for,
+    write_json_atomic,
+)
 from polyenvs.limits import MAX_N_ENVS, MAX_SEED, MAX_TIMESTEPS
 from polyenvs.registry import ALL_IDS, bare_id
 from polyenvs.training import DEFAULT_CHECKPOINT_EVERY
@@ -68,8 +75,6 @@ VECNORMALIZE_FILE = "vecnormalize.pkl"
 TENSORBOARD_DIR = "tb"
 #: The learning curve (polyenvs.training.callbacks.LearningCurveCallback): small, committed with an agent.
 CURVE_FILE = "curve.json"
-#: Held (flock) by the process training into the directory; hidden and gitignored like every temporary file.
-LOCK_FILE = ".training.lock.tmp"
 #: What a run writes: removed when a run is trained again from the start (anything else is left alone).
 _RUN_ENTRIES = (RUN_FILE, MODEL_FILE, VECNORMALIZE_FILE, TENSORBOARD_DIR, CURVE_FILE)
 #: Temporary files of atomic writes (polyenvs.files.temp_path_for) and the lock: not a run's content.
@@ -116,55 +121,6 @@ def _content(out_dir: Path) -> list[Path]:
     return [p for p in out_dir.iterdir() if not _TEMPORARY.fullmatch(p.name)]
 
 
-def _holder(out_dir: Path) -> str | None:
-    """``"pid N"`` if another process holds ``out_dir``'s training lock (is training into it now), else None."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows: no locking
-        return None
-    lock = out_dir / LOCK_FILE
-    try:
-        fd = os.open(lock, os.O_RDONLY)
-    except OSError:
-        return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        try:
-            pid = lock.read_text().strip()
-        except OSError:
-            pid = ""
-        return f"pid {pid}" if pid.isdigit() else "another process"
-    finally:
-        os.close(fd)  # releases the probe's lock, if it got it
-    return None
-
-
-@contextlib.contextmanager
-def _training_lock(out_dir: Path) -> Iterator[None]:
-    """Hold ``out_dir``'s training lock for the block (the kernel releases it when the process dies)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows: no locking
-        yield
-        return
-    lock = out_dir / LOCK_FILE
-    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            raise InputError(f"output directory {out_dir} is being trained into by {_holder(out_dir)}") from None
-        os.ftruncate(fd, 0)
-        os.write(fd, str(os.getpid()).encode())
-        try:
-            yield
-        finally:
-            lock.unlink(missing_ok=True)  # while still held: a finished directory keeps no lock file
-    finally:
-        os.close(fd)
-
-
 def _same_job(run: dict[str, Any], env_id: str, algo: str, seed: int) -> bool:
     return (run.get("env_id"), run.get("algo"), run.get("seed")) == (bare_id(env_id), algo, seed)
 
@@ -194,7 +150,7 @@ def check_out_dir(
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"output directory {out_dir} is a file")
     if out_dir.is_dir() and _content(out_dir):
-        holder = _holder(out_dir)
+        holder = lock_holder(out_dir)
         if holder is not None:
             raise InputError(f"output directory {out_dir} is being trained into by {holder}; wait for it or stop it")
         run = read_run(out_dir)
@@ -690,7 +646,7 @@ def _learn_and_save(job: _Job, model) -> bool:
     request, run, previous = job.request, job.run, job.previous
     out_dir = request.out_dir
     out_dir.mkdir(parents=True, exist_ok=True)
-    with _training_lock(out_dir):
+    with directory_lock(out_dir, "trained into"):
         _remove_temporaries(out_dir)
         if previous is not None:
             run.update(

@@ -35,7 +35,7 @@ from polyenvs.evaluation.episodes import make_agent, make_env
 from polyenvs.evaluation.protocol import old_versions_quietly
 from polyenvs.evaluation.rollout import is_parallel, run_episode
 from polyenvs.evaluation.statistics import interquartile_mean
-from polyenvs.files import write_json_atomic
+from polyenvs.files import directory_lock, write_json_atomic
 from polyenvs.registry import Score, bare_id, entry
 from polyenvs.training.train import git_commit, versions
 
@@ -336,6 +336,11 @@ def tune(request: TuneRequest, progress=print) -> dict:
     optuna = _optuna()
     target = check_request(request)
     request.out.mkdir(parents=True, exist_ok=True)
+    with directory_lock(request.out, "tuned into"):  # a second process would fail this one's running trial
+        return _run_study(optuna, request, target, progress)
+
+
+def _run_study(optuna, request: TuneRequest, target: _Target, progress) -> dict:
     study = _study(optuna, request, target)
     tuned_file = request.out / TUNED_FILE
     before = _previous_wall_clock(tuned_file)
