@@ -17,6 +17,7 @@ __all__ = [
     "MAX_SEED",
     "MAX_STEPS",
     "MAX_TIMESTEPS",
+    "MAX_TRIALS",
 ]
 
 #: Upper limits of the command line's numbers: far above any real use, low enough that a slip of the keyboard
@@ -33,3 +34,4 @@ MAX_BUMPS = 1_000
 MAX_PARTICLES = 1_000_000
 MAX_BC_EPOCHS = 100_000  # passes over a demonstration dataset (``polyenvs train --bc-epochs``)
 MAX_EPISODE_STEPS = 1_000_000  # an ``--env-kwargs`` max_episode_steps (what gym.make's TimeLimit takes)
+MAX_TRIALS = 100_000  # trials of one study (``polyenvs tune --trials``)

@@ -15,6 +15,7 @@ import polyenvs.evaluation.episodes
 import polyenvs.evaluation.localization
 import polyenvs.evaluation.rollout
 import polyenvs.training.sweep
+import polyenvs.training.tune
 from baselines.residual import MAX_HOLD
 from polyenvs.cli import build_parser
 from polyenvs.commands.flags import int_flag
@@ -30,6 +31,7 @@ from polyenvs.limits import (
     MAX_SEED,
     MAX_STEPS,
     MAX_TIMESTEPS,
+    MAX_TRIALS,
 )
 from tests.cli_helpers import run_main
 
@@ -62,13 +64,17 @@ INT_FLAGS = [
     (["collect", GOAL, "--out", "dataset"], "--seed", 0, MAX_SEED),
     (["train", GOAL, "--algo", "ppo"], "--bc-epochs", 1, MAX_BC_EPOCHS),
     (["train", GOAL, "--algo", "ppo"], "--residual-hold", 1, MAX_HOLD),
+    (["tune", GOAL, "--out", "tuned"], "--trials", 1, MAX_TRIALS),
+    (["tune", GOAL, "--out", "tuned", "--trials", "1"], "--seed", 0, MAX_SEED),
+    (["tune", GOAL, "--out", "tuned", "--trials", "1"], "--episodes", 1, MAX_EPISODES),
 ]
 #: Flags that take something else than an integer (text, paths, JSON, names, switches; --fps is a number).
 OTHER_FLAGS = {
     "help", "json", "policy", "env_kwargs", "policy_kwargs", "quick", "only", "results_dir", "output", "redo",
     "agents_dir", "update_reference", "reproduce", "fps", "algo", "config", "out", "progress", "resume", "overwrite", "envs",
     "algos", "config_dir", "backend", "address", "estimator", "map", "env", "estimator_kwargs", "bc_from",
-    "bc_log_std", "residual", "residual_scale", "residual_log_std", "layouts",
+    "bc_log_std", "residual", "residual_scale", "residual_log_std", "layouts", "sampler", "storage", "max_mean",
+    "policies",
 }  # fmt: skip
 
 
@@ -83,6 +89,7 @@ def no_work(monkeypatch):
     monkeypatch.setattr(polyenvs.evaluation.rollout, "episode_frames", refuse)
     monkeypatch.setattr(polyenvs.evaluation.localization, "rollout_logs", refuse)
     monkeypatch.setattr(polyenvs.training.sweep, "run_sweep", refuse)
+    monkeypatch.setattr(polyenvs.training.tune, "tune", refuse)
     try:
         from polyenvs.training import vec_adapter
     except ImportError:  # pragma: no cover - no train extra

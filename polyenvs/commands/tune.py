@@ -13,12 +13,9 @@ from pathlib import Path
 from polyenvs.commands.flags import float_flag, int_flag, parse_json_object
 from polyenvs.errors import InputError
 from polyenvs.files import check_writable_directory
-from polyenvs.limits import MAX_EPISODES, MAX_SEED
+from polyenvs.limits import MAX_EPISODES, MAX_SEED, MAX_TRIALS
 
 __all__ = ["add_parser", "run"]
-
-#: The most trials one study asks for.
-MAX_TRIALS = 100_000
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
