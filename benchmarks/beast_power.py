@@ -34,10 +34,15 @@ def _policies(env_id: str, agents_dir: Path, extra: list[str]) -> list[tuple[str
     return [(str(paper_policy(env_id)), "paper"), *found, *((p, p) for p in extra)]
 
 
+def _columns(env_id: str) -> list[str]:
+    """The task score, then the :data:`METRICS` that are not it."""
+    metric = entry(env_id).score.metric
+    return [metric, *(m for m in METRICS if m != metric)]
+
+
 def _row(env_id: str, name: str, policy: str, layouts: str, episodes: int) -> str:
     doc = evaluate(env_id, policy, episodes, EVAL_SEED, env_kwargs=layouts_kwargs(layouts))
-    metric = entry(env_id).score.metric
-    values = [np.mean([e["metrics"].get(m, np.nan) for e in doc["episodes"]]) for m in (metric, *METRICS)]
+    values = [np.mean([e["metrics"].get(m, np.nan) for e in doc["episodes"]]) for m in _columns(env_id)]
     return f"| {name} | {layouts} | " + " | ".join(f"{v:.3g}" for v in values) + " |"
 
 
@@ -53,9 +58,9 @@ def report(env_ids: list[str], agents_dir: Path, extra: list[str], episodes: int
         "",
     ]
     for env_id in env_ids:
-        metric = entry(env_id).score.metric
-        lines += [f"## {env_id}", "", f"| policy | layouts | {metric} (score) | " + " | ".join(METRICS) + " |",
-                  "|---" * (len(METRICS) + 3) + "|"]  # fmt: skip
+        metric, *others = _columns(env_id)
+        lines += [f"## {env_id}", "", f"| policy | layouts | {metric} (score) | " + " | ".join(others) + " |",
+                  "|---" * (len(others) + 3) + "|"]  # fmt: skip
         for name, policy in _policies(env_id, agents_dir, [p for p in extra if env_id.replace("/", "__") in p]):
             lines += [_row(env_id, name, policy, layouts, episodes) for layouts in ("default", "test")]
         lines.append("")
