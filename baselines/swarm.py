@@ -43,7 +43,7 @@ import numpy as np
 
 from baselines.base import Policy
 from polyenvs.core import libm
-from polyenvs.core.parameters import check_parameters, parameter
+from polyenvs.core.parameters import check_parameters, parameter, physical_parameters
 from polyenvs.core.validation import check_in_range
 from polyenvs.swarm.env import structure_for
 from polyenvs.swarm.formation_v0 import OBSERVATION_PARTS as FORMATION_PARTS
@@ -123,11 +123,7 @@ class APLite(Policy):
     def __init__(self, observation_space, action_space, *, platform: str = "maxelbot", sensors=None,
                  sensor_angles_deg=SENSOR_ANGLES_DEG, **force_law):  # fmt: skip
         super().__init__(observation_space, action_space)
-        law_names = {f.name for f in dataclasses.fields(APLiteTunables)}
-        unknown = sorted(set(force_law) - law_names)
-        if unknown:
-            raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword argument {unknown[0]!r}")
-        self.law = APLiteTunables(**force_law)
+        self.law = physical_parameters(type(self), APLiteTunables, force_law)
         robot = get_platform(platform)
         self.ir_scale = robot.ir_scale
         if sensors is None:
