@@ -55,7 +55,7 @@ def test_table_checks_every_ratio_and_memory_budget_of_the_spec() -> None:
         Measurement("CartPole-v1", "vector", 8e6, 0.125, 0.3, vector=True),
         # 1.1x CartPole and 22x MiniGrid, but over the 5 MB budget.
         Measurement("polyenvs/BuckybotWallFollow-v0", "make", 110_000.0, 1e6 / 110_000, 6.0),
-        # 0.2x CartPole's vector env: short of WallFollow's 0.3x, enough for Explore's 0.12x.
+        # 0.2x CartPole's vector env: short of WallFollow's 0.35x, enough for Explore's 0.15x.
         Measurement("polyenvs/BuckybotWallFollow-v0", "vector", 1.6e6, 0.625, 50.0, vector=True),
         Measurement("polyenvs/BuckybotExplore-v0", "vector", 1.6e6, 0.625, 50.0, vector=True),
         # Localize's gym.make row has a memory budget only: its verdict is on memory and says so.
@@ -64,8 +64,8 @@ def test_table_checks_every_ratio_and_memory_budget_of_the_spec() -> None:
     lines = report.format_table(rows).splitlines()
     single, vector_wall_follow, vector_explore, localize = lines[-4:]
     assert "1.10x" in single and "22.0x" in single and "< 5 MB" in single and "| no |" in single
-    assert ">= 0.3x CartPole vector env" in vector_wall_follow and "| no |" in vector_wall_follow
-    assert ">= 0.12x CartPole vector env" in vector_explore and "| yes |" in vector_explore
+    assert ">= 0.35x CartPole vector env" in vector_wall_follow and "| no |" in vector_wall_follow
+    assert ">= 0.15x CartPole vector env" in vector_explore and "| yes |" in vector_explore
     assert "| < 5 MB, rate: see the localizer's updates/s | yes (memory only) |" in localize
     buckybot = targets.target_for("polyenvs/BuckybotGoal-v0", targets.Kind.MAKE)
     assert buckybot is not None and buckybot.describe() == ">= 1x CartPole-v1, >= 10x MiniGrid, < 5 MB"
@@ -209,21 +209,21 @@ def test_time_to_beat_trains_in_chunks_and_compares_with_the_paper_on_the_same_s
     assert "| 128 |" in text and ("did not exceed" in text or "first exceeded" in text)
 
 
-# ------------------------------------------------------------------------- issue 19's targets, in one place
+# ------------------------------------------------------------------------- issue 33's targets, in one place
 
 _BUCKYBOT = ("polyenvs/BuckybotWallFollow-v0", "polyenvs/BuckybotGoal-v0", "polyenvs/BuckybotExplore-v0")
-_CART_EXPLORE = ("polyenvs/BumperCartExplore-v0", "polyenvs/BumperCartExplore-v1")
+_CART_EXPLORE = ("polyenvs/BumperCartExplore-v0", "polyenvs/BumperCartExplore-v1", "polyenvs/BumperCartExplore-v2")
 _BEASTS = tuple(f"polyenvs/Beast{task}-v{v}" for task in ("Tumble", "Roll", "Turn", "Recover") for v in (0, 1))
 _MAKE, _VECTOR = targets.Kind.MAKE, targets.Kind.VECTOR
-# (ids, kind, {peer: minimum ratio}, memory budget in MB): issue 19's table, with the spec's budgets it keeps.
+# (ids, kind, {peer: minimum ratio}, memory budget in MB): issue 33's table, with the spec's budgets it keeps.
 _RATIO_TARGETS = [
     (_BUCKYBOT, _MAKE, {peers.CARTPOLE: 1.0, peers.MINIGRID: 10.0}, 5.0),
-    (_BUCKYBOT[:2], _VECTOR, {peers.CARTPOLE: 0.3}, 200.0),
-    (_BUCKYBOT[2:], _VECTOR, {peers.CARTPOLE: 0.12}, 200.0),
-    (_CART_EXPLORE, _MAKE, {peers.CARTPOLE: 0.5}, 5.0),
+    (_BUCKYBOT[:2], _VECTOR, {peers.CARTPOLE: 0.35}, 200.0),
+    (_BUCKYBOT[2:], _VECTOR, {peers.CARTPOLE: 0.15}, 200.0),
+    (_CART_EXPLORE, _MAKE, {peers.CARTPOLE: 0.6}, 5.0),
     (("polyenvs/BumperCartLocalize-v0",), _MAKE, {}, 5.0),
-    (_CART_EXPLORE, _VECTOR, {peers.CARTPOLE: 0.05}, None),
-    (("polyenvs/APLiteCorridor-v0", "polyenvs/APLiteObstacleField-v0"), _MAKE, {peers.CARTPOLE: 0.3}, None),
+    (_CART_EXPLORE, _VECTOR, {peers.CARTPOLE: 0.06}, None),
+    (("polyenvs/APLiteCorridor-v0", "polyenvs/APLiteObstacleField-v0"), _MAKE, {peers.CARTPOLE: 0.4}, None),
     (_BEASTS, _MAKE, {peers.ANT: 1.0}, None),
 ]
 _AT_LEAST, _AT_MOST, _BELOW = targets.Direction.AT_LEAST, targets.Direction.AT_MOST, targets.Direction.BELOW
@@ -232,14 +232,15 @@ _SCALAR_TARGETS = [
     ("swarm_joint_steps_per_s_at_256", 200.0, _AT_LEAST),
     ("swarm_memory_mb_at_256", 50.0, _BELOW),
     ("batched_swarm_vs_vmas", 4.0, _AT_LEAST),
-    ("beast_vs_raw_mj_step", 1.03, _AT_MOST),
+    ("beast_vs_raw_mj_step", 1.10, _AT_MOST),
+    ("beast_vector_vs_single", 1.7, _AT_LEAST),
     ("localizer_updates_per_s", 20_000.0, _AT_LEAST),
     ("first_step_s", 1.0, _AT_MOST),
 ]
 
 
 @pytest.mark.parametrize(("ids", "kind", "minimums", "memory_mb"), _RATIO_TARGETS)
-def test_every_ratio_target_of_issue_19_applies_to_its_ids(ids, kind, minimums, memory_mb) -> None:
+def test_every_ratio_target_of_issue_33_applies_to_its_ids(ids, kind, minimums, memory_mb) -> None:
     for env_id in ids:
         target = targets.target_for(env_id, kind)
         assert target is not None, env_id
@@ -247,18 +248,19 @@ def test_every_ratio_target_of_issue_19_applies_to_its_ids(ids, kind, minimums, 
         assert target.max_memory_mb == memory_mb, env_id
 
 
-def test_ppo_through_the_native_adapter_targets_1x_ppo_on_cartpole_on_every_id() -> None:
+def test_ppo_through_the_native_adapter_targets_1x_ppo_on_cartpole_on_every_id_but_localize() -> None:
     from polyenvs.registry import REGISTRY
 
     ids = [entry.id for entry in REGISTRY if entry.kind == "gymnasium"]
-    assert ids
+    assert "polyenvs/BumperCartLocalize-v0" in ids
     for env_id in ids:
         target = targets.target_for(env_id, targets.Kind.PPO)
-        assert target is not None and [(r.peer, r.minimum) for r in target.ratios] == [(peers.CARTPOLE, 1.0)]
+        minimum = 0.8 if "Localize" in env_id else 1.0  # a localizer update over 1,000 particles every step
+        assert target is not None and [(r.peer, r.minimum) for r in target.ratios] == [(peers.CARTPOLE, minimum)]
 
 
 @pytest.mark.parametrize(("name", "value", "direction"), _SCALAR_TARGETS)
-def test_every_scalar_target_of_issue_19_has_its_value_and_direction(name, value, direction) -> None:
+def test_every_scalar_target_of_issue_33_has_its_value_and_direction(name, value, direction) -> None:
     bound = targets.SCALAR_TARGETS[name]
     assert (bound.value, bound.direction) == (value, direction)
 
