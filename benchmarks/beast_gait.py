@@ -59,7 +59,7 @@ def run_episode(
             break
         if until_done and controller is not None and getattr(controller, "phase", "") in ("done", "stuck"):
             break
-    out = dict(info["episode_metrics"])
+    out = env.unwrapped.episode_metrics()  # also where the loop, not the episode, ended
     out["steps"] = steps
     out["sim_s"] = steps * 0.01
     out["displacement_m"] = float(np.linalg.norm(env.unwrapped.data.qpos[:2] - start_xy))
@@ -227,7 +227,7 @@ def bench_crawl(seeds):
                 def on_step(e, info, t=touched, a=at60):
                     t.update(floor_touches(e))
                     if e.unwrapped._elapsed == 6000:
-                        a["distance_m"] = info["episode_metrics"]["distance_m"]
+                        a["distance_m"] = e.unwrapped.episode_metrics()["distance_m"]
                         a["displacement_m"] = float(np.linalg.norm(e.unwrapped.data.qpos[:2]))
 
                 r = run_episode(env, policy, s, max_steps, until_done=False, reset_options=options, on_step=on_step)

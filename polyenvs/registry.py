@@ -50,7 +50,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Score:
-    """The task score of a row: the episode metric (``info["episode_metrics"][metric]``) that is the paper's task.
+    """The task score of a row: the episode metric (``env.unwrapped.episode_metrics()[metric]`` at the episode's end)
+    that is the paper's task.
 
     ``direction`` is ``"max"`` or ``"min"`` (which way is better); ``ceiling`` the best attainable value where there
     is one (a maximum for ``"max"``, a floor for ``"min"``: 1 for a success rate, 0 for an error); ``tie_break`` the
@@ -198,6 +199,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastTumble-v0",
         entry_point="polyenvs.beast.tasks:BeastTumbleEnv",
+        native_vector=True,
         max_episode_steps=3000,
         extra="mujoco",
         description="Platonic 4-beast (MuJoCo): one canonical tumble (1234) from the working tumble's start stance; "
@@ -208,6 +210,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastRoll-v0",
         entry_point="polyenvs.beast.tasks:BeastRollEnv",
+        native_vector=True,
         max_episode_steps=8000,
         extra="mujoco",
         description="Platonic beast (MuJoCo): roll along a commanded heading by tumbles; reward = body velocity "
@@ -218,6 +221,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastTurn-v0",
         entry_point="polyenvs.beast.tasks:BeastTurnEnv",
+        native_vector=True,
         max_episode_steps=8000,
         extra="mujoco",
         description="Platonic beast (MuJoCo): the sharp turn, rolling off turn_deg (default 60) from the start strip",
@@ -227,6 +231,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastRecover-v0",
         entry_point="polyenvs.beast.tasks:BeastRecoverEnv",
+        native_vector=True,
         max_episode_steps=2000,
         extra="mujoco",
         description="Platonic beast (MuJoCo): thrown in a random orientation, reach a still stance on three or "
@@ -239,6 +244,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastTumble-v1",
         entry_point="polyenvs.beast.tasks:BeastTumbleV1Env",
+        native_vector=True,
         max_episode_steps=3000,
         extra="mujoco",
         description="BeastTumble with the robot's contact model (servo dead band, debounced foot switches); "
@@ -248,6 +254,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastRoll-v1",
         entry_point="polyenvs.beast.tasks:BeastRollV1Env",
+        native_vector=True,
         max_episode_steps=8000,
         extra="mujoco",
         description="BeastRoll with the robot's contact model (servo dead band, debounced foot switches)",
@@ -256,6 +263,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastTurn-v1",
         entry_point="polyenvs.beast.tasks:BeastTurnV1Env",
+        native_vector=True,
         max_episode_steps=8000,
         extra="mujoco",
         description="BeastTurn with the robot's contact model; reward = decrease of the heading error - control cost",
@@ -264,6 +272,7 @@ REGISTRY: tuple[EnvEntry | ParallelEnvEntry, ...] = (
     EnvEntry(
         id="polyenvs/BeastRecover-v1",
         entry_point="polyenvs.beast.tasks:BeastRecoverV1Env",
+        native_vector=True,
         max_episode_steps=2000,
         extra="mujoco",
         description="BeastRecover with the robot's contact model; reward = success - time - control cost",

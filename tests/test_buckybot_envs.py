@@ -70,7 +70,7 @@ def test_blocked_tip_stays_put_and_is_flagged():
     np.testing.assert_allclose(truth(info)["pose"], [20.0, 150.0, 60.0])
     assert info["face"] == 1
     assert obs[18] == 1.0  # tip_failed
-    assert info["episode_metrics"]["blocked_tips"] == 1
+    assert env.unwrapped.episode_metrics()["blocked_tips"] == 1
     obs, *_, info = env.step(0)
     assert not info["blocked"] and obs[18] == 0.0
 
@@ -179,8 +179,8 @@ def test_explore_map_error_grows_with_distance():
         for t in range(400):
             *_, info = env.step(env.action_space.sample())
             if t == 20:
-                early = info["episode_metrics"]["map_error_cm"]
-        errors.append((early, info["episode_metrics"]["map_error_cm"]))
+                early = env.unwrapped.episode_metrics()["map_error_cm"]
+        errors.append((early, env.unwrapped.episode_metrics()["map_error_cm"]))
     assert all(late > early for early, late in errors)
 
 
@@ -245,14 +245,15 @@ def test_human_render_mode_opens_a_window(monkeypatch):
 @pytest.mark.parametrize("env_id", IDS)
 def test_info_holds_the_documented_entries(env_id):
     """One step's info: the ground truth as one array laid out as ``ground_truth_structure`` says, the face, the
-    mask, the reward terms and the metrics; the vector env gives the same entries for every row."""
+    mask and the reward terms (the metrics only at the episode's end: tests/test_lean_info.py); the vector env
+    gives the same entries for every row."""
     env = gym.make(env_id)
     _, info = env.reset(seed=4)
     *_, info = env.step(1)
     core = env.unwrapped
     task = {"goal"} if "Goal" in env_id else set()
     reward_keys = {f"reward_{name}" for name in core.reward_names}
-    assert set(info) == {"ground_truth", "face", "blocked", "action_mask", "episode_metrics"} | reward_keys | task
+    assert set(info) == {"ground_truth", "face", "blocked", "action_mask"} | reward_keys | task
     parts = truth(info)
     assert info["ground_truth"].shape == (16,) and set(parts) == set(core.ground_truth_structure)
     state = core.sim.state[0]
@@ -261,7 +262,7 @@ def test_info_holds_the_documented_entries(env_id):
     np.testing.assert_allclose(parts["tip_directions_deg"], (parts["pose"][2] + [0.0, 120.0, 240.0]) % 360.0)
     assert parts["wall_distance_cm"] == pytest.approx(core.floor_plan.clearance(core.position))
     assert info["face"] == int(state[3]) + 1
-    assert set(info["episode_metrics"]) == set(core.all_metric_names)
+    assert set(core.episode_metrics()) == set(core.all_metric_names)
 
     vector = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
     _, vector_info = vector.reset(seed=4)
@@ -285,6 +286,6 @@ def test_a_pickled_env_reports_its_own_steps(env_id):
         for clone in clones:
             clone_obs, clone_reward, _, _, clone_info = clone.step(action)
             np.testing.assert_array_equal(clone_obs, obs)
-            assert clone_reward == reward and clone_info["episode_metrics"] == info["episode_metrics"]
+            assert clone_reward == reward and clone.unwrapped.episode_metrics() == env.unwrapped.episode_metrics()
             np.testing.assert_array_equal(clone_info["ground_truth"], info["ground_truth"])
             np.testing.assert_array_equal(clone_info["action_mask"], info["action_mask"])

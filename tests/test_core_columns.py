@@ -63,8 +63,8 @@ def test_spans_and_indices():
 
 @pytest.mark.parametrize("env_id", ROWS_IDS)
 def test_kernels_columns_are_the_info_keys(env_id):
-    """The columns a task's kernels write are the ones ``info`` reads: every reward term and metric in ``info``
-    is the value in its named column, and the reward and terminated flag are theirs."""
+    """The columns a task's kernels write are the ones ``info`` and ``episode_metrics()`` read: every reward term
+    in ``info`` and every metric is the value in its named column, and the reward and terminated flag are theirs."""
     env = gym.make(env_id)
     core = env.unwrapped
     assert isinstance(core, RowsEnv)
@@ -77,9 +77,10 @@ def test_kernels_columns_are_the_info_keys(env_id):
         row = core._out[0]
         for name in out.terms:
             assert info[f"reward_{name}"] == row[out.term_column(name)]
-        assert list(info["episode_metrics"]) == list(out.metrics)
+        metrics = core.episode_metrics()
+        assert list(metrics) == list(out.metrics)
         for name in out.metrics:
-            assert info["episode_metrics"][name] == row[out.metric_column(name)]
+            assert metrics[name] == row[out.metric_column(name)]
         assert reward == row[out.reward] and terminated == bool(row[out.terminated])
         if terminated:
             env.reset()

@@ -13,6 +13,7 @@ from pettingzoo import ParallelEnv  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
 import polyenvs  # noqa: E402
+from polyenvs.core.episode_metrics import RecordEpisodeMetrics  # noqa: E402
 from polyenvs.errors import InputError  # noqa: E402
 from polyenvs.training.vec_adapter import (  # noqa: E402
     NativeVecEnvAdapter,
@@ -43,11 +44,11 @@ CASES = [
 @pytest.mark.parametrize(("env_id", "kwargs"), CASES, ids=[c[0].split("/")[1] for c in CASES])
 def test_adapter_matches_dummy_vec_env(env_id, kwargs):
     """Observations, rewards, dones, terminal observations, TimeLimit.truncated, the finished episodes' infos
-    (episode_metrics as plain floats) and action masks equal DummyVecEnv's over gym.make, seeded s + i, through
-    autoresets and a re-seeded reset."""
+    (episode_metrics as plain floats, time limits included) and action masks equal DummyVecEnv's over gym.make
+    under RecordEpisodeMetrics (as training builds it), seeded s + i, through autoresets and a re-seeded reset."""
     n, seed = 4, 17
     adapter = NativeVecEnvAdapter(make_native_vector_env(env_id, n, kwargs))
-    dummy = DummyVecEnv([lambda: gym.make(env_id, **kwargs) for _ in range(n)])
+    dummy = DummyVecEnv([lambda: RecordEpisodeMetrics(gym.make(env_id, **kwargs)) for _ in range(n)])
     rng = np.random.default_rng(0)
     terminated = truncated = 0
     for episode_seed in (seed, seed + 100):
@@ -56,7 +57,7 @@ def test_adapter_matches_dummy_vec_env(env_id, kwargs):
         obs_a, obs_d = adapter.reset(), dummy.reset()
         assert _same(obs_a, obs_d)
         for i in range(n):
-            assert _same(adapter.reset_infos[i]["episode_metrics"], dummy.reset_infos[i]["episode_metrics"])
+            assert _same(adapter.reset_infos[i], dummy.reset_infos[i])
         for t in range(150):
             masks_a, masks_d = adapter.env_method("action_masks"), dummy.env_method("action_masks")
             assert all(m.dtype == bool for m in masks_a)

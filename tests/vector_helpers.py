@@ -7,6 +7,8 @@ import math
 import gymnasium as gym
 import numpy as np
 
+from polyenvs.core.episode_metrics import RecordEpisodeMetrics
+
 
 def assert_same(a, b, where=""):
     """Recursive bit-for-bit equality of vector-env outputs (arrays, object arrays, nested info dicts)."""
@@ -37,10 +39,17 @@ def assert_same(a, b, where=""):
 
 def assert_native_matches_sync(env_id: str, mode, steps: int = 75, **make_kwargs) -> int:
     """Step the native vector env and ``SyncVectorEnv`` of ``env_id`` side by side on the same seeded random
-    actions, bit for bit, through autoresets; returns how many episodes ended."""
+    actions, bit for bit, through autoresets; returns how many episodes ended. The sync env's copies are wrapped in
+    ``RecordEpisodeMetrics``: the native env applies the time limit itself, and reports the metrics there too."""
     make = {"num_envs": 4, "max_episode_steps": 30, **make_kwargs}
     native = gym.make_vec(env_id, vectorization_mode="vector_entry_point", autoreset_mode=mode, **make)
-    sync = gym.make_vec(env_id, vectorization_mode="sync", vector_kwargs={"autoreset_mode": mode}, **make)
+    sync = gym.make_vec(
+        env_id,
+        vectorization_mode="sync",
+        vector_kwargs={"autoreset_mode": mode},
+        wrappers=[RecordEpisodeMetrics],
+        **make,
+    )
     assert native.metadata["autoreset_mode"] == mode
     assert_same(native.reset(seed=11), sync.reset(seed=11), "reset")
     native.action_space.seed(0)

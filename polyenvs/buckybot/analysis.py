@@ -197,9 +197,9 @@ def wall_cells(grid: OccupancyGrid, plan: FloorPlan) -> np.ndarray:
     return mask
 
 
-def _poses(info: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The true and the dead-reckoned pose of one step's ``info``."""
-    parts = ground_truth_parts(info["ground_truth"])
+def _poses(ground_truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The true and the dead-reckoned pose of one step's ``info["ground_truth"]``."""
+    parts = ground_truth_parts(ground_truth)
     return parts["pose"], parts["dead_reckoned_pose"]
 
 
@@ -243,13 +243,13 @@ def figure8_maps(
     )
     structure = env.unwrapped.observation_structure
     obs, info = env.reset(seed=seed)
-    records = [(obs, info)]
+    records = [(obs, info["ground_truth"].copy())]  # the info's array is valid until the next step: kept, copied
     state, start = None, True
     while True:
         action, state = agent.predict(obs, state, episode_start=np.array([start]), deterministic=True)
         start = False
         obs, _, terminated, truncated, info = env.step(int(np.asarray(action).reshape(-1)[0]))
-        records.append((obs, info))
+        records.append((obs, info["ground_truth"].copy()))
         if terminated or truncated or len(records) > max_steps:
             break
     env.close()
@@ -258,7 +258,7 @@ def figure8_maps(
     readings, too_close, no_return = (np.array(column) for column in zip(*decoded, strict=True))
     true_poses, dr_poses = (
         np.array([[*pose[:2], np.radians(pose[2])] for pose in poses], dtype=np.float64)
-        for poses in zip(*(_poses(info) for _, info in records), strict=True)
+        for poses in zip(*(_poses(truth) for _, truth in records), strict=True)
     )
     steps = np.hypot(*np.diff(true_poses[:, :2], axis=0).T)
     distance = np.concatenate([[0.0], np.cumsum(steps)])

@@ -67,7 +67,7 @@ from polyenvs.core.geometry2d import pack_segments
 from polyenvs.core.jit import compiled_for, njit
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import SharedVersionHistory, physical_parameters
-from polyenvs.core.rows import RowsEnv, vector_convention
+from polyenvs.core.rows import RowsEnv, read_only, vector_convention
 from polyenvs.core.validation import check_action, check_options, show
 from polyenvs.core.window import check_window_scale
 
@@ -207,7 +207,13 @@ VERSION_HISTORY = """* v0: initial version (2026-11-22). Changed in place before
   without changing a default episode: the native vector env (``gym.make_vec``, 2026-11-22; both autoreset modes
   2026-11-30), every physical parameter as a validated keyword (2026-12-01), ``layouts=`` (held-out training and
   test layouts, 2026-12-02). ``info`` holds the ground truth as one array, ``info["ground_truth"]``, instead of an
-  entry per part, and the actuator and sensor-face labels moved to ``env.frame_labels()`` (2026-12-02)."""
+  entry per part, and the actuator and sensor-face labels moved to ``env.frame_labels()`` (2026-12-02). ``info``
+  made lean without changing an episode (2026-12-05): ``info["episode_metrics"]`` is only in the info of the step
+  that ends the episode (terminated, or truncated by the env itself; on a native vector env's rows that end, time
+  limit included), ``env.unwrapped.episode_metrics()`` returns them at any time, and
+  :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit`` truncates;
+  a native vector env's ground-truth array is a read-only view valid until the next step or reset (copy it to
+  keep it)."""
 
 
 class BuckybotEnv(SharedVersionHistory, RowsEnv):
@@ -309,13 +315,16 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         self._kernel_arrays = self._task_arrays()
         self._pack_kernel(self.sim.kernel_arrays(self._observations), self._kernel_arrays)
 
-    _packed_names = (*RowsEnv._packed_names, "_compiled_step", "_row0_views")
+    _packed_names = (*RowsEnv._packed_names, "_compiled_step", "_row0_views", "_ground_truth_rows")
 
     def _pack_kernel(self, sim: tuple, task: tuple) -> None:
         super()._pack_kernel(sim, task)
         # Every step passes these two: their machine code is called without numba's per-call typing.
         self._compiled_step = compiled_for(self._step_kernel, self._actions, self._kernel)
         self._row0_views = self._info_views(0)  # made once: a single env's info reads them at every step
+        # The vector env hands this over at every step (a single env copies its row: Gymnasium's checker refuses
+        # an info sharing memory with the previous one).
+        self._ground_truth_rows = read_only(self.sim.state[:, S.INFO_START : S.INFO_STOP])
 
     def _task_install_plan(self, slot: int, plan: FloorPlan) -> None:
         """Fill the task's tables for ``plan`` in plan slot ``slot``."""
@@ -500,38 +509,35 @@ class BuckybotEnv(SharedVersionHistory, RowsEnv):
         raise RuntimeError("the random room generator failed to make a usable room")  # pragma: no cover
 
     def _info_views(self, row: int) -> tuple[np.ndarray, ...]:
-        """Row ``row``'s state, its action mask, its ground-truth block and its ``_out`` row, as views."""
+        """Row ``row``'s state, its action mask, its ground-truth block and its reward terms, as views."""
         state = self.sim.state[row]
-        return state, state[S.ALLOWED : S.ALLOWED + 3], state[S.INFO_START : S.INFO_STOP], self._out[row]
+        terms = self._out[row, : len(self._reward_keys)]
+        return state, state[S.ALLOWED : S.ALLOWED + 3], state[S.INFO_START : S.INFO_STOP], terms
 
     def _get_info(self, row: int) -> dict[str, Any]:
         # Few entries, two fresh arrays: building a dict of a dozen fresh arrays cost half a CartPole step.
-        state, mask, truth, scores = self._row0_views if row == 0 else self._info_views(row)
-        out = scores.tolist()
+        state, mask, truth, terms = self._row0_views if row == 0 else self._info_views(row)
         info = {
             "action_mask": mask.astype(np.int8),
             "ground_truth": truth.copy(),
-            "face": int(state[S.FACE]) + 1,
-            "blocked": bool(state[S.BLOCKED]),
+            "face": int(state.item(S.FACE)) + 1,
+            "blocked": state.item(S.BLOCKED) != 0.0,
         }
-        info.update(zip(self._reward_keys, out, strict=False))  # stops at the last reward term
-        info["episode_metrics"] = dict(zip(self._metric_names, out[len(self._reward_keys) :], strict=False))
+        info.update(zip(self._reward_keys, terms.tolist(), strict=True))
         return info
 
-    def _vector_info(self) -> dict[str, Any]:
-        """:meth:`_get_info` for every row, in Gymnasium's vector convention: the reward terms and metrics are views
-        of one fresh array."""
+    def _vector_info(self, ended: np.ndarray) -> dict[str, Any]:
+        """:meth:`_get_info` for every row, in Gymnasium's vector convention (the reward terms are views of one fresh
+        array), with the metrics of the rows in ``ended``."""
         state = self.sim.state
-        scores = self._out[:, : self._reward_column].copy()
+        terms = self._out[:, : len(self._reward_keys)].copy()
         values: dict[str, Any] = {
             "action_mask": state[:, S.ALLOWED : S.ALLOWED + 3].astype(np.int8),
-            "ground_truth": state[:, S.INFO_START : S.INFO_STOP].copy(),
+            "ground_truth": self._ground_truth_rows,
             "face": state[:, S.FACE].astype(np.int64) + 1,
             "blocked": state[:, S.BLOCKED] > 0.5,
         }
-        k = len(self._reward_keys)
         for j, key in enumerate(self._reward_keys):
-            values[key] = scores[:, j]
+            values[key] = terms[:, j]
         values.update(self._vector_task_info())
-        metrics = {name: scores[:, k + j] for j, name in enumerate(self._metric_names)}
-        return vector_convention(values, metrics, self._batch_size)
+        return vector_convention(values, self._metric_rows(), ended)

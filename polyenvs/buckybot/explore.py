@@ -123,7 +123,8 @@ class BuckybotExploreEnv(BuckybotEnv):
 
     ## Episode End
     Terminates when ``coverage >= coverage_goal``; truncated after ``max_episode_steps`` (1000 at registration).
-    ``info["episode_metrics"]``: ``coverage`` (fraction of the free area observed), ``map_error_cm`` (mean
+    The metrics (``env.unwrapped.episode_metrics()``; ``info["episode_metrics"]`` at the episode's end, as in
+    BuckybotWallFollow-v0): ``coverage`` (fraction of the free area observed), ``map_error_cm`` (mean
     distance between dead-reckoned and true obstacle points), ``steps`` (tips taken, blocked ones included),
     ``blocked_tips``, ``oscillation_events``.
 

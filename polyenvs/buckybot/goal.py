@@ -122,7 +122,8 @@ class BuckybotGoalEnv(BuckybotEnv):
 
     ## Episode End
     Terminates when the true centre is within ``goal_radius_cm`` of the goal; truncated after
-    ``max_episode_steps`` (300 at registration). ``info["episode_metrics"]``: ``success`` (0/1),
+    ``max_episode_steps`` (300 at registration). The metrics (``env.unwrapped.episode_metrics()``;
+    ``info["episode_metrics"]`` at the episode's end, as in BuckybotWallFollow-v0): ``success`` (0/1),
     ``final_distance_cm`` (true), ``steps_to_goal`` (the steps taken: to the goal if it was reached, else the
     whole episode), ``blocked_tips``, ``oscillation_events``.
 

@@ -151,11 +151,13 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     | blocked | whether the last tip was blocked |
     | action_mask | int8, tips that would not hit a wall (also ``env.action_masks()`` for MaskablePPO) |
     | reward_progress, reward_distance, reward_blocked | the reward's terms |
-    | episode_metrics | the episode's metrics so far (see Episode End) |
+    | episode_metrics | the episode's metrics (see Episode End), in the info of the step that ends it only |
 
     ``env.unwrapped.frame_labels()`` gives what the frame is on the body: the actuator letter each action extends
     and the faces carrying the six observed sensors. (Before 2026-12-02 each part of the ground truth and those
-    labels were entries of their own: building a dozen fresh arrays per step cost half a CartPole step.)
+    labels were entries of their own: building a dozen fresh arrays per step cost half a CartPole step.) A native
+    vector env's ``info["ground_truth"]`` is a read-only view of its state, valid until the next step or reset:
+    copy it to keep it.
 
     ## Rewards
     The paper's per-step cost ``(d - d*)² - 2 x_s · Δs`` (its eq. 5 weighs distance error against progress; the
@@ -174,10 +176,11 @@ class BuckybotWallFollowEnv(BuckybotEnv):
     ``reset(options={"pose": (x_cm, y_cm, heading_deg), "face": 1..20})``.
 
     ## Episode End
-    Never terminates; truncated after ``max_episode_steps`` (500 at registration).
-    ``info["episode_metrics"]`` holds ``wall_distance_error_cm`` (mean |d - d*|), ``perimeter_fraction``
-    (fraction of the wall length passed within ``follow_tolerance_cm`` of d*), ``laps`` (completed
-    counter-clockwise turns about the room's centre), ``progress_cm``, ``blocked_tips`` and
+    Never terminates; truncated after ``max_episode_steps`` (500 at registration). The metrics
+    (``env.unwrapped.episode_metrics()`` at any time; under Gymnasium's time limit, the last ``info`` has them through
+    :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics`) are ``wall_distance_error_cm`` (mean |d - d*|),
+    ``perimeter_fraction`` (fraction of the wall length passed within ``follow_tolerance_cm`` of d*), ``laps``
+    (completed counter-clockwise turns about the room's centre), ``progress_cm``, ``blocked_tips`` and
     ``oscillation_events`` (tips that undo the previous tip).
 
     ## Task score

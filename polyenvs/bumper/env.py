@@ -35,7 +35,7 @@ from polyenvs.bumper.cart import CartModel, cycle_row, max_ticks, place_row
 from polyenvs.bumper.maps import LAYOUT_MAX_SEGMENTS, LAYOUT_ROOM_BOUNDS, LAYOUT_SPLIT, BumperMap, layout_map, make_map
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, indices, spans, write_reward
-from polyenvs.core.jit import njit
+from polyenvs.core.jit import compiled_for, njit
 from polyenvs.core.layouts import check_layouts, documents_layouts
 from polyenvs.core.parameters import documents_arguments, physical_parameters
 from polyenvs.core.rows import RowsEnv, vector_convention
@@ -91,9 +91,9 @@ TRAIL_POINTS = 3000
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
 _POSE_COLUMNS = [C.X, C.Y, C.HEADING, C.DR_X, C.DR_Y, C.DR_HEADING, C.BUMP_X, C.BUMP_Y, C.BUMP_HEADING]
-_POSE_INDEX = np.array(_POSE_COLUMNS)
-#: Multiplies the poses' headings into degrees (``np.degrees``' own factor) and leaves the positions as they are.
-_POSE_SCALE = np.array([1.0, 1.0, 180.0 / math.pi] * 3)
+#: Multiplies the poses' headings into degrees (``np.degrees``' own factor) and leaves the positions (and the
+#: contact point after them) as they are: a single env's info converts them in one product.
+_INFO_SCALE = np.array([1.0, 1.0, 180.0 / math.pi] * 3 + [1.0, 1.0])
 
 
 def _real_array(value) -> np.ndarray | None:
@@ -298,6 +298,8 @@ class BumperCartEnv(RowsEnv):
         self.observation_structure = {**OBSERVATION_STRUCTURE, **spans(self.task_observation_sizes, LOG_SIZE)}
         # A row's action is (turn in rad, 1); the base marks a row that gets none by writing NO_ACTION (-1) over it.
         self._allocate_rows(action_dtype=np.float64, action_shape=(2,))
+        #: The state columns a single env's info reads: the poses, then the contact point.
+        self._info_index = np.array([*_POSE_COLUMNS, *self._contact_columns[:2]])
         self.state = np.zeros((n, C.N_STATE))
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
@@ -484,9 +486,17 @@ class BumperCartEnv(RowsEnv):
                 self._paths[1].append(tuple(r.pose[:2]))
         self._started = True
 
+    _packed_names = (*RowsEnv._packed_names, "_compiled_step")
+
+    def _pack_kernel(self, sim: tuple, task: tuple) -> None:
+        super()._pack_kernel(sim, task)
+        # Every step passes these two: their machine code is called without numba's per-call typing.
+        self._compiled_step = compiled_for(self._step_kernel, self._actions, self._kernel)
+
     def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
-        self._step_kernel(actions, self._kernel)
+        step = self._compiled_step if actions is self._actions else self._step_kernel
+        step(actions, self._kernel)
 
     def _row_generator(self, row: int) -> np.random.Generator | None:
         return self.streams.generators[row]
@@ -545,27 +555,26 @@ class BumperCartEnv(RowsEnv):
 
     def _get_info(self, row: int) -> dict[str, Any]:
         s = self.state[row]
-        poses = s.take(_POSE_INDEX)  # one fresh array; the poses below are views of it
-        poses *= _POSE_SCALE
-        out = self._out[row].tolist()
-        x, y, _ = self._contact_columns
-        return {
-            "pose": poses[0:3],
-            "dead_reckoned_pose": poses[3:6],
-            "pose_at_bump": poses[6:9],
-            "bumped": bool(s[C.BUMP] > 0.5),
-            "contact_point": s[[x, y]],
+        values = s.take(self._info_index)  # one fresh array; the entries below are views of it
+        values *= _INFO_SCALE
+        info = {
+            "pose": values[0:3],
+            "dead_reckoned_pose": values[3:6],
+            "pose_at_bump": values[6:9],
+            "bumped": s.item(C.BUMP) > 0.5,
+            "contact_point": values[9:11],
             **self._task_info(row),
-            **dict(zip(self._reward_keys, out[self.out_columns.term_slice], strict=True)),
-            "episode_metrics": dict(zip(self._metric_names, out[self.out_columns.metric_slice], strict=True)),
         }
+        info.update(zip(self._reward_keys, self._out[row, : len(self._reward_keys)].tolist(), strict=True))
+        return info
 
-    def _vector_info(self) -> dict[str, Any]:
-        """:meth:`_get_info` for every row, in Gymnasium's vector convention."""
+    def _vector_info(self, ended: np.ndarray) -> dict[str, Any]:
+        """:meth:`_get_info` for every row, in Gymnasium's vector convention, with the metrics of the rows in
+        ``ended``."""
         s = self.state
         poses = s[:, _POSE_COLUMNS]
         poses[:, 2::3] = np.degrees(poses[:, 2::3])
-        scores = self._out[:, : self._reward_column].copy()
+        terms = self._out[:, self.out_columns.term_slice].copy()
         x, y, _ = self._contact_columns
         values = {
             "pose": poses[:, 0:3],
@@ -574,12 +583,9 @@ class BumperCartEnv(RowsEnv):
             "bumped": s[:, C.BUMP] > 0.5,
             "contact_point": s[:, [x, y]],
             **self._vector_task_info(),
-            **{key: scores[:, j] for j, key in enumerate(self._reward_keys)},
+            **{key: terms[:, j] for j, key in enumerate(self._reward_keys)},
         }
-        metrics = {
-            name: scores[:, self.out_columns.metric_slice.start + j] for j, name in enumerate(self._metric_names)
-        }
-        return vector_convention(values, metrics, self._batch_size)
+        return vector_convention(values, self._metric_rows(), ended)
 
 
 @documents_arguments(CartModel)
@@ -618,11 +624,13 @@ class BumperCartExploreEnv(BumperCartEnv):
     episode's room). Reset option ``pose``: ``(x_cm, y_cm, heading_deg)``.
 
     ## Episode End
-    Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration).
-    ``info["episode_metrics"]``: ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm`` (dead reckoning from
-    the true start against the true position: the paper's Part 2 drift), ``large_slips``. ``info`` also has the
-    true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm, heading_deg)``; the last is where the
-    drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and ``touched_cells``.
+    Never terminates; truncated after ``max_episode_steps`` cycles (200 at registration). The metrics
+    (``env.unwrapped.episode_metrics()`` at any time; under Gymnasium's time limit, the last ``info`` has them through
+    :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics`): ``wall_fraction_touched``, ``bumps``,
+    ``odometry_error_cm`` (dead reckoning from the true start against the true position: the paper's Part 2 drift),
+    ``large_slips``. ``info`` also has the true ``pose``, ``dead_reckoned_pose`` and ``pose_at_bump`` (``(x_cm, y_cm,
+    heading_deg)``; the last is where the drive stage ended), ``bumped``, ``contact_point`` (the last bump's, cm) and
+    ``touched_cells``.
 
     ## Task score
     ``wall_fraction_touched`` (max, ceiling 1): the paper's cart maps a maze by bumping into its walls, and a wall
@@ -644,16 +652,19 @@ class BumperCartExploreEnv(BumperCartEnv):
     The physical parameters are :class:`polyenvs.bumper.cart.CartModel`'s.
 
     ## Version History
-    * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a
-      wall line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
-      leaderboard's episodes (50 seeds, the paper map) are unchanged by it. Added since without changing a
-      default episode: turns must be real numbers (complex, boolean and string actions raise), the parameters
-      declared once with range and source (2026-12-01), ``layouts=`` (held-out training and test rooms,
-      2026-12-02), ``window_scale=`` (2026-12-02); BumperCartExplore-v1 (a 50-cycle budget) is its successor for
-      ranking. Known defect, kept so that its results reproduce (2026-12-05, issue 29): when the back-up touches a
-      wall after the bump, that wall is credited (``touch``, ``wall_fraction_touched``, ``touched_cells``,
-      ``contact_point``: the rear's contact, a wall the bumper never touched), in 0.1-0.35% of bumps;
-      BumperCartExplore-v2 credits the bumper's.
+    * v0: initial version. Since 2026-12 the contact solution finds a body corner or a wall vertex that crosses a wall
+      line a second time (it had missed it, letting the body into walls on maps with convex wall corners); the
+      leaderboard's episodes (50 seeds, the paper map) are unchanged by it. Added since without changing a default
+      episode: turns must be real numbers (complex, boolean and string actions raise), the parameters declared once with
+      range and source (2026-12-01), ``layouts=`` (held-out training and test rooms, 2026-12-02), ``window_scale=``
+      (2026-12-02); BumperCartExplore-v1 (a 50-cycle budget) is its successor for ranking. Known defect, kept so that
+      its results reproduce (2026-12-05, issue 29): when the back-up touches a wall after the bump, that wall is
+      credited (``touch``, ``wall_fraction_touched``, ``touched_cells``, ``contact_point``: the rear's contact, a wall
+      the bumper never touched), in 0.1-0.35% of bumps; BumperCartExplore-v2 credits the bumper's. ``info`` made lean
+      without changing an episode (2026-12-05): ``info["episode_metrics"]`` is only in the info of the step that ends
+      the episode (terminated, or truncated by the env itself; on a native vector env's rows that end, time limit
+      included), ``env.unwrapped.episode_metrics()`` returns them at any time, and
+      :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit`` truncates.
     """
 
     out_columns = OUT

@@ -89,7 +89,8 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     Never terminates; truncated after ``budget_cycles`` cycles (50, the registration's ``max_episode_steps`` too),
     whatever time limit ``gym.make`` was given: the bound holds for the budget, so a longer episode could pass
     coverage 1 (a shorter limit ends it sooner). A step past the budget without a reset raises ``ResetNeeded``.
-    ``info["episode_metrics"]``: ``coverage`` (the wall fraction touched over the bound), and v0's
+    The metrics (``env.unwrapped.episode_metrics()``; ``info["episode_metrics"]`` of the budget's last cycle):
+    ``coverage`` (the wall fraction touched over the bound), and v0's
     ``wall_fraction_touched``, ``bumps``, ``odometry_error_cm``, ``large_slips``.
 
     ## Arguments
@@ -107,11 +108,15 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     With ``layouts="train"`` or ``"test"`` every episode's room has its own bound (``env.coverage_bound``: row 0's).
 
     ## Version History
-    * v1: a budget of 50 cycles and ``coverage`` against its upper bound (the reward scaled by the bound); v0 is
-      kept registered unchanged. Since 2026-12-05 (issue 29) the episode ends at ``budget_cycles`` whatever the
-      time limit: ``budget_cycles=5`` under the registered 50 had run 50 cycles to a coverage of 7.4; the registered
-      episodes are unchanged. Known defect, v0's, kept so that its results reproduce: a back-up that touches a
-      wall after the bump gets that wall credited; BumperCartExplore-v2 credits the bumper's.
+    * v1: a budget of 50 cycles and ``coverage`` against its upper bound (the reward scaled by the bound); v0 is kept
+      registered unchanged. Since 2026-12-05 (issue 29) the episode ends at ``budget_cycles`` whatever the time limit:
+      ``budget_cycles=5`` under the registered 50 had run 50 cycles to a coverage of 7.4; the registered episodes are
+      unchanged. Known defect, v0's, kept so that its results reproduce: a back-up that touches a wall after the bump
+      gets that wall credited; BumperCartExplore-v2 credits the bumper's. ``info`` made lean without changing an episode
+      (2026-12-05): ``info["episode_metrics"]`` is only in the info of the step that ends the episode (terminated, or
+      truncated by the env itself; on a native vector env's rows that end, time limit included),
+      ``env.unwrapped.episode_metrics()`` returns them at any time, and
+      :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit`` truncates.
     * v0: 200 cycles, the reward 100 x the wall fraction touched.
     """
 
@@ -142,11 +147,13 @@ class BumperCartExploreV1Env(BumperCartExploreEnv):
     _step_kernel = staticmethod(_step_kernel)
 
     def step(self, action):
-        if self._cycles[0] >= self.budget_cycles:
+        if self._row0_budget_spent():
             raise ResetNeeded(f"the episode's budget_cycles ({self.budget_cycles}) are spent: call reset()")
-        observation, reward, terminated, _, info = super().step(action)
-        return observation, reward, terminated, bool(self._cycles[0] >= self.budget_cycles), info
+        return super().step(action)
 
     def budget_spent(self) -> np.ndarray:
         """Per row, whether its episode has used its ``budget_cycles`` (it ends there, truncated)."""
         return self._cycles >= self.budget_cycles
+
+    def _row0_budget_spent(self) -> bool:
+        return self._cycles.item(0) >= self.budget_cycles

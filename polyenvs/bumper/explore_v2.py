@@ -48,7 +48,8 @@ class BumperCartExploreV2Env(BumperCartExploreV1Env):
 
     ## Episode End
     As BumperCartExplore-v1: never terminates; truncated after ``budget_cycles`` cycles (50), whatever time limit
-    ``gym.make`` was given. ``info["episode_metrics"]``: ``coverage``, ``wall_fraction_touched``, ``bumps``,
+    ``gym.make`` was given. The metrics (``env.unwrapped.episode_metrics()``; ``info["episode_metrics"]`` of the
+    budget's last cycle): ``coverage``, ``wall_fraction_touched``, ``bumps``,
     ``odometry_error_cm``, ``large_slips``; ``info["contact_point"]`` is the last bump's contact on the bumper.
 
     ## Arguments
@@ -64,9 +65,13 @@ class BumperCartExploreV2Env(BumperCartExploreV1Env):
     | num_rows | 1 | rows simulated at once, an integer in [1, 1e6]: the native vector env sets it (``gym.make_vec``) |
 
     ## Version History
-    * v2 (2026-12-05, issue 29): a bump credits the bumper's own contact, not a later one of the back-up: the
-      touch reward, ``coverage``, ``wall_fraction_touched``, ``touched_cells`` and ``contact_point`` change where
-      backing up touched a wall after the bump; the cart's motion and observations are v1's.
+    * v2 (2026-12-05, issue 29): a bump credits the bumper's own contact, not a later one of the back-up: the touch
+      reward, ``coverage``, ``wall_fraction_touched``, ``touched_cells`` and ``contact_point`` change where backing up
+      touched a wall after the bump; the cart's motion and observations are v1's. ``info`` made lean without changing an
+      episode (2026-12-05): ``info["episode_metrics"]`` is only in the info of the step that ends the episode
+      (terminated, or truncated by the env itself; on a native vector env's rows that end, time limit included),
+      ``env.unwrapped.episode_metrics()`` returns them at any time, and
+      :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit`` truncates.
     * v1: a budget of 50 cycles and ``coverage`` against its upper bound (the reward scaled by the bound).
     * v0: 200 cycles, the reward 100 x the wall fraction touched.
     """

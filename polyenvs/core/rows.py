@@ -24,11 +24,13 @@ protocol between a family and this base, documented here, not calls for users.
   moves nor scores);
 - ``_row_generator(row)`` (the row's generator, ``None`` before its first reset), ``_row_steps()`` (steps into
   each row's episode, for time limits), ``_check_actions(actions)`` (a batch, for the vector env), and
-  ``_get_info(row)`` / ``_vector_info()`` (one row's info; every row's, in the vector convention);
+  ``_get_info(row)`` / ``_vector_info(ended)`` (one row's per-step info; every row's, in the vector convention
+  of :func:`vector_convention`, with the metrics of the rows in ``ended``);
 - optionally ``_on_row0_step()`` (after row 0 moved: trails for rendering) and ``_make_renderer()`` (an object
   whose ``render(env)`` draws row 0 and ``close()`` closes its window), built at the first ``render()``;
-- optionally ``budget_spent()``: the rows whose episode has used a budget of its own (the cart's ``budget_cycles``),
-  which the vector env truncates there, as the single env's ``step`` does; by default none.
+- optionally ``budget_spent()`` and ``_row0_budget_spent()``: the rows whose episode has used a budget of its own
+  (the cart's ``budget_cycles``), which the vector env truncates there, and the same for row 0 alone, as one
+  Python bool, which the single env's ``step`` asks at every step; by default none.
 
 The native vector env of a task is its class's ``VectorEnv`` (:class:`RowsVectorEnv` with ``env_class`` the task,
 :mod:`polyenvs.core.vector_entry`): a task writes no vector class, its registry row says ``native_vector=True``.
@@ -40,8 +42,16 @@ Conventions every family inherits from here:
 - *Seeding as Gymnasium's.* ``reset(seed=s)`` restarts row 0 from a new generator; an unseeded reset continues the
   row's own. The vector env seeds row ``i`` with ``s + i``, as ``SyncVectorEnv`` seeds sub-environment ``i``, so it
   gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit, in either autoreset mode.
-- *Cheap info.* ``_vector_info`` builds every key for every row from a few fresh arrays; every ``_key`` mask is
-  one shared read-only all-true array.
+- *A lean info* (issue 33). The per-step ``info`` holds what changes every step and costs little to hand over: the
+  reward terms, the family's cheap keys and its ground truth, which the vector env hands over as a read-only view
+  of the simulator's state (:func:`read_only`: made once, the same object every step, valid until the next step or
+  reset; copy it to keep it). A single env copies its row: Gymnasium's checker (``gym.make``'s, and ``check_env``)
+  refuses an info that shares memory with an earlier one. ``info["episode_metrics"]`` (the task's metrics, the
+  ``_out`` table's metric columns) is only in the info of the step that ends the episode as the env knows it
+  (terminated, or truncated by its budget); :meth:`RowsEnv.episode_metrics` returns them at any time, and
+  :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit`` truncates.
+  The vector env, which applies the time limit itself, puts them on the rows whose episode ended
+  (:func:`vector_convention`).
 """
 
 from __future__ import annotations
@@ -70,6 +80,7 @@ __all__ = [
     "check_vector_arguments",
     "copy_generator",
     "only_rows",
+    "read_only",
     "vector_convention",
 ]
 
@@ -104,6 +115,14 @@ def check_vector_arguments(num_envs, max_episode_steps, autoreset_mode) -> tuple
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
     """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises)."""
     return copy.deepcopy(rng)
+
+
+def read_only(array: np.ndarray) -> np.ndarray:
+    """A read-only view of ``array``'s memory, to hand over in ``info`` without a copy: made once, it shows what the
+    simulator holds now, so it is valid until the next step or reset (a consumer that keeps it copies it)."""
+    view = array.view()
+    view.flags.writeable = False
+    return view
 
 
 class RowsEnv(gym.Env):
@@ -147,6 +166,7 @@ class RowsEnv(gym.Env):
         self._reward_column, self._terminated_column = columns.reward, columns.terminated
         self._reward_keys = tuple(f"reward_{name}" for name in columns.terms)
         self._metric_names = columns.metrics
+        self._metric_slice = columns.metric_slice
         self._actions = np.zeros((n, *action_shape), dtype=action_dtype)
         self._row0 = np.zeros(1, dtype=np.int64)
         self._started = False
@@ -201,8 +221,13 @@ class RowsEnv(gym.Env):
     def _get_info(self, row: int) -> dict[str, Any]:
         raise NotImplementedError
 
-    def _vector_info(self) -> dict[str, Any]:
+    def _vector_info(self, ended: np.ndarray) -> dict[str, Any]:
         raise NotImplementedError
+
+    def _metric_rows(self) -> dict[str, np.ndarray]:
+        """Every row's metrics so far, name -> a view of its ``_out`` column (for :func:`vector_convention`)."""
+        out = self._out
+        return {name: out[:, self._metric_slice.start + j] for j, name in enumerate(self._metric_names)}
 
     def _on_row0_step(self) -> None:
         """Called after row 0 moved (not after a restart): rendering trails."""
@@ -211,12 +236,25 @@ class RowsEnv(gym.Env):
         """Per row, whether its episode has used a budget of its own (it ends there, truncated): none here."""
         return np.zeros(self._batch_size, dtype=bool)
 
+    def _row0_budget_spent(self) -> bool:
+        """:meth:`budget_spent` of row 0 alone, without building an array (the single env asks at every step)."""
+        return False
+
     def _make_renderer(self):
         raise NotImplementedError
 
     _renderer = None
 
     # --- Gymnasium API ------------------------------------------------------------------------------------------
+    def episode_metrics(self) -> dict[str, float]:
+        """The task's metrics (``info["episode_metrics"]``' names): the current episode's so far, and after it ended
+        the final ones, until the next reset. Gymnasium's ``TimeLimit`` truncates outside the env, whose last
+        ``info`` then lacks them: read them here (``env.unwrapped.episode_metrics()``) or wrap the env in
+        :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics`."""
+        if not self._started:
+            raise ResetNeeded("call reset() before episode_metrics()")
+        return dict(zip(self._metric_names, self._out[0, self._metric_slice].tolist(), strict=True))
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         if self._batch_size != 1:
             raise TypeError(f"an env of num_rows={self._batch_size} is driven by a RowsVectorEnv, not reset() itself")
@@ -250,14 +288,13 @@ class RowsEnv(gym.Env):
         self._actions[0] = self._check_action(action)
         self._advance(self._actions)
         self._on_row0_step()
-        out = self._out[0]
-        return (
-            self._observations[0].copy(),
-            float(out[self._reward_column]),
-            bool(out[self._terminated_column]),
-            False,
-            self._get_info(0),
-        )
+        out = self._out
+        terminated = out.item(0, self._terminated_column) != 0.0
+        truncated = self._row0_budget_spent()
+        info = self._get_info(0)
+        if terminated or truncated:
+            info["episode_metrics"] = self.episode_metrics()
+        return self._observations[0].copy(), out.item(0, self._reward_column), terminated, truncated, info
 
 
 class BatchVectorEnv(VectorEnv):
@@ -273,8 +310,9 @@ class BatchVectorEnv(VectorEnv):
     ``_advance_rows(actions, restart)`` (step the rows not in the ``restart`` mask, restart those that are: they
     neither move nor score), ``_step_result(restart)`` (rewards, terminated, truncated by the batch's own rules),
     ``_row_steps()`` (steps into each row's episode), ``_observations()`` (the batch's observation rows) and
-    ``_info()`` (every row's info in the vector convention); optionally ``_final_info(done)`` (what the rows in
-    ``done`` report of the episode they finished: by default their ``_info()``).
+    ``_info(ended)`` (every row's per-step info in the vector convention, with ``episode_metrics`` on the rows in
+    the ``ended`` mask: :func:`vector_convention`); optionally ``_final_info(done)`` (what the rows in ``done``
+    report of the episode they finished: by default their ``_info(done)``).
 
     An environment is ``rows_per_env`` rows (``_build`` sets it: the swarm's robots; 1 elsewhere) that share one
     generator and one episode, so they restart together; ``num_envs`` counts environments and ``self.num_envs``,
@@ -313,6 +351,8 @@ class BatchVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        #: No row's episode ended (a reset's info; the restarted rows of a same-step autoreset).
+        self._none_ended = read_only(np.zeros(self.num_envs, dtype=bool))
         self._started = False
         self._closed = False
 
@@ -337,7 +377,7 @@ class BatchVectorEnv(VectorEnv):
         self._reset_rows(self._seeds(seed), options)  # may raise, before anything changes
         self._needs_reset[:] = False
         self._started = True
-        return self._observations().copy(), self._info()
+        return self._observations().copy(), self._info(self._none_ended)
 
     def step(self, actions):
         self._check_open()
@@ -354,7 +394,7 @@ class BatchVectorEnv(VectorEnv):
         done = terminated | truncated
         if self.autoreset_mode == AutoresetMode.NEXT_STEP or not done.any():
             self._needs_reset = done
-            return self._observations().copy(), rewards, terminated, truncated, self._info()
+            return self._observations().copy(), rewards, terminated, truncated, self._info(done)
         # Same-step autoreset: keep what the finished rows saw, restart them now, report both.
         final_obs = np.full(self.num_envs, None, dtype=object)
         observations = self._observations()
@@ -362,13 +402,13 @@ class BatchVectorEnv(VectorEnv):
             final_obs[row] = observations[row].copy()
         final_info = self._final_info(done)
         self._restart(np.flatnonzero(done).tolist())
-        info = self._info()
+        info = self._info(self._none_ended)
         info["final_obs"], info["_final_obs"] = final_obs, done.copy()
         info["final_info"], info["_final_info"] = final_info, done.copy()
         return self._observations().copy(), rewards, terminated, truncated, info
 
     def _final_info(self, done: np.ndarray) -> dict[str, Any]:
-        return only_rows(self._info(), done)
+        return only_rows(self._info(done), done)
 
 
 class RowsVectorEnv(BatchVectorEnv):
@@ -384,8 +424,8 @@ class RowsVectorEnv(BatchVectorEnv):
         **kwargs: the environment's constructor arguments.
 
     Observations ``(num_envs, ...)``, rewards, terminated and truncated ``(num_envs,)``; ``info`` holds the single
-    env's keys in the vector convention (an array per key, with its ``_key`` mask; ``episode_metrics`` a dict of
-    arrays).
+    env's per-step keys in the vector convention (an array per key, with its ``_key`` mask), and
+    ``episode_metrics``, a dict of arrays, on the rows whose episode ended this step, time limit included.
     """
 
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -440,8 +480,8 @@ class RowsVectorEnv(BatchVectorEnv):
     def _observations(self) -> np.ndarray:
         return self._core._observations
 
-    def _info(self) -> dict[str, Any]:
-        return self._core._vector_info()
+    def _info(self, ended: np.ndarray) -> dict[str, Any]:
+        return self._core._vector_info(ended)
 
     def render(self):
         """Sub-environment 0's frame."""
@@ -478,19 +518,18 @@ def only_rows(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:
     return kept
 
 
-def vector_convention(values: dict[str, Any], metrics: dict[str, Any], num_envs: int) -> dict[str, Any]:
-    """Every row reports every key: ``values`` and ``values["episode_metrics"] = metrics``, each with its ``_key``
-    mask, one shared read-only all-true array."""
-    every_row = np.ones(num_envs, dtype=bool)
+def vector_convention(values: dict[str, Any], metrics: dict[str, np.ndarray], ended: np.ndarray) -> dict[str, Any]:
+    """A vector env's info in Gymnasium's convention: every row reports every key of ``values`` (each ``_key`` mask
+    one shared read-only all-true array), and ``info["episode_metrics"]`` holds ``metrics`` (name -> per-row array)
+    for the rows in the ``ended`` mask only (zero elsewhere, each mask equal to ``ended``), as ``SyncVectorEnv``
+    gathers the infos of envs that report them on their last step; no ``episode_metrics`` key where no row ended."""
+    every_row = np.ones(ended.shape[0], dtype=bool)
     every_row.flags.writeable = False
     info: dict[str, Any] = {}
     for key, value in values.items():
         info[key] = value
         info[f"_{key}"] = every_row
-    nested: dict[str, Any] = {}
-    for key, value in metrics.items():
-        nested[key] = value
-        nested[f"_{key}"] = every_row
-    info["episode_metrics"] = nested
-    info["_episode_metrics"] = every_row
+    if ended.any():
+        info["episode_metrics"] = only_rows(metrics, ended)
+        info["_episode_metrics"] = ended.copy()
     return info

@@ -1,7 +1,7 @@
 """Evaluate a policy on an environment over fixed seeds.
 
-The same seeds for every policy make comparisons paired; per-episode returns and task metrics (from
-``info["episode_metrics"]``) are kept so a leaderboard can compute any statistic later.
+The same seeds for every policy make comparisons paired; per-episode returns and task metrics (at each episode's
+end: :func:`polyenvs.evaluation.rollout.final_metrics`) are kept so a leaderboard can compute any statistic later.
 
 User input that cannot work raises :class:`~polyenvs.errors.InputError` (a ``ValueError``) before any episode runs
 (a trained model's path is checked against the environment then too); policies whose ``predict`` takes

@@ -6,7 +6,10 @@ function); :func:`make_env` builds either, and the functions below take whicheve
 
 - :func:`agent_spaces`: the spaces a policy sees, one agent's. Robots of a parallel environment share one policy
   (parameter sharing, as SuperSuit and VMAS train them), built from the first agent's spaces.
-- :func:`run_episode`: one seeded episode, ``{"seed", "return", "length", "metrics"}``. For a parallel environment
+- :func:`run_episode`: one seeded episode, ``{"seed", "return", "length", "metrics"}``; ``metrics`` are the
+  environment's at the episode's end, ``env.unwrapped.episode_metrics()`` where it has one (every polyenvs env: a
+  truncation by Gymnasium's ``TimeLimit`` leaves them out of the last ``info``), else the last
+  ``info["episode_metrics"]``. For a parallel environment
   the policy's ``predict`` gets the live robots' observations as one batch (first axis = robots), ``return`` is
   the mean over robots of each robot's summed reward, ``length`` counts cycles, and ``metrics`` are the
   environment's own whole-episode metrics (``env.unwrapped.episode_metrics()``, where it has one: totals, minima
@@ -40,6 +43,7 @@ __all__ = [
     "agent_spaces",
     "env_kind",
     "episode_frames",
+    "final_metrics",
     "is_parallel",
     "make_env",
     "policy_action",
@@ -174,8 +178,15 @@ def run_episode(env, agent, seed: int) -> dict[str, Any]:
         start = False
         if terminated or truncated:
             break
-    metrics = {k: float(v) for k, v in info.get("episode_metrics", {}).items()}
-    return {"seed": seed, "return": total, "length": length, "metrics": metrics}
+    return {"seed": seed, "return": total, "length": length, "metrics": final_metrics(env, info)}
+
+
+def final_metrics(env: gym.Env, info: dict) -> dict[str, float]:
+    """The metrics of the episode ``env`` just ended with ``info``: its ``env.unwrapped.episode_metrics()`` where it
+    has one (a ``TimeLimit`` truncation's info lacks them), else ``info["episode_metrics"]`` (empty if none)."""
+    method = getattr(env.unwrapped, "episode_metrics", None)
+    metrics = method() if callable(method) else info.get("episode_metrics", {})
+    return {k: float(v) for k, v in metrics.items()}
 
 
 class SharedPolicy:

@@ -33,9 +33,11 @@ class EpisodeMetricsCallback(BaseCallback):
     """Log ``episode_metrics/<name>``: the mean of each task metric over the last ``window`` finished episodes.
 
     Reads ``infos[i]["episode_metrics"]`` on the rows whose ``dones[i]`` is set (both
-    :class:`~polyenvs.training.vec_adapter.NativeVecEnvAdapter` and ``DummyVecEnv`` put the finished episode's
-    metrics there) and records the means at the end of every rollout, so they reach TensorBoard with SB3's own
-    ``rollout/ep_rew_mean`` (a window of 100 episodes, like ``stats_window_size``).
+    :class:`~polyenvs.training.vec_adapter.NativeVecEnvAdapter` and the project's ``DummyVecEnv``, whose envs
+    :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` wraps, put the finished episode's metrics there,
+    time-limit truncations included; a ``DummyVecEnv`` of bare ``gym.make`` envs lacks them on those) and records
+    the means at the end of every rollout, so they reach TensorBoard with SB3's own ``rollout/ep_rew_mean`` (a
+    window of 100 episodes, like ``stats_window_size``).
     """
 
     def __init__(self, window: int = 100, prefix: str = "episode_metrics", verbose: int = 0):

@@ -33,7 +33,7 @@ from baselines.tuned import TUNED_FILE, read_tuned
 from polyenvs.errors import InputError
 from polyenvs.evaluation.episodes import make_agent, make_env
 from polyenvs.evaluation.protocol import old_versions_quietly
-from polyenvs.evaluation.rollout import is_parallel, run_episode
+from polyenvs.evaluation.rollout import final_metrics, is_parallel, run_episode
 from polyenvs.evaluation.statistics import interquartile_mean
 from polyenvs.files import directory_lock, write_json_atomic
 from polyenvs.registry import Score, bare_id, entry
@@ -141,7 +141,7 @@ def _metric_names(env) -> set[str]:
             swarm = getattr(env.unwrapped, "episode_metrics", None)
             return set(swarm() if swarm is not None else next(iter(infos.values())).get("episode_metrics", {}))
         env.reset(seed=0)
-        return set(env.step(env.action_space.sample())[4].get("episode_metrics", {}))
+        return set(final_metrics(env, env.step(env.action_space.sample())[4]))
     finally:
         env.close()
 

@@ -10,7 +10,9 @@ SB3 and Gymnasium's vector API differ in three conventions, which :class:`Native
   terminated), which on-policy algorithms use to bootstrap the value of a time-limited episode.
 - *Info.* SB3 wants a list of per-sub-environment dicts; Gymnasium gives one dict of arrays with ``_key`` masks.
   On a row that finished, the adapter gives the finished episode's whole last info (as ``DummyVecEnv`` does), its
-  ``"episode_metrics"`` as a dict of plain floats; on other rows only ``"TimeLimit.truncated"`` and the keys named
+  ``"episode_metrics"`` (which the native env reports on the rows whose episode ended, time limit included) as a
+  dict of plain floats, its arrays copied (a native env's ground truth is a view, valid until the next step); on
+  other rows only ``"TimeLimit.truncated"`` and the keys named
   in ``info_keys`` (converting every key for every row at every step would cost more than the step itself).
 
 Seeding follows ``DummyVecEnv``: after ``seed(s)`` the next ``reset()`` seeds sub-environment ``i`` with ``s + i``;
@@ -43,6 +45,7 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices
 
+from polyenvs.core.episode_metrics import RecordEpisodeMetrics
 from polyenvs.errors import InputError
 from polyenvs.evaluation.episodes import EnvTarget, resolve_env
 from polyenvs.registry import bare_id
@@ -259,7 +262,8 @@ def make_training_vec_env(
     ``env``: an id or module path with its ``env_kwargs``, or an :class:`~polyenvs.evaluation.episodes.EnvTarget` resolved
     already (``polyenvs train`` resolves the name once; ``env_kwargs`` are then the target's). ``vec_env``:
     ``"native"`` (:class:`NativeVecEnvAdapter` under ``VecMonitor``), ``"dummy"`` (SB3's ``make_vec_env``:
-    ``DummyVecEnv`` of ``Monitor(gym.make(id))``, then ``wrappers``; a PettingZoo environment's copies are wrapped
+    ``DummyVecEnv`` of ``Monitor(gym.make(id))`` with the episode's metrics on its time-limit truncations, then
+    ``wrappers``; a PettingZoo environment's copies are wrapped
     by ``wrappers``, which must then be parallel-env wrappers), or ``"auto"``: native where the id has a
     native vector env and no per-env ``wrappers`` are asked for (a ``gym.Wrapper`` wraps one env, and the native env
     is all of them at once) and its native env has Gymnasium's same-step autoreset mode. After ``seed``, the first
@@ -314,13 +318,20 @@ def _gymnasium_vec_env(target: EnvTarget, n_envs: int, wrappers: Sequence[Callab
 
 
 def _dummy_vec_env(env_id: str, n_envs: int, env_kwargs: dict, wrappers: Sequence[Callable]) -> VecEnv:
-    """SB3's ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, each then wrapped by ``wrappers``."""
+    """SB3's ``make_vec_env``: ``DummyVecEnv`` of ``Monitor(gym.make(id))``, each wrapped by
+    :func:`_with_episode_metrics`, then by ``wrappers``."""
     from stable_baselines3.common.env_util import make_vec_env
 
-    wrapper_class = functools.partial(_wrapped, wrappers=wrappers) if wrappers else None
+    wrapper_class = functools.partial(_wrapped, wrappers=(_with_episode_metrics, *wrappers))
     return make_vec_env(
         env_id, n_envs=n_envs, env_kwargs=env_kwargs, vec_env_cls=DummyVecEnv, wrapper_class=wrapper_class
     )
+
+
+def _with_episode_metrics(env: gym.Env) -> gym.Env:
+    """``env`` under :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` where it reports metrics (a
+    ``TimeLimit`` truncation's info then has them, as the native env's has); another Gymnasium id's env as it is."""
+    return RecordEpisodeMetrics(env) if callable(getattr(env.unwrapped, "episode_metrics", None)) else env
 
 
 def _wrapped(env, wrappers: Sequence[Callable]):
