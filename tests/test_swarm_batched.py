@@ -163,10 +163,10 @@ def test_a_task_passed_as_a_class_adds_its_named_parts_to_both_forms_bit_for_bit
                 {a: actions[2 * e + i] for i, a in enumerate(env.agents)}
             )
             assert [rewards[2 * e + r] for r in range(2)] == list(step_rewards.values())
-            assert (
-                step_infos["robot_0"]["reward_still"] == -0.01 and "steps" in step_infos["robot_0"]["episode_metrics"]
-            )
+            assert step_infos["robot_0"]["reward_still"] == -0.01
+            assert ("episode_metrics" in step_infos["robot_0"]) == (not env.agents)  # the robot's last cycle only
             if not env.agents:  # truncated: the batch reset it in the same step
+                assert "steps" in step_infos["robot_0"]["episode_metrics"]
                 assert infos["final_info"]["episode_metrics"]["steps"][2 * e] == env.episode_metrics()["steps"] == 15
                 step_obs = env.reset()[0]
             single_obs[e] = step_obs
@@ -194,28 +194,32 @@ def test_a_task_instance_is_a_batch_of_its_own_parameters():
 
 @pytest.mark.parametrize("module", [corridor_v0, obstacle_field_v0])
 def test_a_robots_info_row_is_its_row_of_the_info_columns(module):
-    """``SwarmBatch.robot_row`` (what a swarm of one reports every step) is robot i's row of ``robot_columns``: the
-    same keys in the same order, the same values, the same types (Python numbers, arrays for the vector keys),
-    including a robot that has stopped (held at zero power) and robots in contact."""
+    """The PettingZoo env's per-robot info (built as dictionaries from the info table) is robot i's row of
+    ``robot_columns`` (what the vector envs report): the same keys in the same order, the same values, the same
+    types (Python numbers, arrays for the vector keys), including a robot that has stopped (held at zero power) and
+    robots in contact; and a robot's ``episode_metrics``, on its last cycle only, its row of the metric columns."""
     env = module.parallel_env(n_robots=3, max_cycles=80)
     env.reset(seed=4)
     rng = np.random.default_rng(0)
-    seen_stopped = False
-    for _ in range(60):
+    seen_stopped, ended = False, 0
+    for _ in range(80):
         actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
         if "robot_2" in actions:
             actions["robot_2"] = np.zeros(2, np.float32)
-        env.step(actions)
+        _, _, terminations, truncations, infos = env.step(actions)
         info, metrics = env.batch.robot_columns()
-        for i in range(3):
-            row_info, row_metrics = env.batch.robot_row(i)
-            for columns, row in ((info, row_info), (metrics, row_metrics)):
-                assert list(row) == list(columns)
-                for key, column in columns.items():
+        for agent, row_info in infos.items():
+            i = env.agent_name_mapping[agent]
+            row_metrics = row_info.pop("episode_metrics", None)
+            assert (row_metrics is not None) == (terminations[agent] or truncations[agent])
+            ended += row_metrics is not None
+            for columns, row in ((info, row_info), (metrics, row_metrics or {})):
+                assert not row or list(row) == list(columns)
+                for key, column in columns.items() if row else ():
                     expected = column[i] if column.ndim > 1 else column.tolist()[i]
                     if isinstance(expected, np.ndarray):
                         assert row[key].dtype == expected.dtype and np.array_equal(row[key], expected), key
                     else:
                         assert type(row[key]) is type(expected) and row[key] == expected, key
             seen_stopped |= row_info["stopped"]
-    assert seen_stopped
+    assert seen_stopped and ended == 3

@@ -82,7 +82,8 @@ def test_spaces_observations_rewards_and_info(module):
     assert env.action_space("robot_2") is env.action_space("robot_2")
     obs, infos = env.reset(seed=1)
     assert set(infos["robot_0"]) >= {"pose", "collisions", "distance_to_goal_m", "nearest_obstacle_cm",
-                                     "motor_powers", "turning_angle_deg", "stopped", "episode_metrics"}  # fmt: skip
+                                     "motor_powers", "turning_angle_deg", "stopped"}  # fmt: skip
+    assert "episode_metrics" not in infos["robot_0"]  # the lean info: only on a robot's last cycle
     reward_keys = [f"reward_{name}" for name in env.reward_names]
     rng = np.random.default_rng(0)
     while env.agents:

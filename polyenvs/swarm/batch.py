@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from polyenvs.core import generators as compiled_draws
-from polyenvs.core.jit import njit
+from polyenvs.core.jit import KernelArgs, compiled_for, njit
+from polyenvs.core.rows import read_only
 from polyenvs.swarm import core
 from polyenvs.swarm import sensors as ir
 
@@ -41,6 +42,8 @@ __all__ = [
     "TaskTerms",
     "account",
     "drive",
+    "step_kernel",
+    "write_info",
 ]
 
 #: GP2D12 reach (Sharp data sheet): beyond it the reading is the noise floor.
@@ -146,6 +149,91 @@ def account(pose, before, active, sensed, episode, params, out):  # noqa: PLR091
         terminated[i] = 1 if arrived or (contact and stop_on_contact) else 0
 
 
+#: Columns of the per-robot info table ``SwarmBatch.info_table`` (:func:`write_info`): floats a surface reads with
+#: one ``tolist``; then the family's reward terms, in ``REWARD_NAMES`` order.
+INFO_DISTANCE, INFO_TURN_DEG, INFO_REWARD, INFO_TERMS = range(4)
+
+
+@njit(cache=True)
+def write_info(track, rewards, sensed, stopped_window, out):
+    """Every robot's per-step info values from the state, in place: the info table (goal distance, turning angle
+    in degrees, the family's reward (its terms' sum, in column order) and the terms), contact events, whether it
+    is stopped short of the goal, and the AP-lite diagnostics the paper plots (distance per beam to the nearest
+    obstacle, clipped at the IR's reach, and the motor powers, in percent).
+
+    Args:
+        sensed: ``(beams, powers)``.
+        out: ``(table, collisions, stopped, nearest_cm, motor_powers)``, written.
+    """
+    beams, powers = sensed
+    table, collisions, stopped, nearest_cm, motor_powers = out
+    for i in range(track.shape[0]):
+        table[i, INFO_DISTANCE] = track[i, DISTANCE]
+        table[i, INFO_TURN_DEG] = track[i, TURN] * (180.0 / math.pi)
+        total = rewards[i, 0]
+        table[i, INFO_TERMS] = rewards[i, 0]
+        for t in range(1, len(REWARD_NAMES)):
+            total += rewards[i, t]
+            table[i, INFO_TERMS + t] = rewards[i, t]
+        table[i, INFO_REWARD] = total
+        collisions[i] = int(track[i, COLLISIONS])
+        stopped[i] = track[i, STILL] >= stopped_window and track[i, ARRIVED] == 0.0
+        for s in range(beams.shape[1]):
+            nearest_cm[i, s] = min(100.0 * beams[i, s], ir.IR_MAX_CM)
+        motor_powers[i, 0] = 100.0 * powers[i, 0]
+        motor_powers[i, 1] = 100.0 * powers[i, 1]
+
+
+@njit(cache=True)
+def _draw_compiled(draws, stepping):
+    """The step's normals and IR floor uniforms of the environments in ``stepping``, on each one's generator
+    (:func:`polyenvs.core.generators.normals_then_uniforms`); ``draws = (addresses, normals, floor, ...)``, the
+    second and third ``(E, N, ...)`` views."""
+    addresses, normals, floor = draws[0], draws[1], draws[2]
+    if addresses.shape[0] > 0:
+        compiled_draws.normals_then_uniforms(addresses, stepping, normals, floor)
+
+
+@njit(cache=True)
+def step_kernel(kernel):
+    """One control step of the environments marked in ``stepping`` (the others neither draw, move, sense nor
+    score), in one compiled call: the draws, :func:`drive`, the grid, :func:`polyenvs.swarm.core.move`, the
+    sensing and observations, :func:`account`, :func:`write_info`; robots that terminated leave the episode.
+
+    ``kernel`` (:class:`polyenvs.core.jit.KernelArgs`, built by :meth:`SwarmBatch._pack`): ``sim`` the state and
+    scratch, ``out`` what a step writes, ``task`` the parameters. ``live`` and ``todo`` are left holding the
+    robots that took the step and the rows it sensed, for the task's terms.
+    """
+    (robots, scene, grid, draws, scratch, sensed) = kernel.sim
+    command, stepping, todo, live, before, wheels, proposal, blocked = scratch
+    pose, active, drift, powers, goals, cycles = robots
+    observations, track, rewards, terminated, info = kernel.out
+    drive_params, move_params, sense_params, angles, observe_params, account_params, shape = kernel.task
+    per, stopped_window, draw = shape[0], shape[1], shape[2]
+    for i in range(pose.shape[0]):
+        todo[i] = stepping[i // per]
+        live[i] = active[i] & todo[i]
+    if draw:
+        _draw_compiled(draws, stepping)
+    normals, floor = draws[3], draws[4]
+    drive(command, live, (normals, drift), drive_params, (powers, wheels))
+    before[:] = pose
+    core.build_grid(pose, live, grid)
+    core.move(pose, live, wheels, move_params, scene, grid, (proposal, blocked))
+    for e in range(cycles.shape[0]):
+        cycles[e] += stepping[e]
+    core.build_grid(pose, live, grid)
+    core.sense(pose, live, todo, sense_params, angles, scene, grid, sensed)
+    ir.write_observations((pose, live, powers), todo, (sensed[0], sensed[1], sensed[2]), goals, per,
+                          (normals[:, 2:], floor), observe_params, observations)  # fmt: skip
+    account(pose, before, live, (blocked, sensed[3]), (goals, per, cycles), account_params,
+            (track, rewards, terminated))  # fmt: skip
+    write_info(track, rewards, (sensed[0], powers), stopped_window, info)
+    for i in range(pose.shape[0]):
+        if terminated[i]:
+            active[i] = 0
+
+
 class TaskTerms:
     """What a task adds to the family, declared by name, and computed for a whole batch. The family's own tasks
     add nothing (this class); the formation adds its leader, a reward term and a metric
@@ -222,6 +310,9 @@ class SwarmBatch:
         self._constants(task)
         self._allocate(task)
         self.terms = task.terms_class(task, self)
+        # Whether the task observes or scores anything of its own after the compiled step.
+        terms_class = type(self.terms)
+        self._task_steps = terms_class.observe is not TaskTerms.observe or terms_class.score is not TaskTerms.score
 
     def _constants(self, task) -> None:
         """The kernels' parameters, from the task's validated ones."""
@@ -267,17 +358,61 @@ class SwarmBatch:
         self.nb_range = np.zeros((rows, k))
         self.clearance = np.zeros(rows)
         self._every_row = np.ones(rows, dtype=np.uint8)
-        self._one_step = np.ones(e, dtype=np.int64)
+        #: The kernel's inputs and scratch: the step's power fractions, which environments step, the rows it
+        #: senses and the robots that take it, the poses before it.
+        self.command = np.zeros((rows, 2))
+        self._stepping = np.ones(e, dtype=np.int64)
+        self._masked = False
+        self._todo = np.ones(rows, dtype=np.uint8)
+        self.live = np.zeros(rows, dtype=np.uint8)
+        self._before = np.zeros((rows, 3))
         self._wheels = np.zeros((rows, 2))
         self._proposal = np.zeros((rows, 3))
         self._blocked = np.zeros(rows, dtype=np.uint8)
+        #: Per-robot info values (:func:`write_info`): a float table (``INFO_*`` columns), contact events, stopped,
+        #: nearest obstacle per beam (cm) and motor powers (%).
+        self.info_table = np.zeros((rows, INFO_TERMS + len(REWARD_NAMES)))
+        self.info_collisions = np.zeros(rows, dtype=np.int64)
+        self.info_stopped = np.zeros(rows, dtype=np.bool_)
+        self.nearest_cm = np.zeros((rows, 4))
+        self.motor_powers = np.zeros((rows, 2))
         #: Each environment's generator's C interface (:func:`polyenvs.core.generators.generator_addresses`),
         #: ``None`` until the first step needs it.
         self._addresses: np.ndarray | None = None
+        #: The compiled step's packed arguments and machine code (:meth:`_pack`), built at the first step.
+        self._step_call: tuple[Any, KernelArgs] | None = None
+        self._views: dict[str, np.ndarray] | None = None
 
     def __getstate__(self) -> dict:
-        # The generators' addresses belong to this process's objects: a copy or an unpickled batch finds its own.
-        return {**self.__dict__, "_addresses": None}
+        # The generators' addresses belong to this process's objects, and the packed arguments are compiled-code
+        # memory: a copy or an unpickled batch builds its own.
+        return {**self.__dict__, "_addresses": None, "_step_call": None, "_views": None}
+
+    def _pack(self) -> tuple[Any, KernelArgs]:
+        """The compiled step's arguments (:func:`step_kernel`) as one :class:`~polyenvs.core.jit.KernelArgs`, and its
+        machine code for them (the generators' addresses with them)."""
+        draw = compiled_draws.COMPILED
+        self._addresses = compiled_draws.generator_addresses(self.generators if draw else [])
+        by_env = self.normals.reshape(self.n_envs, self.n_robots, -1), self.floor.reshape(self.n_envs, self.n_robots, 4)
+        sim = (
+            (self.pose, self.active, self.drift, self.powers, self.goals, self.cycles),
+            (self.walls, self.circles),
+            self._grid_arrays,
+            (self._addresses, *by_env, self.normals, self.floor),
+            (self.command, self._stepping, self._todo, self.live, self._before, self._wheels, self._proposal,
+             self._blocked),
+            (self.beams, self.nb_index, self.nb_range, self.clearance),
+        )  # fmt: skip
+        out = (self.observations, self.track, self.rewards, self.terminated, self._info_out)
+        shape = np.array([self.n_robots, self.stopped_window, int(draw)], dtype=np.int64)
+        task = (self.drive_params, self.move_params, self.sense_params, self.angles, self.observe_params,
+                self.account_params, shape)  # fmt: skip
+        kernel = KernelArgs(sim, out, task)
+        return compiled_for(step_kernel, kernel), kernel
+
+    @property
+    def _info_out(self) -> tuple:
+        return self.info_table, self.info_collisions, self.info_stopped, self.nearest_cm, self.motor_powers
 
     def reward_column(self, name: str) -> int:
         """The column of ``rewards`` that holds reward term ``name`` (a task writes its terms there)."""
@@ -319,6 +454,11 @@ class SwarmBatch:
         env_mask = np.zeros(self.n_envs, dtype=bool)
         env_mask[envs] = True
         self.terms.restart(reset_rows, env_mask)
+        self._write_info()
+
+    def _write_info(self) -> None:
+        """The info table from the state (after a reset or a re-sensing; a step writes it in its kernel)."""
+        write_info(self.track, self.rewards, (self.beams, self.powers), self.stopped_window, self._info_out)
 
     def _place(self, e: int, episode) -> None:
         """Environment ``e``'s episode: obstacles, goal and starts; every robot in it."""
@@ -335,47 +475,37 @@ class SwarmBatch:
         self.pose[rows] = episode.starts
         self.active[rows] = 1
 
-    def step(self, command: np.ndarray, stepping: np.ndarray | None = None) -> None:
+    def step(self, command: np.ndarray | None = None, stepping: np.ndarray | None = None) -> None:
         """One control step of every environment (or of those where the ``(E,)`` mask ``stepping`` is set: the
-        others neither draw, move, sense nor score). ``command``: ``(E * N, 2)`` power fractions in [-1, 1]; rows
-        of robots out of the episode are ignored. Afterwards ``observations``, ``rewards``, ``terminated`` and the
-        metrics are this step's, and robots that terminated have left the episode (``active`` 0)."""
-        if stepping is None:
-            live, todo, rows = self.active, self._every_row, None
-        else:
-            todo = np.repeat(stepping, self.n_robots).astype(np.uint8)
-            live, rows = self.active & todo, todo > 0
-        normals, floor = self.normals, self._draw(self._one_step if stepping is None else stepping)
-        wheels = self._wheels
-        drive(command, live, (normals, self.drift), self.drive_params, (self.powers, wheels))
-        before = self.pose.copy()
-        grid = self._grid_arrays
-        core.build_grid(self.pose, live, grid)
-        core.move(self.pose, live, wheels, self.move_params, (self.walls, self.circles), grid,
-                  (self._proposal, self._blocked))  # fmt: skip
-        np.add(self.cycles, self._one_step if stepping is None else stepping, out=self.cycles)
-        self._observe(live, todo, normals[:, 2:], floor)
-        account(self.pose, before, live, (self._blocked, self.clearance), (self.goals, self.n_robots, self.cycles),
-                self.account_params, (self.track, self.rewards, self.terminated))  # fmt: skip
-        self.terms.score(live, rows, stepping)
-        if self.terminated.any():  # rarely: the mask and its assignment cost more than this test
-            self.active[self.terminated > 0] = 0
+        others neither draw, move, sense nor score), in one compiled call (:func:`step_kernel`) plus what the task
+        adds. ``command``: ``(E * N, 2)`` power fractions in [-1, 1] (``None``: what the caller has written into
+        :attr:`command`); rows of robots out of the episode are ignored. Afterwards ``observations``, ``rewards``,
+        ``terminated``, the info table and the metrics are this step's, and robots that terminated have left the
+        episode (``active`` 0)."""
+        if command is not None:
+            self.command[:] = command
+        if stepping is not None or self._masked:  # the mask of every environment stays until a masked step
+            self._stepping[:] = 1 if stepping is None else stepping
+            self._masked = stepping is not None
+        if self._step_call is None:  # the first step, or after unpickling or a deep copy (new generators)
+            self._step_call = self._pack()
+        if not compiled_draws.COMPILED:
+            self._draw_each(self._stepping)
+        step, kernel = self._step_call
+        step(kernel)
+        if self._task_steps:
+            terms = self.terms
+            terms.observe(self.live, self._todo, self.normals[:, 2:], self.observations)
+            terms.score(self.live, None if stepping is None else self._todo > 0, stepping)
 
-    def _draw(self, stepping: np.ndarray) -> np.ndarray:
-        """The step's wheel and sensor normals (into ``normals``) and IR floor uniforms (returned) of the
-        environments in ``stepping``, each on its own generator in its own order: one compiled call for the batch
-        (:mod:`polyenvs.core.generators`, bit for bit the generators' own methods), or the methods themselves."""
+    def _draw_each(self, stepping: np.ndarray) -> None:
+        """The step's draws through the generators' own methods (where nothing is compiled), as
+        :func:`_draw_compiled` makes them."""
         by_env = self.normals.reshape(self.n_envs, self.n_robots, -1), self.floor.reshape(self.n_envs, self.n_robots, 4)
-        if compiled_draws.COMPILED:
-            if self._addresses is None:  # the first step, or after unpickling or a deep copy (new generators)
-                self._addresses = compiled_draws.generator_addresses(self.generators)
-            compiled_draws.normals_then_uniforms(self._addresses, stepping, *by_env)
-            return self.floor
         for g, env_normals, env_floor, steps in zip(self.generators, *by_env, stepping.tolist(), strict=True):
             if steps:
                 g.standard_normal(out=env_normals)
                 g.random(out=env_floor)
-        return self.floor
 
     def _observe(self, live, todo, normals, floor) -> None:
         """Sense the rows in ``todo`` and write their observations (the others are left as they are)."""
@@ -393,6 +523,7 @@ class SwarmBatch:
         noise, ``(E * N, sense_draws)`` normals and ``(E * N, 4)`` uniforms (zeros: noiseless); a copy of the new
         observations."""
         self._observe(self.active, self._every_row, np.asarray(normals, np.float64), np.asarray(floor, np.float64))
+        self._write_info()
         return self.observations.copy()
 
     # --- metrics and info -------------------------------------------------------------------------------------
@@ -414,64 +545,54 @@ class SwarmBatch:
             metrics.update(self.terms.env_metrics())
         return metrics
 
-    def robot_columns(self, fresh: bool = True) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    def robot_views(self) -> dict[str, np.ndarray]:
+        """The per-robot info arrays a step hands over without a copy, ``(E * N, ...)`` read-only views of the
+        state made once: true ``pose``, ``nearest_obstacle_cm`` and ``motor_powers``. Valid until the next step or
+        reset (copy them to keep them)."""
+        if self._views is None:
+            self._views = {
+                "pose": read_only(self.pose),
+                "nearest_obstacle_cm": read_only(self.nearest_cm),
+                "motor_powers": read_only(self.motor_powers),
+            }
+        return self._views
+
+    def robot_columns(self) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Each robot's info values and episode metrics, ``(E * N, ...)`` arrays by key. Info: true pose, contact
-        events, goal distance, the AP-lite diagnostics the paper plots, the reward terms, then the task's keys;
-        metrics: ``metric_names`` of the task. The arrays are fresh, or with ``fresh=False`` the one-dimensional
-        ones may be views of the state (for a caller that converts them before the next step)."""
-        keep = np.copy if fresh else _as_is
-        track, stopped = self.track, self.stopped()
+        events, goal distance, the AP-lite diagnostics the paper plots, the reward terms, then the task's keys
+        (the arrays of :meth:`robot_views` as they are, the others fresh); metrics: ``metric_names`` of the task
+        (fresh)."""
+        views, table = self.robot_views(), self.info_table
         info = {
-            "pose": self.pose.copy(),
-            "collisions": track[:, COLLISIONS].astype(np.int64),
-            "distance_to_goal_m": keep(track[:, DISTANCE]),
-            "nearest_obstacle_cm": np.minimum(100.0 * self.beams, ir.IR_MAX_CM),
-            "motor_powers": 100.0 * self.powers,
-            "turning_angle_deg": np.degrees(track[:, TURN]),
-            "stopped": stopped,
+            "pose": views["pose"],
+            "collisions": self.info_collisions.copy(),
+            "distance_to_goal_m": table[:, INFO_DISTANCE].copy(),
+            "nearest_obstacle_cm": views["nearest_obstacle_cm"],
+            "motor_powers": views["motor_powers"],
+            "turning_angle_deg": table[:, INFO_TURN_DEG].copy(),
+            "stopped": self.info_stopped.copy(),
         }
-        for key, column in zip(self._reward_keys, keep(self.rewards.T), strict=True):
+        for key, column in zip(self._reward_keys, self.rewards.T.copy(), strict=True):
             info[key] = column
         if self.terms.info_names:
             info.update(self.terms.robot_info())
+        return info, self.robot_metrics()
+
+    def robot_metrics(self) -> dict[str, np.ndarray]:
+        """Each robot's episode metrics so far, ``(E * N,)`` fresh arrays by name (``metric_names`` of the task)."""
+        track = self.track
         metrics = {
-            "success_rate": keep(track[:, ARRIVED]),
-            "collisions": keep(track[:, COLLISIONS]),
-            "time_to_goal_s": keep(track[:, TIME_TO_GOAL]),
+            "success_rate": track[:, ARRIVED].copy(),
+            "collisions": track[:, COLLISIONS].copy(),
+            "time_to_goal_s": track[:, TIME_TO_GOAL].copy(),
             "min_clearance_cm": 100.0 * track[:, MIN_CLEARANCE],
-            "stopped": stopped.astype(np.float64),
+            "stopped": self.stopped().astype(np.float64),
         }
         if self.terms.metric_names:
             metrics.update(self.terms.robot_metrics())
-        return info, metrics
+        return metrics
 
-    def robot_row(self, row: int) -> tuple[dict[str, Any], dict[str, float]] | None:
-        """:meth:`robot_columns` for robot ``row`` alone, the same values as their rows give (Python numbers, fresh
-        arrays for the vector keys), without an array operation per key: what a swarm of one reports every step.
-        ``None`` when the task adds info or metrics of its own (they come as columns only)."""
-        if self.terms.info_names or self.terms.metric_names:
-            return None
-        track = self.track[row].tolist()
-        stopped = track[STILL] >= self.stopped_window and track[ARRIVED] == 0
-        info = {
-            "pose": self.pose[row].copy(),
-            "collisions": int(track[COLLISIONS]),
-            "distance_to_goal_m": track[DISTANCE],
-            "nearest_obstacle_cm": np.minimum(100.0 * self.beams[row], ir.IR_MAX_CM),
-            "motor_powers": 100.0 * self.powers[row],
-            "turning_angle_deg": math.degrees(track[TURN]),
-            "stopped": stopped,
-            **dict(zip(self._reward_keys, self.rewards[row].tolist(), strict=True)),
-        }
-        metrics = {
-            "success_rate": track[ARRIVED],
-            "collisions": track[COLLISIONS],
-            "time_to_goal_s": track[TIME_TO_GOAL],
-            "min_clearance_cm": 100.0 * track[MIN_CLEARANCE],
-            "stopped": float(stopped),
-        }
-        return info, metrics
-
-
-def _as_is(array: np.ndarray) -> np.ndarray:
-    return array
+    def robot_metrics_row(self, row: int) -> dict[str, float]:
+        """Robot ``row``'s episode metrics so far, as Python floats (the values of its row of
+        :meth:`robot_metrics`)."""
+        return {name: float(value[row]) for name, value in self.robot_metrics().items()}

@@ -34,7 +34,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode
 
-from polyenvs.core.rows import BatchVectorEnv, only_rows, vector_convention
+from polyenvs.core.rows import BatchVectorEnv, vector_convention
 from polyenvs.core.validation import check_options, real_array, show
 from polyenvs.registry import REGISTRY
 from polyenvs.swarm.batch import SwarmBatch
@@ -160,10 +160,10 @@ class SwarmVectorEnv(SwarmBatchVectorEnv):
         self.n_envs, self.n_robots, self.max_cycles = num_envs, task.n_robots, task.max_cycles
         return self._run(task, num_envs)
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self, ended: np.ndarray) -> dict[str, Any]:
         return {}  # per-step info for every robot would cost more than the step at this scale
 
     def _final_info(self, done: np.ndarray) -> dict[str, Any]:
         """Each finished environment's swarm metrics (``SwarmEnv.episode_metrics``), on each of its rows."""
         metrics = {name: np.repeat(value, self.n_robots) for name, value in self.batch.env_metrics().items()}
-        return only_rows(vector_convention({}, metrics, self.num_envs), done)
+        return vector_convention({}, metrics, done)

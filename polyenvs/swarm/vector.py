@@ -9,8 +9,10 @@ It gives what ``SyncVectorEnv`` over ``gym.make(id)`` gives, bit for bit, in eit
 (``autoreset_mode=AutoresetMode.NEXT_STEP``, the default, or ``SAME_STEP``, with ``info["final_obs"]`` and
 ``info["final_info"]``): sub-env ``i`` reset with seed ``s`` is ``gym.make(id)`` reset with seed ``s + i``, through
 autoresets; ``max_episode_steps`` truncates as Gymnasium's ``TimeLimit`` does (also on the step that terminates);
-``info`` carries the single env's keys in the vector convention (an array per key, with its ``_key`` mask;
-``episode_metrics`` a dict of arrays). It does not render (render ``gym.make(id)``).
+``info`` carries the single env's per-step keys in the vector convention (an array per key, with its ``_key``
+mask; ``pose``, ``nearest_obstacle_cm`` and ``motor_powers`` read-only views of the simulation, valid until the
+next step or reset), and ``episode_metrics``, a dict of arrays, on the rows whose episode ended this step, time
+limit included (:func:`polyenvs.core.rows.vector_convention`). It does not render (render ``gym.make(id)``).
 """
 
 from __future__ import annotations
@@ -45,6 +47,6 @@ class SingleRobotVectorEnv(SwarmBatchVectorEnv):
         # The single env's own swarm of one: the same validation and parameters as gym.make(id).
         return self._run(self.env_class(**kwargs).swarm, num_envs)
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self, ended: np.ndarray) -> dict[str, Any]:
         info, metrics = self.batch.robot_columns()
-        return vector_convention(info, metrics, self.num_envs)
+        return vector_convention(info, metrics, ended)
