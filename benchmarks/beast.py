@@ -11,13 +11,19 @@ clocks thus run the same physics, alternating every 100 steps, and differ only b
 Ant-v5, Gymnasium's ``MujocoEnv`` step). Rows are timed in rounds (order reversed every other round); each figure is
 the median over rounds, each ratio the median of per-round ratios.
 
-``python -m benchmarks.beast [--quick] [--ids Tumble,Roll]``; :func:`section` returns the Markdown section
-``benchmarks/throughput.py`` puts in ``THROUGHPUT.md``, :func:`run` the rows.
+The native vector env (:func:`run_vector`): ``gym.make_vec(id, num_envs=8, threads=2)`` against the same 8 envs made
+with ``gym.make`` and stepped one after the other in a loop (one core), on the same pre-sampled actions, alternating
+every 100 steps; its target (``SCALAR_TARGETS["beast_vector_vs_single"]``) is the ratio of the two env-steps/s.
+
+``python -m benchmarks.beast [--quick] [--ids Tumble,Roll] [--vector]``; :func:`section` returns the Markdown section
+``benchmarks/throughput.py`` puts in ``THROUGHPUT.md``, :func:`run` the single envs' rows, :func:`run_vector` the
+vector env's.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -27,7 +33,7 @@ import numpy as np
 from benchmarks import targets
 from benchmarks.peers import ANT
 
-__all__ = ["BEAST_IDS", "Row", "overhead_note", "run", "section"]
+__all__ = ["BEAST_IDS", "VECTOR_ID", "Row", "overhead_note", "run", "run_vector", "section"]
 
 BEAST_IDS = ("polyenvs/BeastTumble-v0", "polyenvs/BeastRoll-v0", "polyenvs/BeastTurn-v0", "polyenvs/BeastRecover-v0")
 _CLASSES = {
@@ -36,6 +42,8 @@ _CLASSES = {
     "polyenvs/BeastTurn-v0": ("BeastTurnEnv", 8000),
     "polyenvs/BeastRecover-v0": ("BeastRecoverEnv", 2000),
 }
+#: The id whose native vector env is timed, its envs and threads (the target's: 8 envs on 2 cores).
+VECTOR_ID, VECTOR_ENVS, VECTOR_THREADS = "polyenvs/BeastRoll-v1", 8, 2
 _BLOCK = 2000  # actions per block (a repeat cycles through it)
 _CHUNK = 100  # steps timed between state copies
 
@@ -142,6 +150,65 @@ def run(*, min_seconds: float = 2.0, rounds: int = 3, ids=BEAST_IDS, seed: int =
     return [row for pair in rows.values() for row in pair], notes
 
 
+class _VectorPair:
+    """A native vector env and the same envs made with ``gym.make``, stepped in a loop, on the same actions."""
+
+    def __init__(self, env_id: str, num_envs: int, threads: int, seed: int):
+        import gymnasium as gym
+
+        self.vector = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", threads=threads)
+        self.singles = [gym.make(env_id) for _ in range(num_envs)]
+        self.vector.reset(seed=seed)
+        for i, env in enumerate(self.singles):
+            env.reset(seed=seed + i)
+        self.vector.action_space.seed(seed)
+        self.actions = [self.vector.action_space.sample() for _ in range(_BLOCK // 4)]
+
+    def repeat(self, min_seconds: float) -> tuple[float, float]:
+        """(vector env-steps/s, single envs' env-steps/s) over at least ``min_seconds`` of the vector env's time."""
+        clock, vector_step, singles = time.perf_counter, self.vector.step, self.singles
+        t_vector = t_singles = 0.0
+        steps = 0
+        while t_vector < min_seconds:
+            for i in range(0, len(self.actions), _CHUNK):
+                chunk = self.actions[i : i + _CHUNK]
+                start = clock()
+                for actions in chunk:
+                    vector_step(actions)  # it restarts an ended episode itself
+                t_vector += clock() - start
+                start = clock()
+                for actions in chunk:
+                    for env, action in zip(singles, actions, strict=True):
+                        _, _, terminated, truncated, _ = env.step(action)
+                        if terminated or truncated:
+                            env.reset()
+                t_singles += clock() - start
+                steps += len(chunk) * len(singles)
+        return steps / t_vector, steps / t_singles
+
+
+def run_vector(
+    *, min_seconds: float = 2.0, rounds: int = 3, env_id: str = VECTOR_ID, seed: int = 0
+) -> tuple[list[Row], str]:
+    """Time the native vector env against its envs stepped in a loop, in interleaved rounds; rows and the ratio's note."""
+    _ensure_registered()
+    pair = _VectorPair(env_id, VECTOR_ENVS, VECTOR_THREADS, seed)
+    vector = Row(f"{env_id} native vector env", f"{VECTOR_ENVS} envs, threads={VECTOR_THREADS}: env-steps/s")
+    loop = Row(f"{env_id} x {VECTOR_ENVS} via gym.make", "stepped in a loop, one core: env-steps/s")
+    pair.repeat(min(0.2, min_seconds))  # warm up
+    for _ in range(rounds):
+        ours, theirs = pair.repeat(min_seconds)
+        vector.rates.append(ours)
+        loop.rates.append(theirs)
+    ratio = statistics.median(v / s for v, s in zip(vector.rates, loop.rates, strict=True))
+    target = targets.SCALAR_TARGETS["beast_vector_vs_single"]
+    note = (
+        f"{env_id} native vector env ({VECTOR_ENVS} envs, {VECTOR_THREADS} threads, {os.cpu_count()} cores here): "
+        f"{ratio:.2f}x the env-steps/s of its envs stepped in a loop on one core {target.note(ratio)}"
+    )
+    return [vector, loop], note
+
+
 def overhead_note(name: str, steps_per_second: float, overhead: float, vs_ant: float) -> str:
     """A beast id's figures against its two targets: its overhead over raw ``mj_step`` and its ratio to Ant-v5."""
     overhead_target = targets.SCALAR_TARGETS["beast_vs_raw_mj_step"]
@@ -157,11 +224,15 @@ def section(quick: bool = False) -> str:
     """The beasts' part of ``THROUGHPUT.md`` (Markdown): every row of :func:`run`, then the ratios to the targets."""
     seconds, rounds = (0.3, 2) if quick else (2.0, 3)
     rows, notes = run(min_seconds=seconds, rounds=rounds)
+    vector_rows, vector_note = run_vector(min_seconds=seconds, rounds=rounds)
+    rows, notes = rows + vector_rows, [*notes, vector_note]
     lines = [
         "## Platonic beasts (`python -m benchmarks.beast`)",
         "",
         "Random actions through `gym.make`, each environment alternating every 100 steps with raw",
-        "`mj_step(nstep=frame_skip)` on a copy of its own MuJoCo state (same physics on both clocks).",
+        "`mj_step(nstep=frame_skip)` on a copy of its own MuJoCo state (same physics on both clocks); the native",
+        f"vector env of {VECTOR_ID} ({VECTOR_ENVS} envs, {VECTOR_THREADS} threads) alternating with its envs stepped in "
+        "a loop.",
         "",
         "| row | setting | steps/s (median of rounds) |",
         "| --- | --- | ---: |",
@@ -176,12 +247,19 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="0.3 s per repeat, 2 rounds")
     parser.add_argument("--ids", default="", help="comma-separated substrings of the beast ids to time")
+    parser.add_argument("--vector", action="store_true", help="only the native vector env against its envs")
     args = parser.parse_args(argv)
+    seconds, rounds = (0.3, 2) if args.quick else (2.0, 3)
+    if args.vector:
+        rows, note = run_vector(min_seconds=seconds, rounds=rounds)
+        for row in rows:
+            print(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} |")
+        print(f"- {note}")
+        return
     ids = [i for i in BEAST_IDS if not args.ids or any(s in i for s in args.ids.split(","))]
     if len(ids) == len(BEAST_IDS):
         print(section(args.quick))
         return
-    seconds, rounds = (0.3, 2) if args.quick else (2.0, 3)
     rows, notes = run(min_seconds=seconds, rounds=rounds, ids=ids)
     for row in rows:
         print(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} |")

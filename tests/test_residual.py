@@ -43,7 +43,7 @@ def _zero_episode(wrapper: ResidualPolicy, seed: int) -> dict:
         total, length = total + float(reward), length + 1
         observations.append(obs[:size])
         if terminated or truncated:
-            metrics = {k: float(v) for k, v in info["episode_metrics"].items()}
+            metrics = wrapper.unwrapped.episode_metrics()  # the TimeLimit truncates outside the env
             return {"return": total, "length": length, "metrics": metrics, "observations": np.array(observations)}
 
 

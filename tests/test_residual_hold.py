@@ -80,7 +80,7 @@ def _zero_held_episode(wrapper: ResidualPolicy, seed: int) -> dict:
         obs, reward, terminated, truncated, info = wrapper.step(np.zeros(wrapper.action_space.shape, np.float32))
         total, decisions = total + float(reward), decisions + 1
         if terminated or truncated:
-            metrics = {k: float(v) for k, v in info["episode_metrics"].items()}
+            metrics = wrapper.unwrapped.episode_metrics()  # the TimeLimit truncates outside the env
             return {"return": total, "decisions": decisions, "metrics": metrics, "last": obs}
 
 

@@ -1,19 +1,23 @@
 """The Gymnasium surface shared by the beast tasks, on Gymnasium's ``MujocoEnv`` (model loading, state, renderer).
 
 A task subclasses :class:`BeastEnv` and provides ``reward_names`` and ``metric_names``, ``_initial_state`` (the
-start state, drawn from the env's generator without touching the simulation) and ``_task_step`` (reward terms,
-termination, running metrics, from the tick's :class:`~polyenvs.beast.sensors.StepSummary`). Everything else lives here:
+start state, drawn from the env's generator without touching the simulation), ``task_kind`` (its rules in the
+compiled step, :mod:`polyenvs.beast.kernel`) and ``_task_reset`` (its state's start). A task written in Python
+instead (the adding guide's) leaves ``task_kind`` 0 and provides ``_task_step`` (reward terms, termination, running
+metrics, from the tick's :class:`~polyenvs.beast.sensors.StepSummary`), which the step calls tick by tick; the native
+vector env runs compiled tasks only. Everything else lives here:
 
 - the model is generated from the constructor's parameters (:mod:`polyenvs.beast.model`) and loaded through a
   temporary file, so nothing is shipped that cannot be regenerated;
-- a step checks the action (raising ``ValueError`` before anything changes), writes the controls and runs the
-  10 ms sensor tick (``mj_step(model, data, nstep=frame_skip)``, then the observation in one compiled call,
-  :mod:`polyenvs.beast.sensors`, and the task's bookkeeping) once per tick of the control period
-  (``control_timestep``: the action is held, the ticks' rewards summed);
+- a step checks the action (raising ``ValueError`` before anything changes) and is one compiled call
+  (:func:`polyenvs.beast.kernel.step_rows`): it writes the controls and runs the 10 ms sensor tick (``mj_step``
+  ``frame_skip`` times, the sensors of :mod:`polyenvs.beast.sensors`, the task's rules) once per tick of the control
+  period (``control_timestep``: the action is held, the ticks' rewards summed);
 - a diverged simulation (non-finite or huge state) never reaches the user: the episode is truncated with
   ``info["sim_unstable"] = True``, the last finite observation and a zero reward;
-- ``info`` always holds the named reward terms (``reward_<name>``, summing to the reward), ``sim_unstable`` and the
-  running ``episode_metrics`` (final at the episode's end, which ``polyenvs evaluate`` reports);
+- ``info`` holds the named reward terms (``reward_<name>``, summing to the reward) and ``sim_unstable``; the step
+  that ends the episode (terminated, or truncated by a divergence) adds ``episode_metrics``, which
+  :meth:`BeastEnv.episode_metrics` returns at any time (``polyenvs evaluate`` reports the final ones);
 - the actuators' mechanical power of each tick (the summary's ``power``) makes the metrics :data:`POWER_METRICS`
   (and :data:`TRAVEL_METRICS` on a task that travels) of a task that lists them in its ``metric_names``.
 """
@@ -31,20 +35,24 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
+from polyenvs.beast import kernel as KR
 from polyenvs.beast import kinematics as K
 from polyenvs.beast import model as M
 from polyenvs.beast import sensors as S
 from polyenvs.beast.layouts import LAYOUT_PARAMETERS, LAYOUT_SPLIT, ModelFields, draw_layout
 from polyenvs.beast.model import CONTROL_DT
 from polyenvs.beast.mujoco_extra import MujocoEnv, mujoco
+from polyenvs.beast.vector import BeastVectorEnv
+from polyenvs.core.jit import compiled_for
 from polyenvs.core.layouts import check_layouts
 from polyenvs.core.parameters import check_parameters, parameter, physical_parameters
 from polyenvs.core.validation import check_bool, check_choice, check_options, real_array, show
+from polyenvs.core.vector_entry import NativeVector
 
 __all__ = ["POWER_METRICS", "TRAVEL_METRICS", "BeastEnv", "RobotContactParams", "SensorParams", "TumbleCounter"]
 
 #: Ticks a support (set of feet on the floor) must hold to count as a stance: 0.2 s, as in the working tumble.
-STANCE_TICKS = 20
+STANCE_TICKS = KR.STANCE_TICKS
 #: The actuators' mechanical power over an episode, from each tick's (W): the mean over the ticks and the largest.
 POWER_METRICS = ("mean_power_w", "peak_power_w")
 #: The power metrics of a task that travels (one with ``distance_m``): those and the cost of transport, the energy
@@ -123,11 +131,6 @@ PHYSICS_KEYS = tuple(
 )
 
 
-def _rotation_angle(q0: np.ndarray, q1: np.ndarray) -> float:
-    """Angle (rad) of the rotation between two unit quaternions."""
-    return 2.0 * math.acos(min(1.0, abs(float(np.dot(q0, q1)))))
-
-
 def _check_physics(physics) -> dict:
     """``physics=``: None or a dict of :class:`polyenvs.beast.model.BeastModelParams` fields."""
     if physics is None:
@@ -174,39 +177,33 @@ class TumbleCounter:
     hardly at all). The turn is checked for as long as the new support holds, not only when it is reached: the
     6-beast lands its foot after about 30 degrees and turns the rest of the way standing on the new feet. Measuring
     from the last tumble, not the last support, counts a tumble that passes through a brief four-foot support once.
+
+    The rules are the compiled :func:`polyenvs.beast.kernel.count_tumble`, which the tasks' step runs on its own
+    copy of this state; this class holds one for a task written in Python.
     """
 
     def __init__(self, support: int, qpos: np.ndarray):
-        self.support = support  # bitmask of the current stance's feet (bit i = limb i + 1)
-        self.quat = qpos[3:7].copy()
-        self.candidate = -1
-        self.held = 0
-        self.pending = False  # on a new support that has not yet turned enough to count
-        self.count = 0
+        self.state = np.zeros(KR.N_COUNTER)
+        start_counter(self.state, support, qpos)
+
+    @property
+    def count(self) -> int:
+        """Tumbles counted."""
+        return int(self.state[KR.COUNT])
 
     def update(self, mask: int, n_feet: float, qpos: np.ndarray, other_contacts: float = 0.0) -> bool:
         """Feed one tick (the feet bitmask and count, MuJoCo's qpos, contacts of anything but a foot with the floor);
         True when a tumble has just completed. Only feet may touch the floor in a stance: a body lying on the floor
         with three feet down has fallen, not tumbled."""
-        standing = n_feet >= 3 and other_contacts == 0
-        if not standing:
-            self.candidate, self.held = -1, 0
-            return False
-        if mask != self.candidate:
-            self.candidate, self.held = mask, 0
-            return False
-        self.held += 1
-        if self.held == STANCE_TICKS and mask != self.support:
-            # The first support of an episode (the feet are not yet down when it starts) is where it stands.
-            self.support, self.pending = mask, self.support != 0
-        if not self.pending or mask != self.support or self.held < STANCE_TICKS:
-            return False
-        if _rotation_angle(self.quat, qpos[3:7]) <= math.radians(45):
-            return False
-        self.pending = False
-        self.quat = qpos[3:7].copy()
-        self.count += 1
-        return True
+        return KR.count_tumble(self.state, float(mask), float(n_feet), float(other_contacts), qpos)
+
+
+def start_counter(counter: np.ndarray, support: int, qpos: np.ndarray) -> None:
+    """A tumble counter's columns at an episode's start: standing on ``support`` (a feet bitmask, 0 while no feet are
+    down) in the orientation of ``qpos``, no candidate, nothing counted."""
+    counter[:] = 0.0
+    counter[KR.SUPPORT], counter[KR.CANDIDATE] = support, -1.0
+    counter[KR.QUAT : KR.QUAT + 4] = qpos[3:7]
 
 
 def _reinitialize_egl_display() -> None:
@@ -239,6 +236,13 @@ class BeastEnv(MujocoEnv):
     #: The sensing, servo, reward and control-period parameters the constructor takes as keywords (``**physical``)
     #: and their defaults: :class:`SensorParams`, or :class:`RobotContactParams` for the -v1 ids.
     params_class: type[SensorParams] = SensorParams
+    #: The task's rules in the compiled step (:mod:`polyenvs.beast.kernel`: ``TUMBLE``, ``ROLL``, ``TURN``,
+    #: ``RECOVER``) and which of their rewards (``OWN_REWARD`` or a -v1 id's); 0: a task written in Python, whose
+    #: ``_task_step`` the step calls tick by tick (the adding guide's), which the native vector env does not run.
+    task_kind: int = 0
+    reward_kind: int = KR.OWN_REWARD
+    #: Each task class's native vector env, ``TaskEnv.VectorEnv`` (:mod:`polyenvs.beast.vector`).
+    VectorEnv = NativeVector(BeastVectorEnv)
 
     def __init__(  # noqa: PLR0913 - gym.make's keywords: all keyword-only, one per documented argument
         self,
@@ -301,9 +305,11 @@ class BeastEnv(MujocoEnv):
         self._model_fields = ModelFields(self.model, self.control == "position") if self.layouts != "default" else None
 
     def _init_buffers(self, size: int, limits: np.ndarray) -> None:
-        """The packed arrays the sensor kernel and the actuation read and write every step."""
+        """The packed arrays the compiled step reads and writes (a batch of one: :class:`polyenvs.beast.kernel.Rows`)
+        and the views of its row this env reads."""
         params, nj = self.params, self.n_joints
-        self._joints = np.zeros((S.N_JOINT_ROWS, nj))
+        rows = KR.allocate_rows(1, nj, size, len(self.metric_names))
+        self._joints, self._misc, self._obs = rows.joints[0], rows.misc[0], rows.obs[0]
         self._joints[S.LIMIT_LOW], self._joints[S.LIMIT_HIGH] = limits[:, 0], limits[:, 1]
         if self.control == "position":
             self._joints[S.LOW], self._joints[S.SPAN] = limits[:, 0], limits[:, 1] - limits[:, 0]
@@ -313,11 +319,9 @@ class BeastEnv(MujocoEnv):
             self._joints[S.LOW], self._joints[S.SPAN] = -params.torque_limit, 2 * params.torque_limit
         for limb in self.disabled_limbs:
             self._joints[S.FROZEN, 3 * (limb - 1) : 3 * limb] = 1.0
-        self._obs = np.zeros(size, dtype=np.float32)
         if len(self.command):
             # Constant through the episode: written once, and the sensor kernel never touches it.
             self._obs[self.observation_structure["command"]] = self.command
-        self._misc = np.zeros(S.N_MISC)
         self._misc[: S.DEBOUNCE_TICKS + 1] = [
             math.radians(self.backlash_deg) / 2,
             1.0 / CONTROL_DT,
@@ -326,13 +330,51 @@ class BeastEnv(MujocoEnv):
             1.0 / (params.torque_limit**2 * nj),
             round(self.switch_debounce_ms / 1000 / CONTROL_DT),
         ]
+        self._write_task_constants(rows.task[0])
         self._reward_keys = tuple(f"reward_{name}" for name in self.reward_names)
         self._power_names = tuple(name for name in TRAVEL_METRICS if name in self.metric_names)
         self._travels = "cost_of_transport" in self._power_names
         self._unstable = False
-        self._elapsed = 0
         self._needs_reset = True
+        self._use_rows(rows)
+
+    @property
+    def _elapsed(self) -> int:
+        """10 ms ticks into the episode (the compiled step counts them in its task row)."""
+        return int(self._task[KR.ELAPSED])
+
+    @_elapsed.setter
+    def _elapsed(self, ticks: int) -> None:
+        self._task[KR.ELAPSED] = ticks
+
+    def _join_rows(self, rows: KR.Rows, e: int) -> None:
+        """Become row ``e`` of a vector env's batch: this env's state is copied there and its views point there."""
+        for mine, batch in zip(self._rows, rows, strict=True):
+            batch[e] = mine[0]
+        self._use_rows(rows.row(e))
+
+    def _write_task_constants(self, task: np.ndarray) -> None:
+        """The compiled step's constants of this task: its rules, the physics ticks, the reward's weights and where
+        each of its metrics is."""
+        task[KR.KIND], task[KR.REWARD] = self.task_kind, self.reward_kind
+        task[KR.FRAME_SKIP], task[KR.TICKS] = self.frame_skip, self.ticks_per_step
+        task[KR.CTRL_WEIGHT] = self.ctrl_cost_weight
+        for name, column in KR.TASK_CONSTANTS.items():
+            task[column] = getattr(self, name, 0.0)
+        for name, column in KR.METRIC_COLUMNS.items():
+            task[column] = self.metric_names.index(name) if name in self.metric_names else -1
+
+    def _use_rows(self, rows: KR.Rows) -> None:
+        """Run on ``rows`` (a batch of one: this env's own, or a row of a vector env's batch, whose arrays then hold
+        this env's state) and point the views and the MuJoCo addresses at them."""
+        self._rows = rows
+        self._joints, self._misc, self._obs = rows.joints[0], rows.misc[0], rows.obs[0]
+        self._task, self._metric_row, self._out = rows.task[0], rows.metrics[0], rows.out[0]
         self._bind()
+        # The step's action, as float64 (exactly the float32 or float64 given), so that one machine-code version
+        # of the compiled step serves every call, called without numba's per-call type dispatch.
+        self._action = np.zeros((1, self.n_joints))
+        self._compiled_step = compiled_for(KR.step_rows, self._active, self._action, *rows)
 
     # --- set-up helpers ---------------------------------------------------------------------------------------
     def _observation_space(self, size: int, limits: np.ndarray) -> spaces.Box:
@@ -362,11 +404,17 @@ class BeastEnv(MujocoEnv):
         return self.action_space
 
     def _bind(self) -> None:
-        """Views into MjData used every step (rebuilt after unpickling: a pickled view would be a copy)."""
-        d = self.data
+        """Views into MjData used every step and the addresses the compiled step reaches them by (rebuilt after
+        unpickling: a pickled view would be a copy, and the structs are at new addresses)."""
+        d, m = self.data, self.model
         self._qpos, self._qvel, self._ctrl = d.qpos, d.qvel, d.ctrl
         self._sensordata, self._force, self._warnings = d.sensordata, d.actuator_force, d.warning.number
         self._shape = (self.n_joints,)
+        if (m.nq, m.nv, m.nu, m.nsensordata) != (7 + self.n_joints, 6 + self.n_joints, self.n_joints, self.n_limbs + 4):
+            raise ValueError(f"the model's sizes do not match the compiled step's for {self.n_limbs} limbs")
+        arrays = (d.qpos, d.qvel, d.ctrl, d.sensordata, d.actuator_force, d.warning.number)
+        self._rows.handles[0] = [m._address, d._address, *(a.ctypes.data for a in arrays)]
+        self._active = np.ones(1, dtype=bool)
 
     def render(self):
         if self._needs_reset:
@@ -374,15 +422,19 @@ class BeastEnv(MujocoEnv):
         _reinitialize_egl_display()
         return super().render()
 
+    #: Views (of MjData, of the rows) rebuilt after unpickling: pickled, each would be a copy of its own.
+    _VIEWS = ("_qpos", "_qvel", "_ctrl", "_sensordata", "_force", "_warnings", "_joints", "_misc", "_obs", "_task")
+    _VIEWS += ("_metric_row", "_out", "_compiled_step")
+
     def __getstate__(self):
         state = self.__dict__.copy()
-        for name in ("_qpos", "_qvel", "_ctrl", "_sensordata", "_force", "_warnings"):
+        for name in self._VIEWS:
             del state[name]
         return state
 
     def __setstate__(self, state):
         self.__dict__.update(state)
-        self._bind()
+        self._use_rows(self._rows)
 
     # --- Gymnasium API ------------------------------------------------------------------------------------------
     @property
@@ -401,13 +453,39 @@ class BeastEnv(MujocoEnv):
     def step(self, action):
         if self._needs_reset:
             raise ResetNeeded("call reset() before step()")
-        # Float arrays go to the compiled check as they are (no conversion copy); anything else is converted.
+        # Float arrays are checked by the compiled step as they are (float32 widens exactly); anything else is
+        # converted first.
         a = action if type(action) is np.ndarray and action.dtype in _FLOATS else real_array("action", action)
         if a.shape != self._shape:
             raise ValueError(f"action must have shape {self._shape}, got {show(action)}")
-        bad = S.actuate(a, self._joints, self._ctrl)
+        if not self.task_kind:
+            return self._python_step(a)
+        self._action[0] = a
+        bad = self._compiled_step(self._active, self._action, *self._rows)
         if bad:
             raise ValueError(f"action[{bad - 1}] = {show(a[bad - 1])} is outside [-1, 1]")
+        out = self._out.tolist()  # the terms first (zip stops at the task's), then the sum, terminated, diverged
+        if out[KR.DIVERGED]:
+            return self._diverged_result()
+        info = dict(zip(self._reward_keys, out, strict=False))
+        info["sim_unstable"] = False
+        if out[KR.TERMINATED]:
+            info["episode_metrics"] = self.episode_metrics()
+            return self._obs.copy(), out[KR.REWARD_SUM], True, False, info
+        return self._obs.copy(), out[KR.REWARD_SUM], False, False, info
+
+    def _diverged_result(self):
+        """A diverged step: truncated, the last finite observation, a zero reward and zero terms."""
+        info = dict.fromkeys(self._reward_keys, 0.0)
+        info["sim_unstable"] = True
+        info["episode_metrics"] = self.episode_metrics()
+        return self._obs.copy(), 0.0, False, True, info
+
+    def _python_step(self, action: np.ndarray):
+        """The step of a task whose rules are Python (``_task_step``), tick by tick."""
+        bad = S.actuate(action, self._joints, self._ctrl)
+        if bad:
+            raise ValueError(f"action[{bad - 1}] = {show(action[bad - 1])} is outside [-1, 1]")
         # The controls are written once: actuating again with the same action writes the same ones (the dead band
         # keeps a target already within it), so the action is held exactly as a 10 ms agent repeating it holds it.
         terms, terminated = self._tick()
@@ -417,18 +495,23 @@ class BeastEnv(MujocoEnv):
             more, terminated = self._tick()
             terms = None if more is None else tuple(t + m for t, m in zip(terms, more, strict=True))
         if terms is None:
-            info = dict.fromkeys(self._reward_keys, 0.0)
-            info["sim_unstable"] = True
-            info["episode_metrics"] = dict(self._metrics)
-            return self._obs.copy(), 0.0, False, True, info
+            return self._diverged_result()
         info = dict(zip(self._reward_keys, terms, strict=True))
         info["sim_unstable"] = False
-        info["episode_metrics"] = dict(self._metrics)
+        if terminated:
+            info["episode_metrics"] = self.episode_metrics()
         return self._obs.copy(), sum(terms), terminated, False, info
 
+    def episode_metrics(self) -> dict[str, float]:
+        """The episode's metrics so far (``metric_names``): after its end, the final ones, until the next reset."""
+        if self.task_kind:
+            return dict(zip(self.metric_names, self._metric_row.tolist(), strict=True))
+        return dict(self._metrics)
+
     def _tick(self) -> tuple[tuple[float, ...] | None, bool]:
-        """One 10 ms tick under the controls written: (the task's reward terms, terminated), or (None, False) once
-        the simulation has diverged (a zero reward for the whole step, however many ticks went well before)."""
+        """One 10 ms tick of a Python task under the controls written: (the task's reward terms, terminated), or
+        (None, False) once the simulation has diverged (a zero reward for the whole step, however many ticks went
+        well before)."""
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         self._elapsed += 1
         if self._unstable or S.sense(
@@ -499,12 +582,24 @@ class BeastEnv(MujocoEnv):
             (self._qpos, self._qvel, self._sensordata, self._force, self._warnings), S.TILT_AXES, self._joints,
             self._misc, self._obs,
         )  # fmt: skip
-        self._task_reset(int(self._misc[S.FEET_MASK]))
-        self._start_power()
+        self._start_task(int(self._misc[S.FEET_MASK]))
         info = dict.fromkeys(self._reward_keys, 0.0)
         info["sim_unstable"] = False
-        info["episode_metrics"] = dict(self._metrics)
         return self._obs.copy(), info
+
+    def _start_task(self, feet_mask: int) -> None:
+        """The task's state and metrics at the episode's start, once the start state is sensed."""
+        if not self.task_kind:
+            self._task_reset(feet_mask)
+            self._start_power()
+            return
+        task = self._task
+        task[KR.ELAPSED :] = 0.0
+        start_counter(task[KR.COUNTER : KR.COUNTER + KR.N_COUNTER], feet_mask, self._qpos)
+        # The power metrics' weight: the layout has set this episode's masses.
+        task[KR.WEIGHT_N] = mujoco.mj_getTotalmass(self.model) * float(np.linalg.norm(self.model.opt.gravity))
+        self._metric_row[:] = 0.0
+        self._task_reset(feet_mask)
 
     def _check_options(self, options) -> dict:
         checked = dict(check_options(options, self.option_names))

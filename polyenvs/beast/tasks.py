@@ -10,20 +10,11 @@ import math
 
 import numpy as np
 
+from polyenvs.beast import kernel as KR
 from polyenvs.beast import kinematics as K
-from polyenvs.beast.env import (
-    POWER_METRICS,
-    STANCE_TICKS,
-    TRAVEL_METRICS,
-    BeastEnv,
-    RobotContactParams,
-    SensorParams,
-    TumbleCounter,
-)
+from polyenvs.beast.env import POWER_METRICS, TRAVEL_METRICS, BeastEnv, RobotContactParams, SensorParams
 from polyenvs.beast.layouts import LAYOUT_SPLIT
-from polyenvs.beast.model import CONTROL_DT
 from polyenvs.beast.mujoco_extra import mujoco
-from polyenvs.beast.sensors import StepSummary
 from polyenvs.core.parameters import argument_rows
 from polyenvs.core.validation import check_in_range
 
@@ -120,6 +111,15 @@ _V1_HISTORY = """    - v1: the robot's contact model by default (``RobotContactP
       the paper's gait rolls on (BeastRoll, seeds 0 and 1: 5 tumbles, 0.80 m in 80 s, against 0 tumbles on v0).
 """
 
+#: Issue 33's lean info and native vector env, in every beast id's history (the lean info in the project's words).
+_LEAN_INFO = """    - ``info`` made lean without changing an episode (2026-12-05): ``info["episode_metrics"]`` is only in the
+      info of the step that ends the episode (terminated, or truncated by the env itself; on a native vector env's
+      rows that end, time limit included), ``env.unwrapped.episode_metrics()`` returns them at any time, and
+      :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit``
+      truncates. Added the same day without changing an episode: the native vector env (``gym.make_vec``, see
+      Vector environment).
+"""
+
 
 #: The power metrics every task reports after its own (``polyenvs.beast.env.POWER_METRICS``).
 _POWER = """    The last metrics are the actuators' mechanical power P, the sum over the joints of max(0, torque x joint
@@ -141,13 +141,21 @@ def _doc(summary, rewards, start, end, args, *, score: str, v1: str | None = Non
     ``travels``: the task reports a ``distance_m`` and so a cost of transport."""
     params = SensorParams if v1 is None else RobotContactParams
     power = _POWER + (_COST_OF_TRANSPORT if travels else "")
-    history = _V0_HISTORY if v1 is None else _V0_HISTORY + _V1_HISTORY + v1
+    history = (_V0_HISTORY if v1 is None else _V0_HISTORY + _V1_HISTORY + v1) + _LEAN_INFO
     return f"""{summary}
 {_SHARED}
     ## Rewards
 {rewards}
     Each term is in ``info["reward_<name>"]``; they sum to the reward. ``info["sim_unstable"]`` is True on the step
-    where the simulation diverged, ``info["episode_metrics"]`` holds the running metrics (final at the episode end).
+    where the simulation diverged. ``info["episode_metrics"]`` holds the metrics in the info of the step that ends
+    the episode (terminated, or truncated by a divergence); ``env.unwrapped.episode_metrics()`` returns them at any
+    time (the final ones after the end, until the next reset).
+
+    ## Vector environment
+    ``gym.make_vec(id, num_envs=N)`` is the id's native vector env (:mod:`polyenvs.beast.vector`): N of these
+    environments stepped on ``threads`` threads (a keyword, default ``os.cpu_count()``) in one compiled call each,
+    with the GIL released; sub-env ``i`` reset with seed ``s`` is ``gym.make(id)`` reset with seed ``s + i``, bit for
+    bit, through autoresets.
 
     ## Task score
 {score}
@@ -285,34 +293,22 @@ class BeastTumbleEnv(BeastEnv):
     __doc__ = _doc(*_TUMBLE, score=_TUMBLE_SCORE)
     reward_names = ("progress", "success", "ctrl")
     metric_names = ("success", "time_s", "distance_m", *TRAVEL_METRICS)
+    task_kind = KR.TUMBLE
 
     def __init__(self, success_reward: float = 10.0, **kwargs):
         self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
         super().__init__(**kwargs)
 
     def _task_reset(self, feet_mask: int) -> None:
-        self._counter = TumbleCounter(feet_mask, self._qpos)
-        self._target = CANONICAL_END if self.polyhedron == "tetrahedron" else None
-        self._metrics = {"success": 0.0, "time_s": 0.0, "distance_m": 0.0}
-
-    def _task_step(self, summary: StepSummary):
-        mask = int(summary.feet_mask)
-        success = self._counter.update(mask, summary.n_feet, self._qpos, summary.other_contacts) and (
-            self._target is None or mask == self._target
-        )
-        m = self._metrics
-        m["distance_m"] = summary.distance
-        m["time_s"] = self._elapsed * CONTROL_DT
-        if success:
-            m["success"] = 1.0
-        bonus = self.success_reward if success else 0.0
-        return (summary.velocity, bonus, -self.ctrl_cost_weight * summary.torque_sq), success
+        # The 4-beast must end on limbs 1, 4, 2 (the canonical tumble); the others on any new support.
+        self._task[KR.TARGET_MASK] = CANONICAL_END if self.polyhedron == "tetrahedron" else -1.0
 
 
 class BeastRollEnv(BeastEnv):
     __doc__ = _doc(*_ROLL, score=_ROLL_SCORE)
     reward_names = ("forward", "ctrl")
     metric_names = ("distance_m", "tumbles", "speed_m_s", *TRAVEL_METRICS)
+    task_kind = KR.ROLL
 
     def __init__(self, heading_deg: float = 0.0, **kwargs):
         self.heading_deg = check_in_range("heading_deg", heading_deg, -180.0, 180.0)
@@ -325,23 +321,14 @@ class BeastRollEnv(BeastEnv):
         return _turned(qpos, yaw), qvel
 
     def _task_reset(self, feet_mask: int) -> None:
-        self._counter = TumbleCounter(feet_mask, self._qpos)
-        self._metrics = {"distance_m": 0.0, "tumbles": 0.0, "speed_m_s": 0.0}
-
-    def _task_step(self, summary: StepSummary):
-        counter = self._counter
-        counter.update(int(summary.feet_mask), summary.n_feet, self._qpos, summary.other_contacts)
-        m = self._metrics
-        m["distance_m"] = summary.distance
-        m["tumbles"] = float(counter.count)
-        m["speed_m_s"] = summary.distance / (self._elapsed * CONTROL_DT)
-        return (summary.velocity, -self.ctrl_cost_weight * summary.torque_sq), False
+        """Nothing beyond the shared start (the tumble counter, zero metrics)."""
 
 
 class BeastTurnEnv(BeastEnv):
     __doc__ = _doc(*_TURN, score=_TURN_SCORE)
     reward_names = ("forward", "ctrl")
     metric_names = ("heading_change_deg", "heading_error_deg", "tumbles", "distance_m", *TRAVEL_METRICS)
+    task_kind = KR.TURN
 
     def __init__(self, turn_deg: float = 60.0, physics: dict | None = None, **kwargs):
         self.turn_deg = check_in_range("turn_deg", turn_deg, -180.0, 180.0)
@@ -356,28 +343,18 @@ class BeastTurnEnv(BeastEnv):
         return _turned(qpos, math.radians(-STRIP_OFFSET_DEG[self.polyhedron])), qvel
 
     def _task_reset(self, feet_mask: int) -> None:
-        self._counter = TumbleCounter(feet_mask, self._qpos)
-        self._stances = [self._qpos[:2].copy()]
-        self._metrics = {"heading_change_deg": 0.0, "heading_error_deg": 180.0, "tumbles": 0.0, "distance_m": 0.0}
-
-    def _task_step(self, summary: StepSummary):
-        m = self._metrics
-        if self._counter.update(int(summary.feet_mask), summary.n_feet, self._qpos, summary.other_contacts):
-            self._stances = [*self._stances[-2:], self._qpos[:2].copy()]
-            if len(self._stances) == 3:
-                dx, dy = self._stances[2] - self._stances[0]
-                change = math.degrees(math.atan2(dy, dx))
-                m["heading_change_deg"] = change
-                m["heading_error_deg"] = abs((change - self.turn_deg + 180.0) % 360.0 - 180.0)
-            m["tumbles"] = float(self._counter.count)
-        m["distance_m"] = summary.distance
-        return (summary.velocity, -self.ctrl_cost_weight * summary.torque_sq), False
+        # The heading is measured between stances, the first of them the start; the error is 180 until it is.
+        task = self._task
+        task[KR.STANCES : KR.STANCES + 2] = self._qpos[:2]
+        task[KR.N_STANCES] = 1.0
+        self._metric_row[self.metric_names.index("heading_error_deg")] = 180.0
 
 
 class BeastRecoverEnv(BeastEnv):
     __doc__ = _doc(*_RECOVER, score=_RECOVER_SCORE, travels=False)
     reward_names = ("support", "success", "ctrl")
     metric_names = ("success", "time_to_stance_s", *POWER_METRICS)
+    task_kind = KR.RECOVER
 
     def __init__(self, success_reward: float = 10.0, **kwargs):
         self.success_reward = check_in_range("success_reward", success_reward, 0.0, 1000.0)
@@ -412,23 +389,10 @@ class BeastRecoverEnv(BeastEnv):
         return qpos, qvel
 
     def _task_reset(self, feet_mask: int) -> None:
-        self._held = 0
-        self._metrics = {"success": 0.0, "time_to_stance_s": 0.0}
-
-    def _task_step(self, summary: StepSummary):
-        other = summary.other_contacts > 0
-        self._held = self._held + 1 if (summary.n_feet >= 3 and not other and summary.spin_sq < 0.01) else 0
-        success = self._held >= STANCE_TICKS
-        m = self._metrics
-        m["time_to_stance_s"] = (self._elapsed - (self._held if success else 0)) * CONTROL_DT
-        if success:
-            m["success"] = 1.0
-        support = 0.01 * (summary.n_feet - (3.0 if other else 0.0))
-        bonus = self.success_reward if success else 0.0
-        return (support, bonus, -self.ctrl_cost_weight * summary.torque_sq), success
+        """Nothing beyond the shared start (no still stance held, zero metrics)."""
 
 
-class _RobotContact:
+class _RobotContact(BeastEnv):
     """Mixin of the -v1 ids: the robot's contact model (:class:`polyenvs.beast.env.RobotContactParams`) as the
     defaults of the servo dead band and the foot-switch debounce."""
 
@@ -440,19 +404,16 @@ _TIME_COST = """    - ``time``: minus ``time_cost`` per second (0.2: 6 over the 
 """
 
 
-class _PaysSuccessAndTime:
+class _PaysSuccessAndTime(BeastEnv):
     """v1's reward for a task whose score is a success and its time: v0's success bonus and control cost, its shaping
     term replaced by ``time``, minus ``time_cost`` per second."""
 
     reward_names = ("success", "time", "ctrl")
+    reward_kind = KR.SUCCESS_AND_TIME
 
     def __init__(self, *, time_cost: float = 0.2, **kwargs):
         self.time_cost = check_in_range("time_cost", time_cost, 0.0, 10.0)
         super().__init__(**kwargs)
-
-    def _task_step(self, summary: StepSummary):
-        (_, bonus, ctrl), success = super()._task_step(summary)
-        return (bonus, -self.time_cost * CONTROL_DT, ctrl), success
 
 
 class BeastTumbleV1Env(_PaysSuccessAndTime, _RobotContact, BeastTumbleEnv):
@@ -497,16 +458,11 @@ class BeastTurnV1Env(_RobotContact, BeastTurnEnv):
 """,
     )
     reward_names = ("heading", "ctrl")
+    reward_kind = KR.HEADING_GAIN
 
     def __init__(self, heading_reward: float = 10.0, **kwargs):
         self.heading_reward = check_in_range("heading_reward", heading_reward, 0.0, 1000.0)
         super().__init__(**kwargs)
-
-    def _task_step(self, summary: StepSummary):
-        before = self._metrics["heading_error_deg"]
-        (_, ctrl), terminated = super()._task_step(summary)
-        gain = self.heading_reward * (before - self._metrics["heading_error_deg"]) / 180.0
-        return (gain, ctrl), terminated
 
 
 class BeastRecoverV1Env(_PaysSuccessAndTime, _RobotContact, BeastRecoverEnv):
