@@ -185,6 +185,67 @@ def test_contacts_agree_with_brute_force(name):
     assert checked > 50
 
 
+def _every_candidate_contact(x, y, h, a, b, d, params, walls):
+    """The contact search without its shortcuts: every body corner against every wall, then every wall's start
+    vertex against every body edge, each crossing solved over the whole motion; the earliest wins, a tie the first."""
+    theta, s = (b - a) / d, 0.5 * (a + b)
+    c, sn = math.cos(h), math.sin(h)
+    corners = [(params[C.P_FRONT], -params[C.P_HALF]), (params[C.P_FRONT], params[C.P_HALF]),
+               (-params[C.P_REAR], params[C.P_HALF]), (-params[C.P_REAR], -params[C.P_HALF])]  # fmt: skip
+    best, seg, cx, cy = math.inf, -1, 0.0, 0.0
+    for lx, ly in corners:
+        px, py = x + lx * c - ly * sn, y + lx * sn + ly * c
+        wx, wy = theta * (px - x) + s * sn, theta * (py - y) - s * c
+        for k, wall in enumerate(walls):
+            if wall[5] != 0.0:
+                t = C._crossing((px, py), (wx, wy), theta, tuple(wall[:4]), wall[5], 1.0)
+                if t < best:
+                    sa = t if theta == 0.0 else math.sin(t * theta) / theta
+                    ka = 0.0 if theta == 0.0 else (1.0 - math.cos(t * theta)) / theta
+                    best, seg, cx, cy = t, k, px - sa * wy - ka * wx, py + sa * wx - ka * wy
+    for k, wall in enumerate(walls):
+        if wall[5] == 0.0:
+            continue
+        vx, vy = wall[0], wall[1]
+        wx, wy = -theta * (vx - x) - s * sn, -theta * (vy - y) + s * c
+        for i in range(4):
+            (l0x, l0y), (l1x, l1y) = corners[i], corners[(i + 1) % 4]
+            rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
+            ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
+            outward = math.copysign(1.0, ey * (x - rx) - ex * (y - ry))
+            t = C._crossing((vx, vy), (wx, wy), -theta, (rx, ry, ex, ey), outward, 1.0)
+            if t < best:
+                best, seg, cx, cy = t, k, vx, vy
+    return best, seg, cx, cy
+
+
+#: A round room of 100 walls: past the 64 whose nearness the contact search keeps in a bit mask.
+_ROUND_ROOM = [[(80.0 + 70.0 * math.cos(2 * math.pi * i / 100), 80.0 + 70.0 * math.sin(2 * math.pi * i / 100))
+                for i in range(100)]]  # fmt: skip
+
+
+@pytest.mark.parametrize("name", [*sorted(MAPS), "round"])
+def test_contact_search_shortcuts_change_nothing(name):
+    # The search skips walls out of reach and solves each crossing only up to the earliest contact found so far;
+    # from the poses a random bounce visits (many of them touching a wall), every stage's motion must give the
+    # exhaustive search's contact bit for bit.
+    model = C.CartModel(mismatch_sd=0.05, snap_prob=0.5, slide_prob=0.5)
+    world = make_map(_ROUND_ROOM if name == "round" else name)
+    params, rng = model.packed(), np.random.default_rng(11)
+    row = np.zeros(C.N_STATE)
+    C.place_row(row, world.sample_pose(rng, model.circumradius_cm + 0.5), *model.draw_episode(rng))
+    contacts = 0
+    for _ in range(150):
+        C.cycle_row(row, rng.uniform(-math.pi, math.pi), rng.standard_normal(C.DRAWS_PER_CYCLE), params, world.walls)
+        for a, b in ((300.0, 300.0 * (1 + 0.05 * rng.standard_normal())), (-6.0, -6.2), (-4.0, 4.5), (9.0, -8.7)):
+            motion = (row[C.X], row[C.Y], row[C.HEADING], a, b, row[C.BASE], params, world.walls)
+            got = C._first_contact(*motion)
+            want = _every_candidate_contact(*motion)
+            assert np.array(got).tobytes() == np.array(want).tobytes(), (motion[:6], got, want)
+            contacts += got[1] >= 0
+    assert contacts > 150
+
+
 @pytest.mark.parametrize("name", sorted(MAPS))
 def test_long_random_bounce_never_enters_a_wall(name):
     model = C.CartModel(snap_prob=0.5, slide_prob=0.5)

@@ -83,6 +83,10 @@ _INF = math.inf
 #: Slack of the swept-region test that skips walls a motion cannot reach (cm): far above rounding, so a skipped wall
 #: is one that would never have been hit.
 _NEAR_MARGIN_CM = 1.0
+#: Factor on the bound of how far a moving point's distance to a line changes (:func:`_crossing`).
+_BOUND_SLACK = 1.01
+#: Walls whose nearness one motion's contact search keeps in a bit mask (:func:`_near_mask`).
+_MASK_WALLS = 64
 
 #: Tyres add this much to the wheel base for the cart's width (the feasibility study's 6.0 cm base, 7.4 cm wide).
 TYRE_WIDTH_CM = 1.4
@@ -149,8 +153,9 @@ class CartModel:
 
     def draw_episode(self, rng: np.random.Generator) -> tuple[float, float]:
         """This episode's motor mismatch and true wheel base (two normals from ``rng``, cut at 4 sd)."""
-        z = np.clip(rng.standard_normal(2), -_DRAW_LIMIT_SD, _DRAW_LIMIT_SD)
-        return float(self.mismatch_sd * z[0]), float(self.wheel_base_cm * (1.0 + self.wheel_base_sd * z[1]))
+        # Clipped as Python floats: the same numbers as np.clip's, without its call's cost (a vector env's resets).
+        z_mismatch, z_base = (min(max(z, -_DRAW_LIMIT_SD), _DRAW_LIMIT_SD) for z in rng.standard_normal(2).tolist())
+        return self.mismatch_sd * z_mismatch, self.wheel_base_cm * (1.0 + self.wheel_base_sd * z_base)
 
 
 #: Physical parameters: (low, high) plausible range (from the declarations above); outside it: ValueError.
@@ -185,11 +190,12 @@ def _line_crossings(c0, a, b, theta):
 
 
 @njit(cache=True)
-def _crossing(point, w, theta, segment, outward):
+def _crossing(point, w, theta, segment, outward, horizon):
     """First ``t`` in [0, 1] at which ``point = (px, py)`` (moving with ``w = (wx, wy)`` through angle ``theta``, as
     in the module docstring) enters across ``segment = (qx, qy, ex, ey)``, from ``q`` to ``q + e``, from its outer
-    side; ``inf`` if it does not. ``outward``: +1 if the outer side (free space for a wall, outside the body for a
-    body edge) is left of ``e``, -1 if right.
+    side; ``inf`` if it does not, and possibly when it does only after ``horizon`` (the caller's earliest contact so
+    far, which a later one cannot beat). ``outward``: +1 if the outer side (free space for a wall, outside the body
+    for a body edge) is left of ``e``, -1 if right.
 
     Only the direction of the crossing against that fixed outer side decides, never the side the point starts
     on: a point that first crosses the segment's line beyond the segment's end (round a wall corner that juts
@@ -208,6 +214,11 @@ def _crossing(point, w, theta, segment, outward):
         along = ((px - qx) * ex + (py - qy) * ey) / length_sq
         if -1e-12 <= along <= 1.0 + 1e-12:
             return 0.0  # touching and moving in (the second derivative decides when the first is zero)
+    # Up to t = horizon the distance moves at most |a| t + |b theta| t^2 / 2 from c0 (|sin phi| <= |phi|,
+    # 1 - cos phi <= phi^2 / 2): a point that stays clear of the line (with 1% to spare, far above rounding) cannot
+    # cross it before the horizon, so the roots (which would all come later, or never) are not solved for.
+    if abs(c0) > _BOUND_SLACK * horizon * (abs(a) + 0.5 * abs(b * theta) * horizon):
+        return _INF
     r0, r1 = _line_crossings(c0, a, b, theta)
     best = _INF
     for t in (r0, r1):
@@ -228,21 +239,28 @@ def _crossing(point, w, theta, segment, outward):
 
 
 @njit(cache=True)
-def _walls_near(x, y, h, a, b, d, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
-    """Which real walls the body can reach while it moves by ``(a, b)`` from ``(x, y, h)``: every body point stays
-    within the body's reach of the axle, and the axle within a quarter of ``|s theta|`` of its path's chord (an
-    arc of at most 90 degrees lies within an eighth of it), so a wall farther than their sum (and a margin) from the
-    chord is never touched, by a corner or by one of its vertices."""
-    theta, s = (b - a) / d, 0.5 * (a + b)
-    x1, y1, _ = odometry_step(x, y, h, a, b, d)
-    reach = math.hypot(max(params[P_FRONT], params[P_REAR]), params[P_HALF])
-    reach += 0.25 * abs(s * theta) + _NEAR_MARGIN_CM
-    near = np.empty(walls.shape[0], np.bool_)
-    for k in range(walls.shape[0]):
-        near[k] = walls[k, 5] != 0.0 and _segments_within(
-            (x, y, x1, y1), (walls[k, 0], walls[k, 1], walls[k, 0] + walls[k, 2], walls[k, 1] + walls[k, 3]), reach
-        )
-    return near
+def _wall_near(chord, reach, walls, k) -> bool:
+    """Whether a motion whose axle moves along ``chord = (x0, y0, x1, y1)`` can touch real wall ``k`` of ``walls``:
+    every body point stays within the body's reach of the axle, and the axle within a quarter of ``|s theta|`` of
+    its path's chord (an arc of at most 90 degrees lies within an eighth of it), so a wall farther than their sum
+    and a margin, ``reach``, from the chord is never touched, by a corner or by one of its vertices.
+
+    Bounding boxes farther apart than ``reach`` (and a hair, far above rounding) settle most walls before the exact
+    test."""
+    if walls[k, 5] == 0.0:
+        return False
+    x0, y0, x1, y1 = chord
+    qx0, qy0 = walls[k, 0], walls[k, 1]
+    qx1, qy1 = qx0 + walls[k, 2], qy0 + walls[k, 3]
+    gap = reach * (1.0 + 1e-9) + 1e-9
+    if (
+        min(qx0, qx1) - max(x0, x1) > gap
+        or min(x0, x1) - max(qx0, qx1) > gap
+        or min(qy0, qy1) - max(y0, y1) > gap
+        or min(y0, y1) - max(qy0, qy1) > gap
+    ):
+        return False
+    return _segments_within(chord, (qx0, qy0, qx1, qy1), reach)
 
 
 @njit(cache=True)
@@ -266,48 +284,85 @@ def _segments_within(p, q, reach) -> bool:
     )
 
 
+@njit(inline="always")
+def _body_corner(i, front, half, rear):
+    """Body corner ``i`` in the cart's frame (x ahead, y left of the axle): front right, front left, rear left, rear
+    right; corner ``i`` to ``i + 1`` is a body edge."""
+    return (front if i < 2 else -rear), (half if i == 1 or i == 2 else -half)
+
+
 @njit(cache=True)
 def _first_contact(x, y, h, a, b, d, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
     """First contact of the body moving by wheel travels ``(a, b)`` on base ``d`` from ``(x, y, h)``:
     ``(t, segment, contact x, contact y)``; ``t = inf`` and segment -1 when the motion is free."""
+    x1, y1, _ = odometry_step(x, y, h, a, b, d)
+    return _contact((x, y, h), a, b, d, (x1, y1), params, walls)
+
+
+@njit(cache=True)
+def _contact(start, a, b, d, end, params, walls):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
+    """:func:`_first_contact` from pose ``start = (x, y, h)`` of the motion whose axle ends at ``end = (x1, y1)``.
+
+    Every body corner against every wall the motion can reach (:func:`_wall_near`), then every wall's start vertex
+    (every polygon is closed: the starts are all the vertices) against every body edge; the earliest contact wins,
+    a tie the first found. Each crossing is solved only up to the earliest contact found so far
+    (:func:`_crossing`'s horizon), and the front corners, the likeliest to hit first in the drive, come first."""
+    x, y, h = start
     theta, s = (b - a) / d, 0.5 * (a + b)
     c, sn = math.cos(h), math.sin(h)
     front, half, rear = params[P_FRONT], params[P_HALF], params[P_REAR]
-    near = _walls_near(x, y, h, a, b, d, params, walls)
+    chord = (x, y, end[0], end[1])
+    reach = math.hypot(max(front, rear), half) + 0.25 * abs(s * theta) + _NEAR_MARGIN_CM
+    near = _near_mask(chord, reach, walls)
     best, seg, cx, cy = _INF, -1, 0.0, 0.0
     for i in range(4):  # body corners: front right, front left, rear left, rear right
-        lx = front if i < 2 else -rear
-        ly = half if i == 1 or i == 2 else -half
+        lx, ly = _body_corner(i, front, half, rear)
         px, py = x + lx * c - ly * sn, y + lx * sn + ly * c
         wx, wy = theta * (px - x) + s * sn, theta * (py - y) - s * c
         for k in range(walls.shape[0]):
-            if not near[k]:
+            if not _is_near(near, k, chord, reach, walls):
                 continue
             wall = (walls[k, 0], walls[k, 1], walls[k, 2], walls[k, 3])
-            t = _crossing((px, py), (wx, wy), theta, wall, walls[k, 5])  # column 5: free space's side
+            t = _crossing((px, py), (wx, wy), theta, wall, walls[k, 5], min(best, 1.0))  # column 5: free space's side
             if t < best:
                 phi = t * theta
                 sa = t if theta == 0.0 else math.sin(phi) / theta
                 ka = 0.0 if theta == 0.0 else (1.0 - math.cos(phi)) / theta
                 best, seg, cx, cy = t, k, px - sa * wy - ka * wx, py + sa * wx - ka * wy
-    for k in range(walls.shape[0]):  # wall vertices (every polygon is closed: the starts are all of them)
-        if not near[k]:
+    for k in range(walls.shape[0]):  # wall vertices crossing body edges (in the cart's frame: the reverse arc)
+        if not _is_near(near, k, chord, reach, walls):
             continue
         vx, vy = walls[k, 0], walls[k, 1]
         wx, wy = -theta * (vx - x) - s * sn, -theta * (vy - y) + s * c
         for i in range(4):
-            l0x = front if i < 2 else -rear
-            l0y = half if i == 1 or i == 2 else -half
-            j = (i + 1) % 4
-            l1x = front if j < 2 else -rear
-            l1y = half if j == 1 or j == 2 else -half
+            l0x, l0y = _body_corner(i, front, half, rear)
+            l1x, l1y = _body_corner((i + 1) % 4, front, half, rear)
             rx, ry = x + l0x * c - l0y * sn, y + l0x * sn + l0y * c
             ex, ey = (l1x - l0x) * c - (l1y - l0y) * sn, (l1x - l0x) * sn + (l1y - l0y) * c
             outward = math.copysign(1.0, ey * (x - rx) - ex * (y - ry))  # outside the body: opposite the axle
-            t = _crossing((vx, vy), (wx, wy), -theta, (rx, ry, ex, ey), outward)
+            t = _crossing((vx, vy), (wx, wy), -theta, (rx, ry, ex, ey), outward, min(best, 1.0))
             if t < best:
                 best, seg, cx, cy = t, k, vx, vy
     return best, seg, cx, cy
+
+
+@njit(cache=True)
+def _near_mask(chord, reach, walls):
+    """Bit ``k`` set where wall ``k`` (of the first 64) is near the motion (:func:`_wall_near`): worked out once for
+    the eight passes over the walls, without an array allocated per motion."""
+    mask = np.uint64(0)
+    for k in range(min(walls.shape[0], _MASK_WALLS)):
+        if _wall_near(chord, reach, walls, k):
+            mask |= np.uint64(1) << np.uint64(k)
+    return mask
+
+
+@njit(inline="always")
+def _is_near(mask, k, chord, reach, walls) -> bool:
+    """Whether wall ``k`` is near the motion: its bit of ``mask``, or the test itself past the first 64 walls."""
+    if k < _MASK_WALLS:
+        return (mask >> np.uint64(k)) & np.uint64(1) != np.uint64(0)
+    return _wall_near(chord, reach, walls, k)
 
 
 @njit(cache=True)
@@ -319,9 +374,10 @@ def _move(row, a, b, d, params, walls):
     pa, pb = a / pieces, b / pieces
     done = 0.0
     for _ in range(pieces):
-        t, seg, cx, cy = _first_contact(row[X], row[Y], row[HEADING], pa, pb, d, params, walls)
+        end = odometry_step(row[X], row[Y], row[HEADING], pa, pb, d)
+        t, seg, cx, cy = _contact((row[X], row[Y], row[HEADING]), pa, pb, d, end[:2], params, walls)
         if seg < 0:
-            row[X], row[Y], row[HEADING] = odometry_step(row[X], row[Y], row[HEADING], pa, pb, d)
+            row[X], row[Y], row[HEADING] = end
             done += 1.0
             continue
         # Travel of the fastest body point per unit t: the axle's plus the spin times the body's reach.
@@ -415,13 +471,16 @@ def cycle_row(row, turn, draws, params, walls):
     row[SLIP_HEADING] = (row[SLIP_HEADING] + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def place_row(row: np.ndarray, pose, mismatch: float, wheel_base: float) -> None:
-    """Start a cart at ``pose`` (x, y, heading rad) with dead reckoning at the true pose."""
+@njit(cache=True)
+def place_row(row, pose, mismatch, wheel_base):
+    """Start a cart at ``pose`` (x, y, heading rad; an array) with dead reckoning at the true pose (compiled: a vector
+    env places hundreds of carts at once)."""
+    x, y, heading = pose[0], pose[1], pose[2]
     row[:] = 0.0
-    row[X], row[Y], row[HEADING] = pose
-    row[DR_X], row[DR_Y], row[DR_HEADING] = pose
-    row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = pose
-    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = pose
-    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = pose
+    row[X], row[Y], row[HEADING] = x, y, heading
+    row[DR_X], row[DR_Y], row[DR_HEADING] = x, y, heading
+    row[BUMP_X], row[BUMP_Y], row[BUMP_HEADING] = x, y, heading
+    row[TURN_X], row[TURN_Y], row[TURN_HEADING] = x, y, heading
+    row[SLIP_X], row[SLIP_Y], row[SLIP_HEADING] = x, y, heading
     row[MISMATCH], row[BASE] = mismatch, wheel_base
     row[CONTACT_SEG] = row[LATEST_SEG] = -1.0
