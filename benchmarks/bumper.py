@@ -9,6 +9,9 @@ Two rows against their targets (``benchmarks.targets``):
   densest-cluster estimate, on seeded logs of the paper's arena (``SCALAR_TARGETS["localizer_updates_per_s"]``; a
   plain numpy sketch managed 47 updates/s, its feasibility model 214).
 
+With them, what the localizer's bump-space tables (:mod:`polyenvs.bumper.bump_tables`, built once per map) cost:
+their size and build time in the paper's arena and in the largest map accepted (:func:`table_lines`).
+
 ``python -m benchmarks.bumper [--quick]`` prints :func:`section`, the Markdown that ``benchmarks.throughput`` puts in
 ``THROUGHPUT.md``; :func:`measure` is the importable form.
 """
@@ -24,7 +27,7 @@ import numpy as np
 from benchmarks import targets
 from benchmarks.harness import Case, Measurement, env_case, measure_rounds, paired_ratio, progress
 
-__all__ = ["ENV_ID", "LocalizerRunner", "main", "measure", "section", "target_lines"]
+__all__ = ["ENV_ID", "LocalizerRunner", "main", "measure", "section", "table_lines", "target_lines"]
 
 ENV_ID = "polyenvs/BumperCartExplore-v0"
 CARTPOLE = "CartPole-v1"
@@ -116,7 +119,7 @@ def section(quick: bool = False) -> str:
     for row in rows:
         memory = f"{row.peak_memory_mb:.2f}" if row.peak_memory_mb is not None else "-"
         lines.append(f"| {row.name} | {row.setting} | {row.steps_per_second:,.0f} | {row.us_per_step:.1f} | {memory} |")
-    return "\n".join([*lines, "", *target_lines(ratios)])
+    return "\n".join([*lines, "", *target_lines(ratios), *table_lines()])
 
 
 def target_lines(ratios: dict) -> list[str]:
@@ -129,6 +132,43 @@ def target_lines(ratios: dict) -> list[str]:
         f"- cart cycles vs CartPole-v1: {ratio:.2f}x {cart_target.note(ratio)}" if ratio is not None else "- no ratio",
         f"- localizer updates/s at {PARTICLES} particles: {updates:,.0f} {localizer_target.note(updates)}",
     ]
+
+
+def _largest_map():
+    """A map as large as any accepted: a 20 m room with 63 boxes, 256 edges in all."""
+    from polyenvs.bumper.maps import MAX_EXTENT_CM, MAX_SEGMENTS, BumperMap
+
+    side, boxes = MAX_EXTENT_CM, (MAX_SEGMENTS - 4) // 4
+    polygons = [[(0.0, 0.0), (side, 0.0), (side, side), (0.0, side)]]
+    for i in range(boxes):
+        x, y = 30.0 + (i % 8) * 245.0, 30.0 + (i // 8) * 245.0
+        polygons.append([(x, y), (x + 20.0, y), (x + 20.0, y + 20.0), (x, y + 20.0)])
+    return BumperMap(polygons, name="largest")
+
+
+def table_lines() -> list[str]:
+    """The bump-space table of the paper's arena and of the largest map accepted: cells, size, build time (the
+    fastest of three builds after a compiling one), as Markdown list items."""
+    from polyenvs.bumper.env import BumperCartExploreEnv
+    from polyenvs.bumper.maps import make_map
+    from polyenvs.estimators.bumper import BumpSpaceMCL
+
+    mcl = BumpSpaceMCL(PARTICLES)
+    mcl.configure(BumperCartExploreEnv().localization_context())
+    lines = []
+    for world in (make_map("paper"), _largest_map()):
+        table = mcl.make_table(world.bounds)
+        times = []
+        for _ in range(4):
+            start = time.perf_counter()
+            table.install(0, world.walls)
+            times.append(time.perf_counter() - start)
+        nx, ny = table.codes.shape[1:]
+        lines.append(
+            f"- bump-space table, {world.name} map ({len(world.segments)} walls): {nx} x {ny} cells of"
+            f" {table.cell_cm:.2f} cm, {table.codes.nbytes / 1e6:.2f} MB, built in {min(times[1:]) * 1e3:,.1f} ms"
+        )
+    return lines
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,7 +8,9 @@ row's own seeded generator), judges its estimate against the true pose at the bu
 belief to the observation and scores the cycles it took. Its filter runs in Python between the cycle and the score
 (the draws and a reseeding come from each row's generator), so its step cycles with
 :func:`polyenvs.bumper.env.cycle_rows` and scores with :func:`polyenvs.bumper.env.score_task`. Reward terms, metrics
-and the belief's parts are declared by name here; the kernel's columns come from those names.
+and the belief's parts are declared by name here; the kernel's columns come from those names. Each map slot keeps
+its room's bump-space table (:class:`polyenvs.bumper.bump_tables.BumpSpaceTable`), built when the slot gets the
+room: the filter's answers are the exact geometry's, bit for bit.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy as np
 
 from polyenvs.bumper import cart as C
 from polyenvs.bumper.bump_space import BumpSpaceFilter, densest_cluster, log_index, update_rows
+from polyenvs.bumper.bump_tables import MAX_CELLS
 from polyenvs.bumper.cart import CartModel
 from polyenvs.bumper.env import (
     A_CYCLES,
@@ -32,7 +35,7 @@ from polyenvs.bumper.env import (
     cycle_rows,
     score_task,
 )
-from polyenvs.bumper.maps import LAYOUT_SPLIT
+from polyenvs.bumper.maps import LAYOUT_SPLIT, BumperMap
 from polyenvs.bumper.odometry import TICK_CM
 from polyenvs.core.columns import OutColumns, spans
 from polyenvs.core.jit import njit
@@ -77,6 +80,8 @@ _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
 _HOLD, _DONE, _CYCLES, _DISTANCE, _EMPTY = range(5)
 # The estimates' columns (update_rows): x, y, heading, the cluster's particle count, survivors.
 _EX, _EY, _EH, _EMASS, _EKEPT = range(5)
+#: The most cells of a row's own bump-space table (other layouts than the default: one room per row).
+_ROW_CELLS = 1 << 16
 # The task's packed parameters.
 _TOL_CM, _TOL_RAD, _HOLD_CYCLES, _X0, _Y0, _WIDTH, _HEIGHT, _DIAGONAL, _N, _TICK = range(10)
 
@@ -283,7 +288,12 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     ## Version History
     * v0: initial version. Since 2026-12-05 (issue 29) ``info["contact_point"]`` is the last bump's, not a later
       contact of the back-up with another wall; no reward, observation, metric or termination changed (seeds
-      0-199 with random turns, the random bounce and ``greedy_split``: none of the 600 episodes).
+      0-199 with random turns, the random bounce and ``greedy_split``: none of the 600 episodes). ``info`` made
+      lean without changing an episode (2026-12-05): ``info["episode_metrics"]`` is only in the info of the step
+      that ends the episode (terminated, or truncated by the env itself; on a native vector env's rows that end,
+      time limit included), ``env.unwrapped.episode_metrics()`` returns them at any time, and
+      :class:`~polyenvs.core.episode_metrics.RecordEpisodeMetrics` adds them where Gymnasium's ``TimeLimit``
+      truncates.
     """
 
     out_columns = OUT
@@ -321,9 +331,16 @@ class BumperCartLocalizeEnv(BumperCartEnv):
         self._estimates = np.zeros((rows, 5))
         self._particles = np.zeros((rows, n, 3))
         self._noise = np.zeros((rows, n, 3, 3), dtype=np.float32)  # float32 draws, as BumpSpaceMCL's
-        self._spare = np.zeros((n, 3))
+        self._spare = np.zeros((n, 5))  # the survivors and their headings' cos and sin
         ticks, bump = log_index(self.localization_context())
-        self._filter = (self.localizer.params, self._walls, ticks.reshape(-1).astype(np.int64), bump)
+        # Each map slot's bump-space table; with a room per row, 2^16 cells (64 KB) each, less than its particles.
+        slots = self._walls.shape[0]
+        self._tables = self.localizer.make_table(self.map_bounds, slots, MAX_CELLS if slots == 1 else _ROW_CELLS)
+        table = (self._tables.codes, self._tables.grid)
+        self._filter = (self.localizer.params, self._walls, table, ticks.reshape(-1).astype(np.int64), bump)
+
+    def _task_install_map(self, slot: int, world: BumperMap) -> None:
+        self._tables.install(slot, self._walls[slot])
 
     def _task_arrays(self) -> tuple:
         return (self._state, self._estimates, self._particles, self._task_params)

@@ -45,11 +45,17 @@ class BumpSpaceMCL(BumpSpaceFilter):
     particles in the bump-space"), ``empty_sets`` counts one and the particles are seeded afresh over the map.
     """
 
+    _tabled = None  # the map self.table was built for
+
     def reset(self, context, start_pose, rng: np.random.Generator) -> None:
         self.configure(context)
+        if self._tabled is not context.world:  # the bump-space table: once per map, not per reset
+            self.table = self.make_table(context.world.bounds)
+            self.table.install(0, context.world.walls)
+            self._tabled = context.world
         self.rng = rng
         self.particles = self.seed_particles(rng)
-        self.spare = np.empty_like(self.particles)
+        self.spare = np.empty((self.n, 5))  # the survivors and their headings' cos and sin
         self.noise = np.empty((self.n, 3, 3), dtype=np.float32)  # float32 draws: half the generator's time
         self.estimate = np.zeros(3)
         self.survivors = self.n
@@ -59,7 +65,8 @@ class BumpSpaceMCL(BumpSpaceFilter):
         log = np.asarray(log)
         ticks, bump = log[self._tick_index].astype(np.float64), bool(log[self._bump_index] > 0.5)
         self.rng.standard_normal(dtype=np.float32, out=self.noise)
-        cloud, model = (self.particles, self.spare, self.counts), (self.params, self.walls)
+        cloud = (self.particles, self.spare, self.counts)
+        model = (self.params, self.walls, (self.table.codes[0], self.table.grid))
         kept = mcl_update(cloud, (ticks, bump), self.noise, model, self.estimate)
         self.survivors = kept
         if kept == 0:
