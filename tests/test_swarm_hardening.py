@@ -189,6 +189,23 @@ def test_wrong_dtype_actions_raise_and_change_nothing_in_the_parallel_env(module
         assert _same(env.step(actions), twin.step(actions))
 
 
+def test_actions_of_wrong_shapes_or_mixed_dtypes_are_checked_one_by_one_in_the_parallel_env():
+    """The step stacks a dict of arrays at once: (1, 2) actions, and a (3,) and a (1,) action (as many numbers as
+    two (2,) ones), are refused naming the first, and mixed real dtypes drive as their float32 values, as one dtype
+    does."""
+    env, twin = obstacle_field_v0.parallel_env(n_robots=3), obstacle_field_v0.parallel_env(n_robots=3)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    good = _actions(env, 0)
+    with pytest.raises(ValueError, match="robot_0"):
+        env.step({agent: action[None] for agent, action in good.items()})
+    with pytest.raises(ValueError, match="robot_1"):
+        env.step({**good, "robot_1": np.full(3, 0.1, np.float32), "robot_2": np.full(1, 0.1, np.float32)})
+    mixed = {**good, "robot_0": good["robot_0"].astype(np.float64), "robot_2": np.array([1, -1])}
+    same = {**good, "robot_2": np.array([1.0, -1.0], np.float32)}
+    assert _same(env.step(mixed), twin.step(same))
+
+
 @pytest.mark.parametrize("env_id", SINGLE_IDS)
 def test_wrong_dtype_actions_raise_and_change_nothing_in_the_single_robot_ids(env_id):
     env, twin = gym.make(env_id), gym.make(env_id)

@@ -3,8 +3,8 @@
 :class:`SwarmBatch` is what every swarm surface runs on, at batch size 1 (the PettingZoo environment of
 :mod:`polyenvs.swarm.env`) or E (the vector envs of :mod:`polyenvs.swarm.batched` and :mod:`polyenvs.swarm.vector`),
 so the step, the reset, the rewards and the metrics exist once. A step is one noise draw per environment and one
-compiled call per kernel for all E x N robots (:mod:`polyenvs.swarm.core`: grid, move, sense;
-:func:`polyenvs.swarm.sensors.write_observations`; :func:`account`), plus what the task adds.
+compiled call for all E x N robots (:func:`step_kernel`: :mod:`polyenvs.swarm.core`'s grid, move and sense;
+:func:`polyenvs.swarm.sensors.write_observations`; :func:`account`), what the task adds included.
 
 Rows: robot ``r`` of environment ``e`` is row ``e * N + r``. Every environment has its own generator and draws in
 one fixed order, at a reset the episode (the task's ``sample_episode``), the wheels' drift and the first readings'
@@ -12,8 +12,9 @@ noise, then at each step the wheels' and sensors' normals and the IR floor; so e
 generator ``g`` is, bit for bit, a batch of one reset with ``g``, whatever the other environments do.
 
 What a task adds to the family (the formation's leader, its reward term and metric) it declares by name in a
-:class:`TaskTerms` subclass, which the batch builds with itself and calls at each observation, step and reset: the
-core knows no task.
+:class:`TaskTerms` subclass, which the batch builds with itself and calls at each reset and step, in Python or in
+the task's compiled step (:attr:`TaskTerms.compiled_step`: :func:`step_kernel`, then the task's own terms, in the
+same one call): the core knows no task.
 """
 
 from __future__ import annotations
@@ -150,7 +151,9 @@ def account(pose, before, active, sensed, episode, params, out):  # noqa: PLR091
 
 
 #: Columns of the per-robot info table ``SwarmBatch.info_table`` (:func:`write_info`): floats a surface reads with
-#: one ``tolist``; then the family's reward terms, in ``REWARD_NAMES`` order.
+#: one ``tolist``; then the family's reward terms, in ``REWARD_NAMES`` order. ``INFO_REWARD`` is a step's reward:
+#: the terms summed in column order, the family's by :func:`write_info`, a task's added by its compiled step (as
+#: numpy's ``rewards.sum(axis=1)`` sums them).
 INFO_DISTANCE, INFO_TURN_DEG, INFO_REWARD, INFO_TERMS = range(4)
 
 
@@ -201,14 +204,15 @@ def step_kernel(kernel):
     sensing and observations, :func:`account`, :func:`write_info`; robots that terminated leave the episode.
 
     ``kernel`` (:class:`polyenvs.core.jit.KernelArgs`, built by :meth:`SwarmBatch._pack`): ``sim`` the state and
-    scratch, ``out`` what a step writes, ``task`` the parameters. ``live`` and ``todo`` are left holding the
-    robots that took the step and the rows it sensed, for the task's terms.
+    scratch, ``out`` what a step writes, ``task`` the parameters, then the task's own arrays
+    (:meth:`TaskTerms.kernel_arrays`). ``live`` and ``todo`` are left holding the robots that took the step and the
+    rows it sensed, for a task's compiled step (:attr:`TaskTerms.compiled_step`), which calls this one first.
     """
     (robots, scene, grid, draws, scratch, sensed) = kernel.sim
     command, stepping, todo, live, before, wheels, proposal, blocked = scratch
     pose, active, drift, powers, goals, cycles = robots
     observations, track, rewards, terminated, info = kernel.out
-    drive_params, move_params, sense_params, angles, observe_params, account_params, shape = kernel.task
+    drive_params, move_params, sense_params, angles, observe_params, account_params, shape, _ = kernel.task
     per, stopped_window, draw = shape[0], shape[1], shape[2]
     for i in range(pose.shape[0]):
         todo[i] = stepping[i // per]
@@ -240,10 +244,15 @@ class TaskTerms:
     (:class:`polyenvs.swarm.formation_v0.FormationTerms`). A task names its subclass in ``terms_class``.
 
     Class attributes:
+        compiled_step: the batch's step, one compiled function of a :class:`~polyenvs.core.jit.KernelArgs`:
+            :func:`step_kernel`, whereupon the batch calls :meth:`observe` and :meth:`score` in Python, or the
+            task's own, which calls it, then writes the task's observation parts and reward terms (adding them to
+            the info table's reward) from the arrays of :meth:`kernel_arrays` (the last element of
+            ``kernel.task``), and replaces those two calls.
         observation_parts: name -> the lower bounds of its columns (every upper bound is 1), placed in this order
             between ``neighbours`` and ``powers``.
         reward_names: reward terms after the family's (each in ``info["reward_<name>"]``, written by :meth:`score`
-            into their :meth:`SwarmBatch.reward_column`).
+            or ``compiled_step`` into their :meth:`SwarmBatch.reward_column`).
         metric_names: episode metrics after the family's (:meth:`env_metrics`, :meth:`robot_metrics`).
         info_names: per-robot info keys after the family's (:meth:`robot_info`; both in
             :meth:`SwarmBatch.robot_columns`).
@@ -251,6 +260,7 @@ class TaskTerms:
     Masks below are ``None`` (every row, every environment) or boolean arrays over rows and environments.
     """
 
+    compiled_step = staticmethod(step_kernel)
     observation_parts: dict[str, tuple[float, ...]] = {}
     reward_names: tuple[str, ...] = ()
     metric_names: tuple[str, ...] = ()
@@ -259,14 +269,18 @@ class TaskTerms:
     def __init__(self, task, batch: SwarmBatch):
         self.batch = batch
 
+    def kernel_arrays(self) -> tuple:
+        """What the task's ``compiled_step`` reads and writes besides the batch's arrays (none here)."""
+        return ()
+
     def observe(self, live: np.ndarray, todo: np.ndarray, normals: np.ndarray, out: np.ndarray) -> None:
         """Write the task's observation parts of the rows in ``todo`` into ``out`` (the family has zeroed them);
         ``normals`` are the sensors' draws, whose last ``TASK_NORMALS`` columns are the task's; ``live`` marks the
-        robots in the episode."""
+        robots in the episode. After a step only without a ``compiled_step`` of the task's own."""
 
     def score(self, live: np.ndarray, rows, envs) -> None:
-        """After a step of the ``rows`` of ``envs`` (``live``: the robots that took it): the task's reward terms
-        and running sums."""
+        """After a step of the ``rows`` of ``envs`` (``live``: the robots that took it), without a
+        ``compiled_step`` of the task's own: the task's reward terms and running sums."""
 
     def restart(self, rows, envs) -> None:
         """After a reset of ``envs`` (their ``rows``): the sums start again, with the first readings."""
@@ -310,9 +324,11 @@ class SwarmBatch:
         self._constants(task)
         self._allocate(task)
         self.terms = task.terms_class(task, self)
-        # Whether the task observes or scores anything of its own after the compiled step.
+        # Whether the task observes or scores in Python after the compiled step (a task outside the package).
         terms_class = type(self.terms)
-        self._task_steps = terms_class.observe is not TaskTerms.observe or terms_class.score is not TaskTerms.score
+        self._task_steps = terms_class.compiled_step is step_kernel and (
+            terms_class.observe is not TaskTerms.observe or terms_class.score is not TaskTerms.score
+        )
 
     def _constants(self, task) -> None:
         """The kernels' parameters, from the task's validated ones."""
@@ -406,9 +422,9 @@ class SwarmBatch:
         out = (self.observations, self.track, self.rewards, self.terminated, self._info_out)
         shape = np.array([self.n_robots, self.stopped_window, int(draw)], dtype=np.int64)
         task = (self.drive_params, self.move_params, self.sense_params, self.angles, self.observe_params,
-                self.account_params, shape)  # fmt: skip
+                self.account_params, shape, self.terms.kernel_arrays())  # fmt: skip
         kernel = KernelArgs(sim, out, task)
-        return compiled_for(step_kernel, kernel), kernel
+        return compiled_for(self.terms.compiled_step, kernel), kernel
 
     @property
     def _info_out(self) -> tuple:
@@ -432,7 +448,7 @@ class SwarmBatch:
         todo = np.zeros(self.n_rows, dtype=np.uint8)
         for e, g, episode in zip(envs, gens, episodes, strict=True):
             self.generators[e] = g
-            if self._addresses is not None:
+            if self._addresses is not None and compiled_draws.COMPILED:  # without numba: no addresses
                 self._addresses[e] = compiled_draws.generator_addresses([g])[0]
             rows = slice(e * n, (e + 1) * n)
             self._place(e, episode)
@@ -477,11 +493,11 @@ class SwarmBatch:
 
     def step(self, command: np.ndarray | None = None, stepping: np.ndarray | None = None) -> None:
         """One control step of every environment (or of those where the ``(E,)`` mask ``stepping`` is set: the
-        others neither draw, move, sense nor score), in one compiled call (:func:`step_kernel`) plus what the task
-        adds. ``command``: ``(E * N, 2)`` power fractions in [-1, 1] (``None``: what the caller has written into
-        :attr:`command`); rows of robots out of the episode are ignored. Afterwards ``observations``, ``rewards``,
-        ``terminated``, the info table and the metrics are this step's, and robots that terminated have left the
-        episode (``active`` 0)."""
+        others neither draw, move, sense nor score), in one compiled call (:attr:`TaskTerms.compiled_step`), what
+        the task adds included. ``command``: ``(E * N, 2)`` power fractions in [-1, 1] (``None``: what the caller
+        has written into :attr:`command`); rows of robots out of the episode are ignored. Afterwards
+        ``observations``, ``rewards``, ``terminated``, the info table and the metrics are this step's, and robots
+        that terminated have left the episode (``active`` 0)."""
         if command is not None:
             self.command[:] = command
         if stepping is not None or self._masked:  # the mask of every environment stays until a masked step
@@ -497,6 +513,14 @@ class SwarmBatch:
             terms = self.terms
             terms.observe(self.live, self._todo, self.normals[:, 2:], self.observations)
             terms.score(self.live, None if stepping is None else self._todo > 0, stepping)
+
+    def step_rewards(self) -> np.ndarray:
+        """Each robot's reward of the last step, ``(E * N,)``: its terms summed in column order. The info table's
+        (to which a task's compiled step adds its terms), or, where the task scores in Python, the sum of
+        ``rewards``' columns (numpy adds a row's few columns one after the other, as the table does)."""
+        if self._task_steps and self.terms.reward_names:
+            return self.rewards.sum(axis=1)
+        return self.info_table[:, INFO_REWARD]
 
     def _draw_each(self, stepping: np.ndarray) -> None:
         """The step's draws through the generators' own methods (where nothing is compiled), as

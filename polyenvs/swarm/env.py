@@ -47,7 +47,6 @@ from polyenvs.core.window import check_window_scale
 from polyenvs.swarm.batch import (
     BEAM_M,
     INFO_DISTANCE,
-    INFO_REWARD,
     INFO_TERMS,
     INFO_TURN_DEG,
     LIGHT_REFERENCE_M,
@@ -265,7 +264,7 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
         self._build_spaces()
         #: The simulation: this environment as a batch of one.
         self.batch = SwarmBatch(self, 1)
-        self._task_rewards = bool(self.terms_class.reward_names)  # a task's own terms: the reward sums them too
+        self._task_rewards = bool(self.terms_class.reward_names)  # a task's own terms: info keys of their own
         # The info keys a task adds after the family's (:func:`_family_infos`): its reward terms, its info.
         self._task_info_keys = (*(f"reward_{name}" for name in self.terms_class.reward_names),
                                 *self.terms_class.info_names)  # fmt: skip
@@ -402,8 +401,8 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
         agents = self.agents
         every = len(agents) == self.n_robots  # nobody has left (the common case): rows in agent order
         index = self._every_agent if every else [self.agent_name_mapping[a] for a in agents]
-        reward = (batch.rewards.sum(axis=1) if self._task_rewards else batch.info_table[:, INFO_REWARD]).tolist()
-        term = (batch.terminated > 0).tolist()
+        reward = batch.step_rewards().tolist()
+        term = batch.terminated.view(np.bool_).tolist()  # 0 or 1
         if every:
             observations, rewards = dict(zip(agents, obs, strict=False)), dict(zip(agents, reward, strict=False))
             terminations = dict(zip(agents, term, strict=False))
@@ -412,7 +411,7 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
             rewards = {a: reward[i] for a, i in zip(agents, index, strict=True)}
             terminations = {a: term[i] for a, i in zip(agents, index, strict=True)}
         truncations = {a: not terminations[a] for a in agents} if truncate else dict.fromkeys(agents, False)
-        ended = index if truncate else [i for i in index if term[i]]
+        ended = index if truncate else [i for i in index if term[i]] if True in term else []
         infos = self._infos(index, ended)
         self.agents = [] if truncate else [a for a in agents if not terminations[a]] if ended else agents
         if self.render_mode == "human":
@@ -422,8 +421,8 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
     def _command(self, actions) -> np.ndarray:
         """The ``(N, 2)`` power fractions of a step's actions, all checked before anything changes. Actions must
         be real numbers: complex, bool, string and object input is refused, not cast. The common case (arrays of
-        a real dtype) is one array test; anything else, or a batch that fails it, is checked agent by agent, which
-        names the culprit."""
+        one real dtype and shape ``(2,)``) is one stacking and one compiled range test; anything else, or a batch
+        that fails it, is checked agent by agent, which names the culprit."""
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict of agent -> action, got {show(actions)}")
         rows: list
@@ -437,20 +436,11 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
                 raise ValueError(f"action for {show(bad)}, which is not a live agent of this episode")
         if not rows:
             return np.zeros((self.n_robots, 2))
-        # Each action's own dtype: numpy would promote a bool action among float ones to float.
-        dtypes = {getattr(action, "dtype", None) for action in actions.values()}  # usually one
-        values = None
-        if all(d is not None and d.kind in "fiu" for d in dtypes):
-            try:
-                values = np.array(list(actions.values()), dtype=np.float32)  # as before: real dtypes only here
-            except ValueError:  # shapes that do not stack
-                values = None
-            if values is not None and (values.shape != (len(rows), 2) or not _in_unit_box(values)):
-                values = None
+        values = _stacked_actions(list(actions.values()))
         if values is None:
             values = np.stack([self.check_agent_action(agent, action) for agent, action in actions.items()])
         if rows == self._every_agent:  # every robot, in order (the common case)
-            return values.astype(np.float64)
+            return values
         command = np.zeros((self.n_robots, 2))
         command[rows] = values
         return command
@@ -512,17 +502,9 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
         columns = (pose, batch.info_collisions.tolist(), table[INFO_DISTANCE], nearest, powers, table[INFO_TURN_DEG],
                    batch.info_stopped.tolist())  # fmt: skip
         rows = _family_infos(columns, table[INFO_TERMS:])
-        extra_keys, extra = list(self._task_info_keys), []
-        if self._task_rewards:
-            extra.extend(batch.rewards[:, len(REWARD_NAMES) :].T.tolist())
-        extra.extend(value.tolist() if value.ndim == 1 else list(value) for value in batch.terms.robot_info().values())
         metrics = batch.robot_metrics() if self.flat_info or ended else {}
-        if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
-            extra_keys.extend(f"episode_{name}" for name in metrics)
-            extra.extend(value.tolist() for value in metrics.values())
-        if extra:
-            for row, values in zip(rows, zip(*extra, strict=True), strict=True):
-                row.update(zip(extra_keys, values, strict=True))
+        if self._task_info_keys or self.flat_info:
+            self._add_infos(rows, metrics)
         names = self.possible_agents
         infos = (
             dict(zip(names, rows, strict=True)) if len(index) == self.n_robots else {names[i]: rows[i] for i in index}
@@ -535,6 +517,25 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
                 }
         return infos
 
+    def _add_infos(self, rows: list[dict], metrics: dict[str, np.ndarray]) -> None:
+        """The task's keys (its reward terms, its info) in each robot's info ``rows``, then with ``flat_info``
+        the ``episode_<metric>`` keys of ``metrics``."""
+        batch = self.batch
+        keys, columns = list(self._task_info_keys), []
+        if self._task_rewards:
+            columns.extend(batch.rewards[:, len(REWARD_NAMES) :].T.tolist())
+        columns.extend(
+            value.tolist() if value.ndim == 1 else list(value) for value in batch.terms.robot_info().values()
+        )
+        if self.flat_info:  # fixed keys of numbers only, from the first reset on (TorchRL's PettingZooWrapper)
+            keys.extend(f"episode_{name}" for name in metrics)
+            columns.extend(value.tolist() for value in metrics.values())
+        # A key at a time, as setitems (a sixth of the time of a row's update from a zip of its values); every
+        # column has a value per row.
+        for key, column in zip(keys, columns, strict=False):
+            for row, value in zip(rows, column, strict=False):
+                row[key] = value
+
     def _row_views(self) -> tuple[list, list, list]:
         """Each robot's rows of the batch's read-only info views (:meth:`SwarmBatch.robot_views`), made once."""
         if self._views is None:
@@ -544,6 +545,26 @@ class SwarmEnv(RobotRows, SharedVersionHistory, ParallelEnv):
 
     def __getstate__(self) -> dict:
         return {**self.__dict__, "_views": None}  # views: a copy makes its own of its own arrays
+
+
+def _stacked_actions(actions: list) -> np.ndarray | None:
+    """The actions as one ``(len(actions), 2)`` float32 array when they are arrays of one real dtype, each of shape
+    ``(2,)``, with values in [-1, 1]; else ``None`` (then each is checked on its own). The dtype is each action's
+    own: numpy would promote a bool action among float ones to float."""
+    try:
+        dtypes = {action.dtype for action in actions}
+    except AttributeError:  # not an array
+        return None
+    if len(dtypes) != 1:  # actions of several dtypes (rare)
+        return None
+    (dtype,) = dtypes
+    if not (isinstance(dtype, np.dtype) and dtype.kind in "fiu"):
+        return None
+    try:
+        values = np.array(actions, dtype=np.float32)
+    except ValueError:  # shapes that do not stack
+        return None
+    return values if values.shape == (len(actions), 2) and _in_unit_box(values) else None
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ import numpy as np
 from polyenvs.core.jit import njit
 from polyenvs.core.layouts import LayoutSplit, SplitParameter, documents_layouts
 from polyenvs.core.validation import check_in_range
-from polyenvs.swarm.batch import TASK_NORMALS, TaskTerms
+from polyenvs.swarm.batch import INFO_REWARD, TASK_NORMALS, TaskTerms, step_kernel
 from polyenvs.swarm.env import DEFAULT_COMM_RANGE_M, PARAMETER_RANGES, Episode, Layout, SwarmEnv, module_constructors
 from polyenvs.swarm.layouts import (
     WALL_MARGIN_M,
@@ -35,7 +35,9 @@ __all__ = [
     "N_ROBOTS",
     "OBSERVATION_PARTS",
     "env",
+    "centroid_distances",
     "formation_error",
+    "formation_step",
     "parallel_env",
     "raw_env",
     "write_leader",
@@ -138,6 +140,65 @@ def formation_error(pose, active, pairs, spacing, per_robot, count, swarm):  # n
             per_robot[i] /= count[i]
 
 
+@njit(cache=True)
+def centroid_distances(pose, goals, per, out):
+    """Each environment's distance from the centroid of its ``per`` robots (all of them, in the episode or not) to
+    its goal, into ``out`` ``(E,)``: the sum over the robots in row order divided by N, as numpy's ``mean`` over
+    them gives it."""
+    for e in range(out.shape[0]):
+        x, y = 0.0, 0.0
+        for i in range(e * per, (e + 1) * per):
+            x += pose[i, 0]
+            y += pose[i, 1]
+        out[e] = math.hypot(x / per - goals[e, 0], y / per - goals[e, 1])
+
+
+@njit(cache=True)
+def score_formation(pose, live, todo, goals, stepping, arrays, rewards):  # noqa: PLR0917 - numba kernel: arguments passed positionally, in its compiled signature's order
+    """After a step of the rows in ``todo`` (``live``: the robots that took it) of the environments in
+    ``stepping``: each robot's formation error and ``formation`` reward term (its column of ``rewards``), the
+    running sums and the centroid's progress while the formation holds (``arrays``:
+    :meth:`FormationTerms.kernel_arrays`). Rows and environments outside the step are left as they are."""
+    pairs, params, columns, leader_params, state, scratch = arrays
+    per_robot_now, robot_sum, swarm_sum, centroid_distance, progress_sum = state
+    per_robot, count, swarm, distance = scratch
+    spacing, column, per = params[0], columns[1], columns[2]
+    formation_error(pose, live, pairs, spacing, per_robot, count, swarm)
+    centroid_distances(pose, goals, per, distance)
+    for i in range(pose.shape[0]):
+        if todo[i]:
+            per_robot_now[i] = per_robot[i]
+            rewards[i, column] = -FORMATION_PENALTY * per_robot[i] if live[i] else 0.0
+            robot_sum[i] += per_robot[i] if live[i] else 0.0
+    for e in range(swarm.shape[0]):
+        if stepping[e]:
+            swarm_sum[e] += swarm[e]
+            progress_sum[e] += centroid_distance[e] - distance[e] if swarm[e] <= FORMATION_HOLDS_ERROR else 0.0
+            centroid_distance[e] = distance[e]
+
+
+@njit(cache=True)
+def formation_step(kernel):
+    """The formation's compiled step (:attr:`FormationTerms.compiled_step`): the family's
+    (:func:`polyenvs.swarm.batch.step_kernel`), then the leader's broadcast in the observations of the rows it
+    sensed (:func:`write_leader`, on the sensors' last ``TASK_NORMALS`` draws), :func:`score_formation` and the
+    ``formation`` term added to the info table's reward, in one call."""
+    step_kernel(kernel)
+    robots, draws, scratch = kernel.sim[0], kernel.sim[3], kernel.sim[4]
+    pose, goals = robots[0], robots[4]
+    stepping, todo, live = scratch[1], scratch[2], scratch[3]
+    normals = draws[3]
+    observations, rewards = kernel.out[0], kernel.out[2]
+    arrays = kernel.task[7]
+    columns, leader_params = arrays[2], arrays[3]
+    own = normals[:, normals.shape[1] - TASK_NORMALS :]
+    write_leader(pose, live, todo, own, columns[2], leader_params, columns[0], observations)
+    score_formation(pose, live, todo, goals, stepping, arrays, rewards)
+    table, column = kernel.out[4][0], columns[1]
+    for i in range(rewards.shape[0]):
+        table[i, INFO_REWARD] += rewards[i, column]  # the reward: every term, summed in column order
+
+
 class FormationTerms(TaskTerms):
     """What the formation adds to the family, for a whole batch: the leader's broadcast in the observation, the
     ``formation`` reward term (-0.1 x a robot's own error), the ``formation_error`` metric (per robot: its mean
@@ -147,6 +208,7 @@ class FormationTerms(TaskTerms):
     the distance from the centroid of all N robots (those that arrived stay where they left) to the goal over the
     steps where the swarm's error is at most :data:`FORMATION_HOLDS_ERROR`."""
 
+    compiled_step = staticmethod(formation_step)
     observation_parts = OBSERVATION_PARTS
     reward_names = ("formation",)
     metric_names = ("formation_error", "formation_progress_m")
@@ -162,43 +224,32 @@ class FormationTerms(TaskTerms):
         self.per_robot, self.robot_sum, self.swarm_sum = np.zeros(rows), np.zeros(rows), np.zeros(envs)
         #: Each environment's centroid-to-goal distance after the last step, and its progress while in formation.
         self.centroid_distance, self.progress_sum = np.zeros(envs), np.zeros(envs)
-        self._scratch = np.zeros(rows), np.zeros(rows), np.zeros(envs)  # per robot, pairs per robot, swarm
+        # Per robot, pairs per robot, swarm, centroid to goal.
+        self._scratch = np.zeros(rows), np.zeros(rows), np.zeros(envs), np.zeros(envs)
         self._reward_column = batch.reward_column("formation")
+
+    def kernel_arrays(self) -> tuple:
+        """What :func:`formation_step` reads and writes besides the batch's arrays: the lattice pairs, ``[R]``,
+        ``[leader observation's column, formation reward's column, robots per environment]``, the leader's
+        noise and reach, the running state and scratch."""
+        state = self.per_robot, self.robot_sum, self.swarm_sum, self.centroid_distance, self.progress_sum
+        columns = np.array([self.leader_at, self._reward_column, self.batch.n_robots], dtype=np.int64)
+        return self.pairs, np.array([self.spacing_m]), columns, self.leader_params, state, self._scratch
 
     def observe(self, live, todo, normals, out) -> None:
         own = normals[:, -TASK_NORMALS:]
         write_leader(self.batch.pose, live, todo, own, self.batch.n_robots, self.leader_params, self.leader_at, out)
 
     def _errors(self, live) -> tuple[np.ndarray, np.ndarray]:
-        per_robot, count, swarm = self._scratch
+        per_robot, count, swarm, _ = self._scratch
         formation_error(self.batch.pose, live, self.pairs, self.spacing_m, per_robot, count, swarm)
         return per_robot, swarm
 
     def _centroid_distance(self) -> np.ndarray:
         """Each environment's distance from the centroid of its N robots to its goal, ``(E,)``."""
-        batch = self.batch
-        centroid = batch.pose[:, :2].reshape(batch.n_envs, batch.n_robots, 2).mean(axis=1)
-        return np.hypot(*(centroid - batch.goals).T)
-
-    def score(self, live, rows, envs) -> None:
-        per_robot, swarm = self._errors(live)
-        reward = np.where(live, -FORMATION_PENALTY * per_robot, 0.0)
-        distance = self._centroid_distance()
-        progress = np.where(swarm <= FORMATION_HOLDS_ERROR, self.centroid_distance - distance, 0.0)
-        if rows is None:  # every row stepped
-            self.per_robot[:] = per_robot
-            self.batch.rewards[:, self._reward_column] = reward
-            self.robot_sum += np.where(live, per_robot, 0.0)
-            self.swarm_sum += swarm
-            self.progress_sum += progress
-            self.centroid_distance[:] = distance
-        else:
-            self.per_robot[rows] = per_robot[rows]
-            self.batch.rewards[rows, self._reward_column] = reward[rows]
-            self.robot_sum[rows] += np.where(live, per_robot, 0.0)[rows]
-            self.swarm_sum[envs] += swarm[envs]
-            self.progress_sum[envs] += progress[envs]
-            self.centroid_distance[envs] = distance[envs]
+        distance = np.zeros(self.batch.n_envs)
+        centroid_distances(self.batch.pose, self.batch.goals, self.batch.n_robots, distance)
+        return distance
 
     def restart(self, rows, envs) -> None:
         active = self.batch.active
