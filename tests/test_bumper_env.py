@@ -268,3 +268,42 @@ def test_random_bounce_policy():
     assert batch.shape == (4, 1)
     with pytest.raises(ValueError, match="max_turn_deg"):
         RandomBounce(env.observation_space, env.action_space, min_turn_deg=90.0, max_turn_deg=45.0)
+
+
+def _expected_info(state_row, touched_row, credits_latest_contact):
+    """What ``info`` reports of a cart, read afresh from its state row and touched cells."""
+    x, y = (C.LATEST_X, C.LATEST_Y) if credits_latest_contact else (C.CONTACT_X, C.CONTACT_Y)
+    return {
+        "pose": [state_row[C.X], state_row[C.Y], math.degrees(state_row[C.HEADING])],
+        "dead_reckoned_pose": [state_row[C.DR_X], state_row[C.DR_Y], math.degrees(state_row[C.DR_HEADING])],
+        "pose_at_bump": [state_row[C.BUMP_X], state_row[C.BUMP_Y], math.degrees(state_row[C.BUMP_HEADING])],
+        "contact_point": [state_row[x], state_row[y]],
+        "touched_cells": int(np.count_nonzero(touched_row)),
+    }
+
+
+@pytest.mark.parametrize("env_id", ["polyenvs/BumperCartExplore-v0", "polyenvs/BumperCartExplore-v2"])
+def test_info_reports_the_state_after_every_reset_and_cycle(env_id):
+    """The info's poses, contact and touched cells, which the compiled step keeps for it, are the cart's state at
+    every step, across resets (a new episode's start, its own room), single env and vector env alike."""
+    env = gym.make(env_id, layouts="test")
+    raw = env.unwrapped
+    rng = np.random.default_rng(1)
+    for episode in range(3):
+        _, info = env.reset(seed=episode)
+        for _ in range(60):
+            expected = _expected_info(raw.state[0], raw._touched[0], raw.credits_latest_contact)
+            for key, value in expected.items():
+                np.testing.assert_allclose(info[key], value, rtol=1e-15, err_msg=key)
+            _, _, terminated, truncated, info = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+            if terminated or truncated:
+                break
+    envs = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", layouts="test")
+    core = envs.unwrapped._core
+    _, info = envs.reset(seed=5)
+    for _ in range(120):  # past v2's 50-cycle budget: its rows restart
+        for b in range(3):
+            expected = _expected_info(core.state[b], core._touched[b], core.credits_latest_contact)
+            for key, value in expected.items():
+                np.testing.assert_allclose(info[key][b], value, rtol=1e-15, err_msg=key)
+        _, _, _, _, info = envs.step(rng.uniform(-1, 1, (3, 1)).astype(np.float32))

@@ -72,12 +72,15 @@ _BUMP_OBS = OBSERVATION_STRUCTURE["bump"][0]
 BASE_METRICS = ("bumps", "odometry_error_cm", "large_slips")
 #: The arrays the compiled step takes, as one tuple ``sim`` in this order: the carts' state, the walls (a map slot
 #: axis first), the parameters, the draw blocks and cursors, the observation rows, the cycles of each episode, the
-#: base's tallies (bumps, large slips) and the ``_out`` column of each base metric (-1 where the task has none).
-SIM_ARRAYS = ("state", "walls", "params", "normals", "cursor", "obs", "cycles", "tallies", "base_columns")
+#: base's tallies (bumps, large slips), the ``_out`` column of each base metric (-1 where the task has none), and
+#: each row's info values (:data:`INFO_PARTS`, written by every cycle and reset) with the state columns they read.
+SIM_ARRAYS = ("state", "walls", "params", "normals", "cursor", "obs", "cycles", "tallies", "base_columns", "info",
+              "info_columns")  # fmt: skip
 _SIM = indices(SIM_ARRAYS)
 A_STATE, A_WALLS, A_PARAMS, A_NORMALS = _SIM["state"], _SIM["walls"], _SIM["params"], _SIM["normals"]
 A_CURSOR, A_OBS, A_CYCLES = _SIM["cursor"], _SIM["obs"], _SIM["cycles"]
 _A_TALLIES, _A_BASE_COLUMNS = _SIM["tallies"], _SIM["base_columns"]
+_A_INFO, _A_INFO_COLUMNS = _SIM["info"], _SIM["info_columns"]
 _BUMP_TALLY, _SLIP_TALLY = range(2)
 #: Explore's reward term and metrics, by name (``info["reward_<term>"]``, ``info["episode_metrics"]``).
 REWARD_TERMS = ("touch",)
@@ -91,8 +94,11 @@ TRAIL_POINTS = 3000
 
 #: State columns of the true, dead-reckoned and at-bump poses, as ``info`` reports them.
 _POSE_COLUMNS = [C.X, C.Y, C.HEADING, C.DR_X, C.DR_Y, C.DR_HEADING, C.BUMP_X, C.BUMP_Y, C.BUMP_HEADING]
+#: The info's pose and contact values, a row of the ``info`` table: name -> (start, stop).
+INFO_PARTS = spans({"pose": 3, "dead_reckoned_pose": 3, "pose_at_bump": 3, "contact_point": 2})
+_INFO_SIZE = INFO_PARTS["contact_point"][1]
 #: Multiplies the poses' headings into degrees (``np.degrees``' own factor) and leaves the positions (and the
-#: contact point after them) as they are: a single env's info converts them in one product.
+#: contact point after them) as they are.
 _INFO_SCALE = np.array([1.0, 1.0, 180.0 / math.pi] * 3 + [1.0, 1.0])
 
 
@@ -146,7 +152,7 @@ def _cycle(b, turn, sim):
     """Cycle row ``b`` by ``turn``, write the cycle's log into its observation row and tally its bump and slip.
     ``walls`` has a map slot axis first: one slot shared by every row, or one per row (``layouts="train"`` or
     ``"test"``)."""
-    state, walls, params, normals, cursor, obs, cycles, tallies, _ = sim
+    state, walls, params, normals, cursor, obs, cycles, tallies = sim[:8]
     row = state[b]
     cycle_row(row, turn, normals[b, cursor[b]], params, walls[0 if walls.shape[0] == 1 else b])
     cursor[b] += 1
@@ -156,6 +162,16 @@ def _cycle(b, turn, sim):
     obs[b, _BUMP_OBS] = row[C.BUMP]
     tallies[b, _BUMP_TALLY] += row[C.BUMP]
     tallies[b, _SLIP_TALLY] += row[C.BIG_SLIP]
+    _write_info(row, sim[_A_INFO][b], sim[_A_INFO_COLUMNS])
+
+
+@njit(cache=True)
+def _write_info(row, info, columns):
+    """A state row's info values (:data:`INFO_PARTS`: the poses, headings in degrees, and the credited contact) into
+    ``info``, from the state ``columns`` they read: worked out once per cycle in compiled code, so that a single
+    env's ``info`` is one copy of them."""
+    for k in range(_INFO_SIZE):
+        info[k] = row[columns[k]] * _INFO_SCALE[k]
 
 
 @njit(cache=True)
@@ -213,10 +229,10 @@ def score_task(actions, kernel, score_row, terms):
 @njit(cache=True)
 def touch_row(b, row, touch) -> float:
     """Row ``b``'s share of the wall newly touched by its last cycle (its state row ``row``), marking the cell and
-    adding it to the row's touched fraction. ``touch = (touched_fraction, touched, cell_first, cell_count,
-    cell_share, credited)``, as :class:`BumperCartExploreEnv` packs it (the cell tables with a map slot axis first,
-    as the walls; ``credited`` the state column of the wall a bump credits)."""
-    touched_fraction, touched, cell_first, cell_count, cell_share, credited = touch
+    adding it to the row's touched fraction and count. ``touch = (touched_fraction, touched, cell_first, cell_count,
+    cell_share, credited, touched_count)``, as :class:`BumperCartExploreEnv` packs it (the cell tables with a map
+    slot axis first, as the walls; ``credited`` the state column of the wall a bump credits)."""
+    touched_fraction, touched, cell_first, cell_count, cell_share, credited, touched_count = touch
     w = 0 if cell_first.shape[0] == 1 else b
     fresh = 0.0
     if row[C.BUMP] > 0.5:
@@ -225,6 +241,7 @@ def touch_row(b, row, touch) -> float:
         cell = cell_first[w, seg] + min(max(int(row[C.CONTACT_ALONG] * count), 0), count - 1)
         if touched[b, cell] == 0:
             touched[b, cell] = 1
+            touched_count[b] += 1
             fresh = cell_share[w, cell]
     touched_fraction[b] += fresh
     return fresh
@@ -298,19 +315,22 @@ class BumperCartEnv(RowsEnv):
         self.observation_structure = {**OBSERVATION_STRUCTURE, **spans(self.task_observation_sizes, LOG_SIZE)}
         # A row's action is (turn in rad, 1); the base marks a row that gets none by writing NO_ACTION (-1) over it.
         self._allocate_rows(action_dtype=np.float64, action_shape=(2,))
-        #: The state columns a single env's info reads: the poses, then the contact point.
-        self._info_index = np.array([*_POSE_COLUMNS, *self._contact_columns[:2]])
+        self._reward_items = tuple(enumerate(self._reward_keys))  # (its _out column, its info key): terms come first
         self.state = np.zeros((n, C.N_STATE))
         self.params = self.model.packed()
         self.streams = RowStreams(n, C.DRAWS_PER_CYCLE)
         self._cycles = np.zeros(n)
         self._tallies = np.zeros((n, 2))  # each episode's bumps and large slips
+        self._info = np.zeros((n, _INFO_SIZE))
+        #: The state columns the info values read: the poses, then the contact point.
+        self._info_columns = np.array([*_POSE_COLUMNS, *self._contact_columns[:2]], dtype=np.int64)
         columns = self.out_columns
         base_columns = [columns.metric_column(name) if name in columns.metrics else -1 for name in BASE_METRICS]
         self._allocate_maps()
         arrays = dict(state=self.state, walls=self._walls, params=self.params, normals=self.streams.normals,
                       cursor=self.streams.cursor, obs=self._observations, cycles=self._cycles, tallies=self._tallies,
-                      base_columns=np.array(base_columns, dtype=np.int64))  # fmt: skip
+                      base_columns=np.array(base_columns, dtype=np.int64), info=self._info,
+                      info_columns=self._info_columns)  # fmt: skip
         self._pack_kernel(tuple(arrays[name] for name in SIM_ARRAYS), self._task_arrays())
         self._renderer = None
         self._paths = (deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS), deque(maxlen=TRAIL_POINTS))
@@ -473,6 +493,7 @@ class BumperCartEnv(RowsEnv):
             if self._slot_worlds[slot] is not r.world:
                 self._install_map(slot, r.world)
             place_row(self.state[r.row], r.pose, r.mismatch, r.wheel_base)
+            self._compiled_write_info(self.state[r.row], self._info[r.row], self._info_columns)
             self.streams.restart(r.row, r.rng, r.reseeded)
             self._cycles[r.row] = 0.0
             self._tallies[r.row] = 0.0
@@ -486,12 +507,13 @@ class BumperCartEnv(RowsEnv):
                 self._paths[1].append(tuple(r.pose[:2]))
         self._started = True
 
-    _packed_names = (*RowsEnv._packed_names, "_compiled_step")
+    _packed_names = (*RowsEnv._packed_names, "_compiled_step", "_compiled_write_info")
 
     def _pack_kernel(self, sim: tuple, task: tuple) -> None:
         super()._pack_kernel(sim, task)
-        # Every step passes these two: their machine code is called without numba's per-call typing.
+        # Every step (and reset) passes these: their machine code is called without numba's per-call typing.
         self._compiled_step = compiled_for(self._step_kernel, self._actions, self._kernel)
+        self._compiled_write_info = compiled_for(_write_info, self.state[0], self._info[0], self._info_columns)
 
     def _advance(self, actions: np.ndarray) -> None:
         self.streams.refill()
@@ -504,7 +526,7 @@ class BumperCartEnv(RowsEnv):
     def _row_steps(self) -> np.ndarray:
         return self._cycles
 
-    def _check_action(self, action) -> np.ndarray:
+    def _check_action(self, action) -> tuple[float, float]:
         if (
             isinstance(action, np.ndarray)
             and action.shape == (1,)
@@ -522,7 +544,7 @@ class BumperCartEnv(RowsEnv):
             array = array.astype(np.float32)
             check_action(self.action_space, array)
             turn = float(array[0])
-        return np.array([math.pi * turn, 1.0])
+        return math.pi * turn, 1.0
 
     def _check_actions(self, actions: np.ndarray) -> np.ndarray:
         array = _real_array(actions)
@@ -554,34 +576,31 @@ class BumperCartEnv(RowsEnv):
             self.render()
 
     def _get_info(self, row: int) -> dict[str, Any]:
-        s = self.state[row]
-        values = s.take(self._info_index)  # one fresh array; the entries below are views of it
-        values *= _INFO_SCALE
+        values = self._info[row].copy()  # one fresh array; the entries below are views of it
         info = {
             "pose": values[0:3],
             "dead_reckoned_pose": values[3:6],
             "pose_at_bump": values[6:9],
-            "bumped": s.item(C.BUMP) > 0.5,
+            "bumped": self.state.item(row, C.BUMP) > 0.5,
             "contact_point": values[9:11],
-            **self._task_info(row),
         }
-        info.update(zip(self._reward_keys, self._out[row, : len(self._reward_keys)].tolist(), strict=True))
+        info.update(self._task_info(row))
+        out = self._out
+        for column, key in self._reward_items:
+            info[key] = out.item(row, column)
         return info
 
     def _vector_info(self, ended: np.ndarray) -> dict[str, Any]:
         """:meth:`_get_info` for every row, in Gymnasium's vector convention, with the metrics of the rows in
         ``ended``."""
-        s = self.state
-        poses = s[:, _POSE_COLUMNS]
-        poses[:, 2::3] = np.degrees(poses[:, 2::3])
+        table = self._info.copy()
         terms = self._out[:, self.out_columns.term_slice].copy()
-        x, y, _ = self._contact_columns
         values = {
-            "pose": poses[:, 0:3],
-            "dead_reckoned_pose": poses[:, 3:6],
-            "pose_at_bump": poses[:, 6:9],
-            "bumped": s[:, C.BUMP] > 0.5,
-            "contact_point": s[:, [x, y]],
+            "pose": table[:, 0:3],
+            "dead_reckoned_pose": table[:, 3:6],
+            "pose_at_bump": table[:, 6:9],
+            "bumped": self.state[:, C.BUMP] > 0.5,
+            "contact_point": table[:, 9:11],
             **self._vector_task_info(),
             **{key: terms[:, j] for j, key in enumerate(self._reward_keys)},
         }
@@ -691,6 +710,7 @@ class BumperCartExploreEnv(BumperCartEnv):
         self._slot_cell_share = np.zeros((slots, n_cells))
         self._touched = np.zeros((self._batch_size, n_cells), dtype=np.uint8)
         self._task = np.zeros(self._batch_size)  # each row's touched wall fraction
+        self._touched_count = np.zeros(self._batch_size, dtype=np.int64)  # and its touched cells
 
     def _task_install_map(self, slot: int, world: BumperMap) -> None:
         first, count, lengths = world.wall_cells(self.cell_cm)
@@ -717,19 +737,20 @@ class BumperCartExploreEnv(BumperCartEnv):
 
     def _task_arrays(self) -> tuple:
         cells = (self._slot_cell_first, self._slot_cell_count, self._slot_cell_share)
-        return (self._task, self._touched, *cells, self._contact_columns[2])
+        return (self._task, self._touched, *cells, self._contact_columns[2], self._touched_count)
 
     def _task_commit(self, row: int, sample: Any) -> None:
         self._touched[row] = 0
         self._task[row] = 0.0
+        self._touched_count[row] = 0
 
     _step_kernel = staticmethod(_step_kernel)
 
     def _task_info(self, row: int) -> dict[str, Any]:
-        return {"touched_cells": int(np.count_nonzero(self._touched[row]))}
+        return {"touched_cells": self._touched_count.item(row)}
 
     def _vector_task_info(self) -> dict[str, np.ndarray]:
-        return {"touched_cells": self._touched.sum(axis=1, dtype=np.int64)}
+        return {"touched_cells": self._touched_count.copy()}
 
     def draw_task(self, canvas) -> None:
         from polyenvs.bumper.rendering import draw_touched_cells

@@ -125,8 +125,13 @@ def _clearance(x, y, walls):
 @njit(cache=True)
 def _free_clearance(points, walls, out):
     for i in range(points.shape[0]):
-        x, y = points[i, 0], points[i, 1]
-        out[i] = _clearance(x, y, walls) if free_at(x, y, walls) else -_clearance(x, y, walls)
+        out[i] = _point_clearance(points[i, 0], points[i, 1], walls)
+
+
+@njit(cache=True)
+def _point_clearance(x, y, walls) -> float:
+    """:meth:`BumperMap.clearance` of one point, without building arrays (a reset's rejection sampling)."""
+    return _clearance(x, y, walls) if free_at(x, y, walls) else -_clearance(x, y, walls)
 
 
 def _free_side(polygon: np.ndarray, outline: bool) -> float:
@@ -250,7 +255,7 @@ class BumperMap:
         x0, y0, x1, y1 = self.bounds
         while True:
             x, y = x0 + (x1 - x0) * rng.random(), y0 + (y1 - y0) * rng.random()
-            if self.clearance(np.array([x, y])) >= clearance_cm:
+            if _point_clearance(x, y, self.walls) >= clearance_cm:
                 return np.array([x, y, 2.0 * np.pi * rng.random()])
 
     def wall_cells(self, cell_cm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
