@@ -67,3 +67,20 @@ def test_addresses_are_one_row_per_generator():
     addresses = generators.generator_addresses(gens)
     assert addresses.shape == (4, 3) and addresses.dtype == np.int64
     assert len(set(addresses[:, generators.STATE].tolist())) == 4
+
+
+@pytest.mark.parametrize("bit_generator", ["PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64"])
+def test_copy_generator_is_a_deep_copy_in_draws_state_and_spawns(bit_generator) -> None:
+    """A reset draws on :func:`~polyenvs.core.rows.copy_generator`'s copy and keeps it: it must continue exactly as
+    the generator would (half-used 32-bit and Philox buffers included), independently, and spawn the same children."""
+    from polyenvs.core.rows import copy_generator
+
+    rng = np.random.Generator(getattr(np.random, bit_generator)(np.random.SeedSequence(7)))
+    rng.integers(0, 2**32, dtype=np.uint32)  # leaves a buffered half word
+    rng.standard_normal(3)
+    reference, twin = copy.deepcopy(rng), copy_generator(rng)
+    assert pickle.dumps(twin.bit_generator.state) == pickle.dumps(reference.bit_generator.state)
+    np.testing.assert_array_equal(twin.standard_normal(9), reference.standard_normal(9))
+    assert twin.integers(0, 2**32, dtype=np.uint32) == reference.integers(0, 2**32, dtype=np.uint32)
+    assert pickle.dumps(rng.bit_generator.state) != pickle.dumps(twin.bit_generator.state)  # not moved with its copy
+    np.testing.assert_array_equal(twin.spawn(1)[0].random(4), reference.spawn(1)[0].random(4))

@@ -112,9 +112,21 @@ def check_vector_arguments(num_envs, max_episode_steps, autoreset_mode) -> tuple
     return num_envs, max_episode_steps, check_autoreset_mode(autoreset_mode)
 
 
+#: NumPy's bit generators, which a seed sequence builds and a ``state`` assignment puts anywhere.
+_NUMPY_BIT_GENERATORS = (np.random.PCG64, np.random.PCG64DXSM, np.random.MT19937, np.random.Philox, np.random.SFC64)
+
+
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
-    """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises)."""
-    return copy.deepcopy(rng)
+    """An independent generator in the same state (a reset draws on it and keeps it only if nothing raises).
+
+    NumPy's own bit generators are rebuilt from their seed sequence and given the state (about a fifth of
+    ``copy.deepcopy``'s time, which a single env's every reset paid); any other is deep-copied."""
+    bit_generator = rng.bit_generator
+    if type(bit_generator) not in _NUMPY_BIT_GENERATORS:
+        return copy.deepcopy(rng)
+    twin = type(bit_generator)(copy.copy(bit_generator.seed_seq))
+    twin.state = bit_generator.state
+    return np.random.Generator(twin)
 
 
 def read_only(array: np.ndarray) -> np.ndarray:
