@@ -504,6 +504,8 @@ class BeastEnv(MujocoEnv):
 
     def episode_metrics(self) -> dict[str, float]:
         """The episode's metrics so far (``metric_names``): after its end, the final ones, until the next reset."""
+        if self._needs_reset:
+            raise ResetNeeded("call reset() before episode_metrics()")
         if self.task_kind:
             return dict(zip(self.metric_names, self._metric_row.tolist(), strict=True))
         return dict(self._metrics)

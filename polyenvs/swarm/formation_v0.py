@@ -162,7 +162,7 @@ def score_formation(pose, live, todo, goals, stepping, arrays, rewards):  # noqa
     pairs, params, columns, leader_params, state, scratch = arrays
     per_robot_now, robot_sum, swarm_sum, centroid_distance, progress_sum = state
     per_robot, count, swarm, distance = scratch
-    spacing, column, per = params[0], columns[1], columns[2]
+    spacing, holds, column, per = params[0], params[1], columns[1], columns[2]
     formation_error(pose, live, pairs, spacing, per_robot, count, swarm)
     centroid_distances(pose, goals, per, distance)
     for i in range(pose.shape[0]):
@@ -173,7 +173,7 @@ def score_formation(pose, live, todo, goals, stepping, arrays, rewards):  # noqa
     for e in range(swarm.shape[0]):
         if stepping[e]:
             swarm_sum[e] += swarm[e]
-            progress_sum[e] += centroid_distance[e] - distance[e] if swarm[e] <= FORMATION_HOLDS_ERROR else 0.0
+            progress_sum[e] += centroid_distance[e] - distance[e] if swarm[e] <= holds else 0.0
             centroid_distance[e] = distance[e]
 
 
@@ -229,12 +229,14 @@ class FormationTerms(TaskTerms):
         self._reward_column = batch.reward_column("formation")
 
     def kernel_arrays(self) -> tuple:
-        """What :func:`formation_step` reads and writes besides the batch's arrays: the lattice pairs, ``[R]``,
-        ``[leader observation's column, formation reward's column, robots per environment]``, the leader's
-        noise and reach, the running state and scratch."""
+        """What :func:`formation_step` reads and writes besides the batch's arrays: the lattice pairs,
+        ``[R, FORMATION_HOLDS_ERROR]``, ``[leader observation's column, formation reward's column, robots per
+        environment]``, the leader's noise and reach, the running state and scratch."""
         state = self.per_robot, self.robot_sum, self.swarm_sum, self.centroid_distance, self.progress_sum
         columns = np.array([self.leader_at, self._reward_column, self.batch.n_robots], dtype=np.int64)
-        return self.pairs, np.array([self.spacing_m]), columns, self.leader_params, state, self._scratch
+        # The threshold travels as a value, not a constant frozen into the kernel's cached code.
+        params = np.array([self.spacing_m, FORMATION_HOLDS_ERROR])
+        return self.pairs, params, columns, self.leader_params, state, self._scratch
 
     def observe(self, live, todo, normals, out) -> None:
         own = normals[:, -TASK_NORMALS:]
