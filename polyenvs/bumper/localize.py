@@ -210,8 +210,8 @@ class BumperCartLocalizeEnv(BumperCartEnv):
     its set in 11% of runs at 1,000 particles and in none at 3,000 (median error at bump 10: 12 cm against 3.9
     cm). At 1,000 the episode's length is mostly the filter's own luck and hardly the policy's: over seeds 0-59 the
     random bounce took IQM 14.9 [11.3, 22.6] cycles and ``greedy_split`` 10.9 [8.8, 16.4] (overlapping 95%
-    intervals); at 3,000, over seeds 0-49, 11.3 [9.5, 13.5] and 8.2 [7.1, 9.4]. A step then takes 1-2 ms (0.4-0.7
-    ms at 1,000) on a busy 2-core machine.
+    intervals); at 3,000, over seeds 0-49, 11.3 [9.5, 13.5] and 8.2 [7.1, 9.4]. A step at 3,000 particles took 0.86 ms
+    through ``gym.make`` on calm 2-core machines (``benchmarks/THROUGHPUT.md``, 2026-12-05).
 
     ## Action Space
     ``Box(-1, 1, (1,), float32)``: the turn before driving, as a fraction of 180°, as BumperCartExplore-v0.
