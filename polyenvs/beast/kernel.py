@@ -122,26 +122,22 @@ def allocate_rows(n: int, n_joints: int, obs_size: int, n_metrics: int) -> Rows:
     )
 
 
-@intrinsic
-def _float64_at(typingctx, address):
-    """The address (an integer) as a pointer to float64."""
-    signature = types.CPointer(types.float64)(types.intp)
+def _pointer_at(element):
+    """An intrinsic that reads an address (an integer) as a pointer to ``element`` values."""
 
-    def codegen(context, builder, sig, args):
-        return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
+    def pointer_at(typingctx, address):
+        signature = types.CPointer(element)(types.intp)
 
-    return signature, codegen
+        def codegen(context, builder, sig, args):
+            return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
+
+        return signature, codegen
+
+    return intrinsic(pointer_at)
 
 
-@intrinsic
-def _int32_at(typingctx, address):
-    """The address (an integer) as a pointer to int32."""
-    signature = types.CPointer(types.int32)(types.intp)
-
-    def codegen(context, builder, sig, args):
-        return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
-
-    return signature, codegen
+_float64_at = _pointer_at(types.float64)
+_int32_at = _pointer_at(types.int32)
 
 
 @njit(cache=True, nogil=True)
